@@ -1,0 +1,72 @@
+/* Node-spacing fields d(x, y, z): the desired edge length everywhere (Shimada's node spacing,
+ * the bubble diameter). Every public interface of packmesh speaks of size in this sense; each
+ * method converts internally (a bubble's radius is d/2, a psys particle's sigma is calibrated
+ * against d).
+ *
+ * Kinds: a constant; an expression in x, y, z parsed by muparser (functions sqrt, abs, sin,
+ * min, max, ... and the constant _pi); a C callback; a field sampled at mesh nodes and
+ * interpolated (how one method's inferred field is handed to the other); and a scaled copy of
+ * any of these (how a comparison matches node counts).
+ *
+ * A field is immutable once made and safe to evaluate from several threads at once.
+ */
+#ifndef PM_SIZING_H
+#define PM_SIZING_H
+
+#include <packmesh/packmesh.h>
+
+#include "common/geom.h"
+#include "common/mesh.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct pm_sizing pm_sizing;
+
+/* d(x) = d. d must be finite and > 0. */
+pm_status pm_sizing_constant(double d, pm_sizing **out, pm_error *err);
+
+/* d(x) = the expression, in the variables x, y, z (and r = sqrt(x^2 + y^2 + z^2) for
+ * convenience). Unparsable text, unknown variables or a non-finite / non-positive value at the
+ * origin-free probe points are reported as PM_ERR_PARSE / PM_ERR_ARG with the reason. */
+pm_status pm_sizing_expression(const char *expr, pm_sizing **out, pm_error *err);
+
+/* d(x) = fn(xyz, user). The callback must be thread-safe; user is borrowed. */
+typedef double (*pm_sizing_fn)(const double xyz[3], void *user);
+pm_status pm_sizing_callback(pm_sizing_fn fn, void *user, const char *description,
+                             pm_sizing **out, pm_error *err);
+
+/* A field sampled at the nodes of `samples` (values [samples->nnode], each finite and > 0):
+ * evaluation interpolates linearly on the sample mesh's triangles (or tets) when the query point
+ * projects onto one, else by inverse-distance weighting of the nearest samples. Both inputs are
+ * copied. */
+pm_status pm_sizing_sampled(const pm_mesh *samples, const double *values, pm_sizing **out,
+                            pm_error *err);
+
+/* factor * d(x) of an existing field (factor finite and > 0). The base field is shared by
+ * reference count: destroying either is safe. */
+pm_status pm_sizing_scaled(const pm_sizing *base, double factor, pm_sizing **out, pm_error *err);
+
+/* A NUMBER ("0.1") or an EXPR ("0.2*abs(r-2)+0.15"), as --size takes it. */
+pm_status pm_sizing_parse(const char *text, pm_sizing **out, pm_error *err);
+
+/* The field's value at xyz. Does not check the value (see pm_sizing_check). */
+double pm_sizing_eval(const pm_sizing *s, const double xyz[3]);
+
+/* Evaluate the field at the vertices and at sample points of every curve and face of model m and
+ * reject it (PM_ERR_ARG naming the point) when a value is not finite or not > 0. */
+pm_status pm_sizing_check(const pm_sizing *s, const pm_model *m, pm_error *err);
+
+/* A short text that says what the field is ("0.1", "0.2*abs(r-2)+0.15", "sampled (712 nodes)",
+ * "1.07 x (...)"). Borrowed, valid while s lives. */
+const char *pm_sizing_describe(const pm_sizing *s);
+
+/* Release. Accepts NULL. */
+void pm_sizing_destroy(pm_sizing *s);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PM_SIZING_H */
