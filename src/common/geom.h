@@ -44,6 +44,12 @@ typedef struct pm_model pm_model;
  *   every other curve.
  * - In a volume's `bound`: a face, sense +1 when the face's natural normal Su x Sv points out of
  *   the volume, -1 when it points in. */
+/* A reference to a cell of any dimension. */
+typedef struct pm_cellref {
+  int32_t dim;
+  int32_t index;
+} pm_cellref;
+
 typedef struct pm_use {
   int32_t cell;  /* index of the used cell in its dimension */
   int8_t sense;  /* +1 / -1 as above */
@@ -57,7 +63,8 @@ typedef struct pm_use {
 typedef struct pm_loop {
   int32_t nuse;
   pm_use *use;        /* [nuse], owned */
-  int outer;          /* 1 for an outer loop, 0 for a hole */
+  int outer;          /* 1 for an outer loop, 0 for a hole; a backend that does not know sets
+                         -1 and pm_model_finish classifies by signed area and nesting */
   int32_t npts;
   double *uv;         /* [2*npts] polyline, owned */
   int32_t *pt_use;    /* [npts] index in `use` of the curve each polyline point lies on, owned */
@@ -123,7 +130,18 @@ struct pm_cell {
                          faces: every boundary curve once per use, loop by loop;
                          volumes: bounding faces with orientation sense */
   int32_t nup;
-  int32_t *up;        /* [nup] owned: indices of the cells of dimension dim+1 this one bounds */
+  int32_t *up;        /* [nup] owned: indices of the cells of dimension dim+1 this one bounds
+                         (filled by pm_model_finish from the `bound` lists) */
+
+  /* Cells of lower dimension that lie inside this one without being on its boundary: an
+   * internal (crack or dangling) face or a dangling curve inside a volume, a curve or a point
+   * embedded in a face. They are meshed conformally: tets on both sides of an internal face,
+   * its triangles shared. */
+  int32_t nembed;
+  pm_cellref *embed;  /* [nembed] owned */
+  int32_t nhost;
+  pm_cellref *host;   /* [nhost] owned: the cells this one is embedded in (filled by
+                         pm_model_finish from the `embed` lists) */
 
   double xyz[3];      /* vertices: the point */
   int degenerate;     /* curves: zero length (a sphere pole, a cone apex) */
