@@ -117,6 +117,7 @@ typedef struct pm_cell_class {
 struct pm_cell {
   int dim;            /* PM_VERTEX .. PM_VOLUME */
   int32_t index;      /* index within its dimension */
+  const pm_model *model; /* the model the cell belongs to (set by pm_model_alloc) */
   int tag;            /* backend id (gmsh tag), for files and messages */
 
   /* Parameter box: curves use lo[0], hi[0]; faces lo[0..1], hi[0..1] (the box of the trimmed
@@ -127,7 +128,8 @@ struct pm_cell {
 
   int32_t nbound;
   pm_use *bound;      /* [nbound] owned; vertices: none; curves: end vertices (start first);
-                         faces: every boundary curve once per use, loop by loop;
+                         faces: every boundary curve once per use, loop by loop (filled by
+                         pm_model_finish from the loops; a backend leaves it empty);
                          volumes: bounding faces with orientation sense */
   int32_t nup;
   int32_t *up;        /* [nup] owned: indices of the cells of dimension dim+1 this one bounds
