@@ -2,3 +2,4 @@
 pm_add_test(test_mesh LABELS unit SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh.c)
 pm_add_test(test_quality LABELS unit SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_quality.c)
 pm_add_test(test_mesh_check LABELS unit backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh_check.c)
+pm_add_test(test_mesh_io LABELS unit backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh_io.c)

@@ -1,0 +1,831 @@
+/* Mesh files (see mesh_io.h for the formats and conventions).
+ *
+ * gmsh error reporting: with General.AbortOnError = 0 (gmsh_session.c), gmsh 4.8.4 reports most
+ * failures of gmshMerge / gmshWrite (a syntax error, an unknown output format, an unreadable
+ * file) only through its "last error" message, with ierr left at 0. So before each such call a
+ * sentinel error is logged, and the call failed when the last error is no longer the sentinel.
+ */
+#include "common/mesh_io.h"
+
+#include <gmshc.h>
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "common/gmsh_session.h"
+
+static const char *const format_ext[PM_MESH_FORMAT_COUNT] = {"msh", "vtk", "vtu",
+                                                             "stl", "obj", "mesh"};
+
+const char *pm_mesh_format_ext(pm_mesh_format fmt) {
+  return (fmt >= 0 && fmt < PM_MESH_FORMAT_COUNT) ? format_ext[fmt] : "";
+}
+
+/* The extension of path (after the last '.' of the last component), or NULL. */
+static const char *path_ext(const char *path) {
+  const char *slash = strrchr(path, '/');
+  const char *base = slash ? slash + 1 : path;
+  const char *dot = strrchr(base, '.');
+  return (dot && dot != base && dot[1]) ? dot + 1 : NULL;
+}
+
+pm_status pm_mesh_format_of(const char *path, pm_mesh_format *fmt, pm_error *err) {
+  if (!path || !path[0]) return pm_error_setf(err, PM_ERR_ARG, "no mesh file name given");
+  const char *ext = path_ext(path);
+  if (!ext)
+    return pm_error_setf(err, PM_ERR_ARG,
+                         "%s: no file extension (use .msh, .vtk, .vtu, .stl, .obj or .mesh)",
+                         path);
+  for (int f = 0; f < PM_MESH_FORMAT_COUNT; ++f)
+    if (strcasecmp(ext, format_ext[f]) == 0) {
+      *fmt = (pm_mesh_format)f;
+      return PM_OK;
+    }
+  return pm_error_setf(err, PM_ERR_ARG,
+                       "%s: unknown mesh format '.%s' (use .msh, .vtk, .vtu, .stl, .obj or .mesh)",
+                       path, ext);
+}
+
+/* ---- atomic output ------------------------------------------------------------------------ */
+
+/* A new empty file next to path with the same extension: "<stem>.pmtmp-XXXXXX.<ext>". */
+static pm_status temp_create(const char *path, char **tmp, pm_error *err) {
+  const char *ext = path_ext(path);
+  size_t n = strlen(path), stem = ext ? (size_t)(ext - 1 - path) : n;
+  size_t suffix = n - stem;
+  char *t = malloc(n + 16);
+  if (!t) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  memcpy(t, path, stem);
+  memcpy(t + stem, ".pmtmp-XXXXXX", 13);
+  memcpy(t + stem + 13, path + stem, suffix + 1);
+  int fd = mkstemps(t, (int)suffix);
+  if (fd < 0) {
+    pm_status s = pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
+    free(t);
+    return s;
+  }
+  close(fd);
+  *tmp = t;
+  return PM_OK;
+}
+
+/* Move tmp onto path, or remove tmp when s is a failure. Returns the final status. */
+static pm_status temp_finish(char *tmp, const char *path, pm_status s, pm_error *err) {
+  if (!s && rename(tmp, path) != 0)
+    s = pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
+  if (s) unlink(tmp);
+  free(tmp);
+  return s;
+}
+
+/* ---- gmsh helpers ------------------------------------------------------------------------- */
+
+#define SENTINEL "packmesh: no error since the last call"
+
+static void gm_mark(void) {
+  int ierr = 0;
+  gmshLoggerWrite(SENTINEL, "error", &ierr);
+}
+
+/* 1 when gmsh reported an error since gm_mark() (or ierr is set); the message goes to msg. */
+static int gm_failed(int ierr, char *msg, size_t len) {
+  char *e = NULL;
+  int ie = 0;
+  gmshLoggerGetLastError(&e, &ie);
+  int failed = ierr != 0 || (e && strcmp(e, SENTINEL) != 0);
+  if (failed) snprintf(msg, len, "%s", (e && strcmp(e, SENTINEL) != 0) ? e : "gmsh failed");
+  if (e) gmshFree(e);
+  return failed;
+}
+
+typedef struct gm_option {
+  const char *name;
+  double value, saved;
+} gm_option;
+
+static void options_set(gm_option *o, int n) {
+  int ierr = 0;
+  for (int i = 0; i < n; ++i) {
+    o[i].saved = 0;
+    gmshOptionGetNumber(o[i].name, &o[i].saved, &ierr);
+    gmshOptionSetNumber(o[i].name, o[i].value, &ierr);
+  }
+}
+
+static void options_restore(gm_option *o, int n) {
+  int ierr = 0;
+  for (int i = n - 1; i >= 0; --i) gmshOptionSetNumber(o[i].name, o[i].saved, &ierr);
+}
+
+static unsigned long scope_counter = 0; /* guarded by the gmsh lock */
+
+/* ---- writing through gmsh ----------------------------------------------------------------- */
+
+typedef struct ent_key {
+  int dim, tag;
+  int32_t idx;
+} ent_key;
+
+static int cmp_ent_key(const void *pa, const void *pb) {
+  const ent_key *a = pa, *b = pb;
+  if (a->dim != b->dim) return a->dim - b->dim;
+  if (a->tag != b->tag) return (a->tag > b->tag) - (a->tag < b->tag);
+  return (a->idx > b->idx) - (a->idx < b->idx);
+}
+
+static int cell_tag(int32_t cell) { return cell >= 0 ? cell + 1 : PM_MSH_UNTAGGED; }
+
+static pm_status check_mesh(const pm_mesh *m, pm_error *err) {
+  struct {
+    const int32_t *conn, *cell;
+    int32_t n;
+    int per;
+    const char *what;
+  } k[3] = {{m->seg, m->seg_cell, m->nseg, 2, "segment"},
+            {m->tri, m->tri_cell, m->ntri, 3, "triangle"},
+            {m->tet, m->tet_cell, m->ntet, 4, "tetrahedron"}};
+  for (int j = 0; j < 3; ++j)
+    for (int32_t t = 0; t < k[j].n; ++t) {
+      for (int q = 0; q < k[j].per; ++q) {
+        int32_t v = k[j].conn[(size_t)k[j].per * t + q];
+        if (v < 0 || v >= m->nnode)
+          return pm_error_setf(err, PM_ERR_ARG, "%s %ld uses node %ld, the mesh has %ld nodes",
+                               k[j].what, (long)t, (long)v, (long)m->nnode);
+      }
+      if (k[j].cell[t] >= PM_MSH_UNTAGGED - 1)
+        return pm_error_setf(err, PM_ERR_ARG, "%s %ld has cell index %ld, too large for a file",
+                             k[j].what, (long)t, (long)k[j].cell[t]);
+    }
+  for (int32_t v = 0; v < m->nnode; ++v)
+    if (m->node_dim[v] >= 0 && m->node_cell[v] >= PM_MSH_UNTAGGED - 1)
+      return pm_error_setf(err, PM_ERR_ARG, "node %ld has cell index %ld, too large for a file",
+                           (long)v, (long)m->node_cell[v]);
+  return PM_OK;
+}
+
+/* Build the mesh as discrete entities of the current gmsh model. gmsh's VTK and Medit writers
+ * number nodes entity by entity; so that node i of the mesh stays point i of the file, those
+ * formats get every node on one entity (they store no node classification anyway). */
+static pm_status gmsh_build(const pm_mesh *m, int classify, pm_error *err) {
+  int topdim = m->ntet ? 3 : m->ntri ? 2 : m->nseg ? 1 : 0;
+  size_t nn = (size_t)m->nnode;
+  size_t nelem = (size_t)m->nseg + (size_t)m->ntri + (size_t)m->ntet;
+  ent_key *nk = malloc((nn ? nn : 1) * sizeof *nk);
+  ent_key *ek = malloc((nelem ? nelem : 1) * sizeof *ek);
+  ent_key *ents = malloc((nn + nelem + 1) * sizeof *ents);
+  size_t *tags = malloc((nn > nelem ? nn : nelem) * 4 * sizeof *tags + sizeof *tags);
+  double *xyz = malloc((nn ? nn : 1) * 3 * sizeof *xyz);
+  double *par = malloc((nn ? nn : 1) * 2 * sizeof *par);
+  pm_status s = PM_OK;
+  if (!nk || !ek || !ents || !tags || !xyz || !par) {
+    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory writing a mesh");
+    goto done;
+  }
+  for (size_t v = 0; v < nn; ++v) {
+    int d = m->node_dim[v];
+    if (classify && d >= 0 && d <= 3 && m->node_cell[v] >= 0)
+      nk[v] = (ent_key){d, m->node_cell[v] + 1, (int32_t)v};
+    else
+      nk[v] = (ent_key){topdim, PM_MSH_UNTAGGED, (int32_t)v};
+  }
+  size_t ne = 0;
+  for (int32_t i = 0; i < m->nseg; ++i) ek[ne++] = (ent_key){1, cell_tag(m->seg_cell[i]), i};
+  for (int32_t i = 0; i < m->ntri; ++i) ek[ne++] = (ent_key){2, cell_tag(m->tri_cell[i]), i};
+  for (int32_t i = 0; i < m->ntet; ++i) ek[ne++] = (ent_key){3, cell_tag(m->tet_cell[i]), i};
+  qsort(nk, nn, sizeof *nk, cmp_ent_key);
+  qsort(ek, ne, sizeof *ek, cmp_ent_key);
+
+  /* Entities: every (dim, tag) used by a node or an element, created once. */
+  size_t nent = 0;
+  for (size_t i = 0; i < nn; ++i) ents[nent++] = (ent_key){nk[i].dim, nk[i].tag, 0};
+  for (size_t i = 0; i < ne; ++i) ents[nent++] = (ent_key){ek[i].dim, ek[i].tag, 0};
+  qsort(ents, nent, sizeof *ents, cmp_ent_key);
+  int ierr = 0;
+  char msg[400];
+  gm_mark();
+  for (size_t i = 0; i < nent; ++i) {
+    if (i > 0 && ents[i].dim == ents[i - 1].dim && ents[i].tag == ents[i - 1].tag) continue;
+    gmshModelAddDiscreteEntity(ents[i].dim, ents[i].tag, NULL, 0, &ierr);
+    if (gm_failed(ierr, msg, sizeof msg)) {
+      s = pm_error_setf(err, PM_ERR_BACKEND, "gmsh: creating entity (%d, %d): %s", ents[i].dim,
+                        ents[i].tag, msg);
+      goto done;
+    }
+  }
+  /* Nodes, entity by entity, with their parameters on curves and faces. */
+  for (size_t i = 0; i < nn;) {
+    size_t j = i;
+    while (j < nn && nk[j].dim == nk[i].dim && nk[j].tag == nk[i].tag) ++j;
+    int npar = nk[i].tag == PM_MSH_UNTAGGED ? 0 : (nk[i].dim == 1 || nk[i].dim == 2) ? nk[i].dim : 0;
+    for (size_t k = i; k < j; ++k) {
+      int32_t v = nk[k].idx;
+      tags[k - i] = (size_t)v + 1;
+      memcpy(xyz + 3 * (k - i), m->xyz + 3 * (size_t)v, 3 * sizeof(double));
+      for (int q = 0; q < npar; ++q) par[npar * (k - i) + q] = m->node_par[2 * (size_t)v + q];
+    }
+    gmshModelMeshAddNodes(nk[i].dim, nk[i].tag, tags, j - i, xyz, 3 * (j - i), par,
+                          (size_t)npar * (j - i), &ierr);
+    if (gm_failed(ierr, msg, sizeof msg)) {
+      s = pm_error_setf(err, PM_ERR_BACKEND, "gmsh: adding nodes: %s", msg);
+      goto done;
+    }
+    i = j;
+  }
+  /* Elements, entity by entity; element tags number segments, then triangles, then tets. */
+  for (size_t i = 0; i < ne;) {
+    size_t j = i;
+    while (j < ne && ek[j].dim == ek[i].dim && ek[j].tag == ek[i].tag) ++j;
+    int d = ek[i].dim, per = d + 1, type = d == 1 ? 1 : d == 2 ? 2 : 4;
+    const int32_t *conn = d == 1 ? m->seg : d == 2 ? m->tri : m->tet;
+    size_t base = d == 1 ? 0 : d == 2 ? (size_t)m->nseg : (size_t)m->nseg + (size_t)m->ntri;
+    size_t *et = tags, *en = tags + (j - i);
+    for (size_t k = i; k < j; ++k) {
+      et[k - i] = base + (size_t)ek[k].idx + 1;
+      for (int q = 0; q < per; ++q)
+        en[(size_t)per * (k - i) + q] = (size_t)conn[(size_t)per * ek[k].idx + q] + 1;
+    }
+    gmshModelMeshAddElementsByType(ek[i].tag, type, et, j - i, en, (size_t)per * (j - i), &ierr);
+    if (gm_failed(ierr, msg, sizeof msg)) {
+      s = pm_error_setf(err, PM_ERR_BACKEND, "gmsh: adding elements: %s", msg);
+      goto done;
+    }
+    i = j;
+  }
+done:
+  free(nk);
+  free(ek);
+  free(ents);
+  free(tags);
+  free(xyz);
+  free(par);
+  return s;
+}
+
+static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, const char *tmp,
+                            const char *path, pm_error *err) {
+  pm_gmsh_lock();
+  pm_gmsh_scope scope;
+  char name[64];
+  snprintf(name, sizeof name, "packmesh-write-%lu", scope_counter++);
+  pm_status s = pm_gmsh_scope_enter(&scope, name, 1, err);
+  if (s) {
+    pm_gmsh_unlock();
+    return s;
+  }
+  s = gmsh_build(m, fmt == PM_MESH_MSH, err);
+  if (!s) {
+    gm_option opt[] = {{"Mesh.MshFileVersion", 4.1, 0},  {"Mesh.Binary", 0, 0},
+                       {"Mesh.SaveAll", 1, 0},           {"Mesh.SaveParametric", 1, 0},
+                       {"Mesh.StlOneSolidPerSurface", 1, 0}};
+    int nopt = (int)(sizeof opt / sizeof opt[0]);
+    if (fmt != PM_MESH_MSH) opt[3].value = 0; /* parameters are an MSH feature */
+    options_set(opt, nopt);
+    int ierr = 0;
+    char msg[400];
+    gm_mark();
+    gmshWrite(tmp, &ierr);
+    if (gm_failed(ierr, msg, sizeof msg))
+      s = pm_error_setf(err, PM_ERR_BACKEND, "writing %s: gmsh: %s", path, msg);
+    options_restore(opt, nopt);
+  }
+  pm_gmsh_scope_leave(&scope, 1);
+  pm_gmsh_unlock();
+  if (!s) {
+    struct stat st;
+    if (stat(tmp, &st) != 0 || st.st_size == 0)
+      s = pm_error_setf(err, PM_ERR_BACKEND, "writing %s: gmsh wrote nothing", path);
+  }
+  return s;
+}
+
+/* ---- writing by hand: .vtu and .obj -------------------------------------------------------- */
+
+/* %.17g: every double written comes back bit for bit. */
+static void put_double(FILE *f, double x) { fprintf(f, "%.17g", x); }
+
+static int write_vtu(const pm_mesh *m, FILE *f) {
+  int64_t ncell = (int64_t)m->nseg + m->ntri + m->ntet;
+  fprintf(f,
+          "<?xml version=\"1.0\"?>\n"
+          "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+          "header_type=\"UInt64\">\n"
+          "  <UnstructuredGrid>\n"
+          "    <Piece NumberOfPoints=\"%ld\" NumberOfCells=\"%lld\">\n",
+          (long)m->nnode, (long long)ncell);
+  fprintf(f, "      <PointData Scalars=\"node_dim\">\n"
+             "        <DataArray type=\"Int32\" Name=\"node_dim\" format=\"ascii\">\n");
+  for (int32_t v = 0; v < m->nnode; ++v) fprintf(f, "%d\n", (int)m->node_dim[v]);
+  fprintf(f, "        </DataArray>\n"
+             "        <DataArray type=\"Int32\" Name=\"node_cell\" format=\"ascii\">\n");
+  for (int32_t v = 0; v < m->nnode; ++v)
+    fprintf(f, "%ld\n", (long)(m->node_dim[v] >= 0 ? m->node_cell[v] : -1));
+  fprintf(f, "        </DataArray>\n"
+             "        <DataArray type=\"Float64\" Name=\"node_par\" NumberOfComponents=\"2\" "
+             "format=\"ascii\">\n");
+  for (int32_t v = 0; v < m->nnode; ++v) {
+    put_double(f, m->node_par[2 * (size_t)v]);
+    fputc(' ', f);
+    put_double(f, m->node_par[2 * (size_t)v + 1]);
+    fputc('\n', f);
+  }
+  fprintf(f, "        </DataArray>\n      </PointData>\n"
+             "      <CellData Scalars=\"cell\">\n"
+             "        <DataArray type=\"Int32\" Name=\"cell\" format=\"ascii\">\n");
+  for (int32_t i = 0; i < m->nseg; ++i) fprintf(f, "%ld\n", (long)m->seg_cell[i]);
+  for (int32_t i = 0; i < m->ntri; ++i) fprintf(f, "%ld\n", (long)m->tri_cell[i]);
+  for (int32_t i = 0; i < m->ntet; ++i) fprintf(f, "%ld\n", (long)m->tet_cell[i]);
+  fprintf(f, "        </DataArray>\n      </CellData>\n"
+             "      <Points>\n"
+             "        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n");
+  for (int32_t v = 0; v < m->nnode; ++v) {
+    for (int k = 0; k < 3; ++k) {
+      if (k) fputc(' ', f);
+      put_double(f, m->xyz[3 * (size_t)v + k]);
+    }
+    fputc('\n', f);
+  }
+  fprintf(f, "        </DataArray>\n      </Points>\n      <Cells>\n"
+             "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
+  for (int32_t i = 0; i < m->nseg; ++i)
+    fprintf(f, "%ld %ld\n", (long)m->seg[2 * (size_t)i], (long)m->seg[2 * (size_t)i + 1]);
+  for (int32_t i = 0; i < m->ntri; ++i) {
+    const int32_t *t = m->tri + 3 * (size_t)i;
+    fprintf(f, "%ld %ld %ld\n", (long)t[0], (long)t[1], (long)t[2]);
+  }
+  for (int32_t i = 0; i < m->ntet; ++i) {
+    const int32_t *t = m->tet + 4 * (size_t)i;
+    fprintf(f, "%ld %ld %ld %ld\n", (long)t[0], (long)t[1], (long)t[2], (long)t[3]);
+  }
+  fprintf(f, "        </DataArray>\n"
+             "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n");
+  int64_t off = 0;
+  for (int32_t i = 0; i < m->nseg; ++i) fprintf(f, "%lld\n", (long long)(off += 2));
+  for (int32_t i = 0; i < m->ntri; ++i) fprintf(f, "%lld\n", (long long)(off += 3));
+  for (int32_t i = 0; i < m->ntet; ++i) fprintf(f, "%lld\n", (long long)(off += 4));
+  /* VTK cell types: 3 = VTK_LINE, 5 = VTK_TRIANGLE, 10 = VTK_TETRA. */
+  fprintf(f, "        </DataArray>\n"
+             "        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n");
+  for (int32_t i = 0; i < m->nseg; ++i) fputs("3\n", f);
+  for (int32_t i = 0; i < m->ntri; ++i) fputs("5\n", f);
+  for (int32_t i = 0; i < m->ntet; ++i) fputs("10\n", f);
+  fprintf(f, "        </DataArray>\n      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n"
+             "</VTKFile>\n");
+  return !ferror(f);
+}
+
+static void obj_group(FILE *f, int32_t cell, int32_t *current, int *started) {
+  if (*started && cell == *current) return;
+  if (cell >= 0)
+    fprintf(f, "g cell_%ld\n", (long)cell);
+  else
+    fputs("g untagged\n", f);
+  *current = cell;
+  *started = 1;
+}
+
+static int write_obj(const pm_mesh *m, FILE *f) {
+  fprintf(f, "# packmesh %s: %ld vertices, %ld segments, %ld triangles\n", pm_version(),
+          (long)m->nnode, (long)m->nseg, (long)m->ntri);
+  for (int32_t v = 0; v < m->nnode; ++v) {
+    fputs("v ", f);
+    for (int k = 0; k < 3; ++k) {
+      if (k) fputc(' ', f);
+      put_double(f, m->xyz[3 * (size_t)v + k]);
+    }
+    fputc('\n', f);
+  }
+  int32_t cur = 0;
+  int started = 0;
+  for (int32_t i = 0; i < m->nseg; ++i) {
+    obj_group(f, m->seg_cell[i], &cur, &started);
+    fprintf(f, "l %ld %ld\n", (long)m->seg[2 * (size_t)i] + 1, (long)m->seg[2 * (size_t)i + 1] + 1);
+  }
+  started = 0;
+  for (int32_t i = 0; i < m->ntri; ++i) {
+    const int32_t *t = m->tri + 3 * (size_t)i;
+    obj_group(f, m->tri_cell[i], &cur, &started);
+    fprintf(f, "f %ld %ld %ld\n", (long)t[0] + 1, (long)t[1] + 1, (long)t[2] + 1);
+  }
+  return !ferror(f);
+}
+
+static pm_status hand_write(const pm_mesh *m, pm_mesh_format fmt, const char *tmp,
+                            const char *path, pm_error *err) {
+  FILE *f = fopen(tmp, "w");
+  if (!f) return pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
+  static char buf[1 << 16];
+  setvbuf(f, buf, _IOFBF, sizeof buf);
+  int ok = fmt == PM_MESH_VTU ? write_vtu(m, f) : write_obj(m, f);
+  int e = errno;
+  if (fclose(f) != 0) {
+    ok = 0;
+    e = errno;
+  }
+  if (!ok) return pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(e));
+  return PM_OK;
+}
+
+pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err) {
+  if (!m) return pm_error_setf(err, PM_ERR_ARG, "pm_mesh_write: no mesh");
+  pm_mesh_format fmt;
+  pm_status s = pm_mesh_format_of(path, &fmt, err);
+  if (s) return s;
+  s = check_mesh(m, err);
+  if (s) return s;
+  if (fmt == PM_MESH_STL && m->ntri == 0)
+    return pm_error_setf(err, PM_ERR_ARG, "%s: an STL file holds triangles; the mesh has none",
+                         path);
+  char *tmp = NULL;
+  s = temp_create(path, &tmp, err);
+  if (s) return s;
+  if (fmt == PM_MESH_VTU || fmt == PM_MESH_OBJ)
+    s = hand_write(m, fmt, tmp, path, err);
+  else
+    s = gmsh_write(m, fmt, tmp, path, err);
+  return temp_finish(tmp, path, s, err);
+}
+
+/* ---- reading through gmsh ----------------------------------------------------------------- */
+
+typedef struct rd_node {
+  size_t tag;
+  double xyz[3], par[2];
+  int dim;
+  int32_t cell;
+} rd_node;
+
+typedef struct rd_elem {
+  size_t tag;
+  size_t node[4];
+  int32_t cell;
+} rd_elem;
+
+typedef struct rd_vec {
+  void *v;
+  size_t n, cap, sz;
+} rd_vec;
+
+static void *vec_push(rd_vec *a) {
+  if (a->n == a->cap) {
+    size_t c = a->cap ? 2 * a->cap : 1024;
+    void *p = realloc(a->v, c * a->sz);
+    if (!p) return NULL;
+    a->v = p;
+    a->cap = c;
+  }
+  return (char *)a->v + a->sz * a->n++;
+}
+
+static int cmp_rd_node(const void *pa, const void *pb) {
+  size_t a = ((const rd_node *)pa)->tag, b = ((const rd_node *)pb)->tag;
+  return (a > b) - (a < b);
+}
+static int cmp_rd_elem(const void *pa, const void *pb) {
+  size_t a = ((const rd_elem *)pa)->tag, b = ((const rd_elem *)pb)->tag;
+  return (a > b) - (a < b);
+}
+
+/* Node tag -> index in the sorted node array (dense table or binary search). */
+typedef struct tag_map {
+  const rd_node *nodes;
+  size_t n;
+  int32_t *dense; /* [maxtag + 1] or NULL */
+  size_t maxtag;
+} tag_map;
+
+static int64_t map_find(const tag_map *tm, size_t tag) {
+  if (tm->dense) return tag <= tm->maxtag ? tm->dense[tag] : -1;
+  size_t lo = 0, hi = tm->n;
+  while (lo < hi) {
+    size_t mid = lo + (hi - lo) / 2;
+    if (tm->nodes[mid].tag == tag) return (int64_t)mid;
+    if (tm->nodes[mid].tag < tag)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return -1;
+}
+
+/* Read everything from the current gmsh model into node and element lists. */
+static pm_status gmsh_collect(const char *path, pm_mesh_format fmt, rd_vec *nodes, rd_vec *el,
+                              pm_error *err) {
+  int ierr = 0;
+  char msg[400];
+  int *dt = NULL;
+  size_t ndt = 0;
+  gm_mark();
+  gmshModelGetEntities(&dt, &ndt, -1, &ierr);
+  if (gm_failed(ierr, msg, sizeof msg))
+    return pm_error_setf(err, PM_ERR_PARSE, "reading %s: gmsh: %s", path, msg);
+  int classified = fmt == PM_MESH_MSH;
+  int tagged = fmt == PM_MESH_MSH || fmt == PM_MESH_MEDIT || fmt == PM_MESH_STL;
+  pm_status s = PM_OK;
+  for (size_t e = 0; e + 1 < ndt && !s; e += 2) {
+    int dim = dt[e], tag = dt[e + 1];
+    int32_t cell = tag == PM_MSH_UNTAGGED ? -1 : tag - 1;
+    size_t *nt = NULL, nn = 0, nc = 0, np = 0;
+    double *c = NULL, *p = NULL;
+    gmshModelMeshGetNodes(&nt, &nn, &c, &nc, &p, &np, dim, tag, 0, 1, &ierr);
+    if (gm_failed(ierr, msg, sizeof msg)) {
+      s = pm_error_setf(err, PM_ERR_PARSE, "reading %s: gmsh: %s", path, msg);
+    } else {
+      int npar = (dim == 1 || dim == 2) && np == (size_t)dim * nn ? dim : 0;
+      for (size_t i = 0; i < nn; ++i) {
+        rd_node *r = vec_push(nodes);
+        if (!r) {
+          s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory reading %s", path);
+          break;
+        }
+        r->tag = nt[i];
+        memcpy(r->xyz, c + 3 * i, sizeof r->xyz);
+        r->par[0] = npar >= 1 ? p[npar * i] : 0.0;
+        r->par[1] = npar >= 2 ? p[npar * i + 1] : 0.0;
+        r->dim = classified && cell >= 0 ? dim : -1;
+        r->cell = classified && cell >= 0 ? cell : -1;
+        if (r->dim < 0) r->par[0] = r->par[1] = 0.0;
+      }
+    }
+    if (nt) gmshFree(nt);
+    if (c) gmshFree(c);
+    if (p) gmshFree(p);
+    if (s || dim == 0) continue;
+
+    int *types = NULL;
+    size_t ntypes = 0, **etags = NULL, *etags_n = NULL, etags_nn = 0, **enodes = NULL,
+           *enodes_n = NULL, enodes_nn = 0;
+    gmshModelMeshGetElements(&types, &ntypes, &etags, &etags_n, &etags_nn, &enodes, &enodes_n,
+                             &enodes_nn, dim, tag, &ierr);
+    if (gm_failed(ierr, msg, sizeof msg))
+      s = pm_error_setf(err, PM_ERR_PARSE, "reading %s: gmsh: %s", path, msg);
+    for (size_t k = 0; k < ntypes && !s; ++k) {
+      char *ename = NULL;
+      int edim = 0, order = 0, nnode = 0, nprim = 0;
+      double *lc = NULL;
+      size_t nlc = 0;
+      gmshModelMeshGetElementProperties(types[k], &ename, &edim, &order, &nnode, &lc, &nlc,
+                                        &nprim, &ierr);
+      if (lc) gmshFree(lc);
+      int kind = (edim == 1 && nprim == 2) ? 1 : (edim == 2 && nprim == 3) ? 2
+               : (edim == 3 && nprim == 4) ? 3 : edim == 0 ? 0 : -1;
+      if (kind < 0)
+        s = pm_error_setf(err, PM_ERR_ARG,
+                          "%s: %zu elements of type '%s' (gmsh type %d); packmesh reads lines, "
+                          "triangles and tetrahedra only",
+                          path, etags_n[k], ename ? ename : "?", types[k]);
+      if (ename) gmshFree(ename);
+      for (size_t i = 0; kind > 0 && !s && i < etags_n[k]; ++i) {
+        rd_elem *r = vec_push(&el[kind - 1]);
+        if (!r) {
+          s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory reading %s", path);
+          break;
+        }
+        r->tag = etags[k][i];
+        /* The corners come first in gmsh's node order; higher-order nodes are dropped later
+         * (ho_node_tags, drop_ho_nodes). */
+        for (int q = 0; q < 4; ++q) r->node[q] = q <= kind ? enodes[k][(size_t)nnode * i + q] : 0;
+        r->cell = tagged ? cell : -1;
+      }
+    }
+    for (size_t k = 0; k < ntypes; ++k) {
+      gmshFree(etags[k]);
+      gmshFree(enodes[k]);
+    }
+    if (types) gmshFree(types);
+    if (etags) gmshFree(etags);
+    if (etags_n) gmshFree(etags_n);
+    if (enodes) gmshFree(enodes);
+    if (enodes_n) gmshFree(enodes_n);
+  }
+  if (dt) gmshFree(dt);
+  return s;
+}
+
+static pm_status build_mesh(const char *path, rd_vec *nodes, rd_vec *el, pm_mesh **out,
+                            pm_error *err) {
+  rd_node *nd = nodes->v;
+  size_t nn = nodes->n;
+  if (nn == 0) return pm_error_setf(err, PM_ERR_PARSE, "%s: the file holds no mesh nodes", path);
+  if (nn > INT32_MAX || el[0].n > INT32_MAX || el[1].n > INT32_MAX || el[2].n > INT32_MAX)
+    return pm_error_setf(err, PM_ERR_LIMIT, "%s: more than %ld nodes or elements", path,
+                         (long)INT32_MAX);
+  qsort(nd, nn, sizeof *nd, cmp_rd_node);
+  for (int k = 0; k < 3; ++k)
+    if (el[k].n > 1) qsort(el[k].v, el[k].n, sizeof(rd_elem), cmp_rd_elem);
+  tag_map tm = {nd, nn, NULL, nd[nn - 1].tag};
+  if (tm.maxtag <= 4 * nn + 1024) {
+    tm.dense = malloc((tm.maxtag + 1) * sizeof *tm.dense);
+    if (!tm.dense) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory reading %s", path);
+    for (size_t t = 0; t <= tm.maxtag; ++t) tm.dense[t] = -1;
+    for (size_t i = 0; i < nn; ++i) tm.dense[nd[i].tag] = (int32_t)i;
+  }
+  for (size_t i = 1; i < nn; ++i)
+    if (nd[i].tag == nd[i - 1].tag) {
+      free(tm.dense);
+      return pm_error_setf(err, PM_ERR_PARSE, "%s: node tag %zu appears twice", path,
+                           nd[i].tag);
+    }
+  /* Resolve element nodes to indices. */
+  pm_status s = PM_OK;
+  for (int k = 0; k < 3 && !s; ++k) {
+    rd_elem *e = el[k].v;
+    for (size_t i = 0; i < el[k].n && !s; ++i)
+      for (int q = 0; q <= k + 1; ++q) {
+        int64_t v = map_find(&tm, e[i].node[q]);
+        if (v < 0) {
+          s = pm_error_setf(err, PM_ERR_PARSE, "%s: element %zu uses node %zu, which is missing",
+                            path, e[i].tag, e[i].node[q]);
+          break;
+        }
+        e[i].node[q] = (size_t)v;
+      }
+  }
+  free(tm.dense);
+  if (s) return s;
+
+  pm_mesh *m = pm_mesh_create();
+  if (!m) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory reading %s", path);
+  s = pm_mesh_reserve(m, (int32_t)nn, (int32_t)el[0].n, (int32_t)el[1].n, (int32_t)el[2].n, err);
+  for (size_t i = 0; i < nn && !s; ++i)
+    s = pm_mesh_add_node(m, nd[i].xyz, nd[i].dim, nd[i].cell, nd[i].par, NULL, err);
+  for (int k = 0; k < 3 && !s; ++k) {
+    const rd_elem *e = el[k].v;
+    for (size_t i = 0; i < el[k].n && !s; ++i) {
+      int32_t a = (int32_t)e[i].node[0], b = (int32_t)e[i].node[1];
+      if (k == 0)
+        s = pm_mesh_add_seg(m, a, b, e[i].cell, err);
+      else if (k == 1)
+        s = pm_mesh_add_tri(m, a, b, (int32_t)e[i].node[2], e[i].cell, err);
+      else
+        s = pm_mesh_add_tet(m, a, b, (int32_t)e[i].node[2], (int32_t)e[i].node[3], e[i].cell,
+                            err);
+    }
+  }
+  if (s) {
+    pm_mesh_destroy(m);
+    return s;
+  }
+  *out = m;
+  return PM_OK;
+}
+
+/* Nodes that only higher-order elements used (edge / face / interior nodes) are dropped:
+ * after reduction to corners nothing refers to them. A node no element uses at all (a node
+ * classified on a model vertex, say) is kept. */
+static pm_status drop_ho_nodes(pm_mesh *m, const uint8_t *ho_only, pm_error *err) {
+  int32_t *map = malloc((size_t)(m->nnode ? m->nnode : 1) * sizeof *map);
+  if (!map) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  int32_t k = 0;
+  for (int32_t v = 0; v < m->nnode; ++v) {
+    if (ho_only[v]) {
+      map[v] = -1;
+      continue;
+    }
+    map[v] = k;
+    if (k != v) {
+      memcpy(m->xyz + 3 * (size_t)k, m->xyz + 3 * (size_t)v, 3 * sizeof(double));
+      memcpy(m->node_par + 2 * (size_t)k, m->node_par + 2 * (size_t)v, 2 * sizeof(double));
+      m->node_dim[k] = m->node_dim[v];
+      m->node_cell[k] = m->node_cell[v];
+    }
+    ++k;
+  }
+  m->nnode = k;
+  for (size_t i = 0; i < 2 * (size_t)m->nseg; ++i) m->seg[i] = map[m->seg[i]];
+  for (size_t i = 0; i < 3 * (size_t)m->ntri; ++i) m->tri[i] = map[m->tri[i]];
+  for (size_t i = 0; i < 4 * (size_t)m->ntet; ++i) m->tet[i] = map[m->tet[i]];
+  free(map);
+  return PM_OK;
+}
+
+/* Collect the tags of the non-corner nodes of higher-order elements of the current model. */
+static pm_status ho_node_tags(rd_vec *ho, pm_error *err) {
+  int ierr = 0;
+  int *types = NULL;
+  size_t ntypes = 0;
+  gmshModelMeshGetElementTypes(&types, &ntypes, -1, -1, &ierr);
+  pm_status s = PM_OK;
+  for (size_t k = 0; k < ntypes && !s; ++k) {
+    char *ename = NULL;
+    int edim = 0, order = 0, nnode = 0, nprim = 0;
+    double *lc = NULL;
+    size_t nlc = 0;
+    gmshModelMeshGetElementProperties(types[k], &ename, &edim, &order, &nnode, &lc, &nlc, &nprim,
+                                      &ierr);
+    if (lc) gmshFree(lc);
+    if (ename) gmshFree(ename);
+    if (nnode <= nprim || edim == 0) continue;
+    size_t *et = NULL, net = 0, *en = NULL, nen = 0;
+    gmshModelMeshGetElementsByType(types[k], &et, &net, &en, &nen, -1, 0, 1, &ierr);
+    for (size_t i = 0; i < net && !s; ++i)
+      for (int q = nprim; q < nnode; ++q) {
+        size_t *p = vec_push(ho);
+        if (!p) {
+          s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+          break;
+        }
+        *p = en[(size_t)nnode * i + q];
+      }
+    if (et) gmshFree(et);
+    if (en) gmshFree(en);
+  }
+  if (types) gmshFree(types);
+  return s;
+}
+
+static int cmp_size(const void *pa, const void *pb) {
+  size_t a = *(const size_t *)pa, b = *(const size_t *)pb;
+  return (a > b) - (a < b);
+}
+
+pm_status pm_mesh_read(const char *path, pm_mesh **out, pm_error *err) {
+  if (!out) return pm_error_setf(err, PM_ERR_ARG, "pm_mesh_read: no output");
+  *out = NULL;
+  pm_mesh_format fmt;
+  pm_status s = pm_mesh_format_of(path, &fmt, err);
+  if (s) return s;
+  if (fmt == PM_MESH_VTU || fmt == PM_MESH_OBJ)
+    return pm_error_setf(err, PM_ERR_ARG,
+                         "%s: packmesh does not read .%s files (it reads .msh, .stl, .vtk and "
+                         ".mesh)",
+                         path, format_ext[fmt]);
+  struct stat st;
+  if (stat(path, &st) != 0)
+    return pm_error_setf(err, PM_ERR_IO, "cannot read %s: %s", path, strerror(errno));
+  if (S_ISDIR(st.st_mode))
+    return pm_error_setf(err, PM_ERR_IO, "cannot read %s: it is a directory", path);
+  FILE *f = fopen(path, "rb");
+  if (!f) return pm_error_setf(err, PM_ERR_IO, "cannot read %s: %s", path, strerror(errno));
+  fclose(f);
+  if (st.st_size == 0) return pm_error_setf(err, PM_ERR_PARSE, "%s: the file is empty", path);
+
+  rd_vec nodes = {NULL, 0, 0, sizeof(rd_node)};
+  rd_vec el[3] = {{NULL, 0, 0, sizeof(rd_elem)}, {NULL, 0, 0, sizeof(rd_elem)},
+                  {NULL, 0, 0, sizeof(rd_elem)}};
+  rd_vec ho = {NULL, 0, 0, sizeof(size_t)};
+  pm_gmsh_lock();
+  pm_gmsh_scope scope;
+  char name[64];
+  snprintf(name, sizeof name, "packmesh-read-%lu", scope_counter++);
+  s = pm_gmsh_scope_enter(&scope, name, 1, err);
+  if (s) {
+    pm_gmsh_unlock();
+    return s;
+  }
+  int ierr = 0;
+  char msg[400];
+  gm_mark();
+  gmshMerge(path, &ierr);
+  if (gm_failed(ierr, msg, sizeof msg))
+    s = pm_error_setf(err, PM_ERR_PARSE, "cannot read %s: gmsh: %s", path, msg);
+  if (!s) s = gmsh_collect(path, fmt, &nodes, el, err);
+  if (!s) s = ho_node_tags(&ho, err);
+  pm_gmsh_scope_leave(&scope, 1);
+  pm_gmsh_unlock();
+
+  pm_mesh *m = NULL;
+  if (!s) s = build_mesh(path, &nodes, el, &m, err);
+  if (!s && el[0].n + el[1].n + el[2].n == 0) {
+    s = pm_error_setf(err, PM_ERR_PARSE,
+                      "%s: the file holds no lines, triangles or tetrahedra", path);
+  }
+  if (!s && ho.n > 0) {
+    /* Node indices follow increasing tags: mark the higher-order-only ones. */
+    uint8_t *ho_only = calloc((size_t)m->nnode, 1);
+    uint8_t *corner = calloc((size_t)m->nnode, 1);
+    if (!ho_only || !corner) {
+      s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory reading %s", path);
+    } else {
+      const rd_node *nd = nodes.v;
+      size_t *ht = ho.v;
+      qsort(ht, ho.n, sizeof *ht, cmp_size);
+      for (size_t i = 0, j = 0; i < (size_t)m->nnode; ++i) {
+        while (j < ho.n && ht[j] < nd[i].tag) ++j;
+        if (j < ho.n && ht[j] == nd[i].tag) ho_only[i] = 1;
+      }
+      for (size_t i = 0; i < 2 * (size_t)m->nseg; ++i) corner[m->seg[i]] = 1;
+      for (size_t i = 0; i < 3 * (size_t)m->ntri; ++i) corner[m->tri[i]] = 1;
+      for (size_t i = 0; i < 4 * (size_t)m->ntet; ++i) corner[m->tet[i]] = 1;
+      for (int32_t i = 0; i < m->nnode; ++i) ho_only[i] &= (uint8_t)!corner[i];
+      s = drop_ho_nodes(m, ho_only, err);
+    }
+    free(ho_only);
+    free(corner);
+  }
+  free(nodes.v);
+  free(el[0].v);
+  free(el[1].v);
+  free(el[2].v);
+  free(ho.v);
+  if (s) {
+    pm_mesh_destroy(m);
+    return s;
+  }
+  *out = m;
+  return PM_OK;
+}

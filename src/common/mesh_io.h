@@ -1,0 +1,84 @@
+/* Mesh files: writing every output format of the packmesh command and reading meshes made by
+ * other tools, so that they can be measured by the same quality code.
+ *
+ * Formats, chosen by the file extension (case-insensitive):
+ *   .msh   gmsh MSH 4.1, ASCII, written by gmsh itself. Every model cell becomes a discrete
+ *          entity (dim, tag = cell index + 1); a node is stored on the entity of its cell with
+ *          its parameters (curve: t, face: u v; Mesh.SaveParametric), elements on the entity of
+ *          their cell. Unclassified nodes and untagged elements go on a catch-all entity of tag
+ *          PM_MSH_UNTAGGED. Reading reverses this exactly (node and element order included, as
+ *          they are stored by increasing node / element tag).
+ *   .vtk   legacy VTK, ASCII, written by gmsh (points and cells; no tags).
+ *   .stl   ASCII STL, written by gmsh, one solid per face (triangles only; a mesh without
+ *          triangles is refused).
+ *   .mesh  Medit (INRIA), written by gmsh: element references are the entity tags (cell + 1,
+ *          PM_MSH_UNTAGGED for untagged elements); vertex references carry no meaning.
+ *   In .vtk and .mesh files point i is node i of the mesh (gmsh numbers nodes entity by entity,
+ *   so for these formats every node is put on one entity).
+ *   .vtu   VTK XML unstructured grid (ParaView), ASCII, written here (gmsh 4.8.4 has no .vtu
+ *          writer): points, lines / triangles / tets, cell data "cell" (the cell index, -1 when
+ *          untagged), point data "node_dim", "node_cell" and "node_par" (2 components).
+ *   .obj   Wavefront OBJ, written here (gmsh has no .obj writer): vertices, "l" segments and
+ *          "f" triangles, a group "g cell_<index>" (or "g untagged") opening each run of
+ *          elements of one cell. Tets have no OBJ form and are left out.
+ * Reading goes through gmsh (into a temporary gmsh model, removed afterwards): .msh (any
+ * version gmsh reads), .stl, .vtk and .mesh. Element entity tags t become cells t - 1 for .msh,
+ * .mesh and .stl (PM_MSH_UNTAGGED becomes -1); nodes are classified only from .msh files (other
+ * formats carry no classification: node_dim = -1). Lines, triangles and tets are read; a
+ * higher-order element is reduced to its corner nodes (the other nodes are dropped); any other
+ * element type (quadrangles, hexahedra, prisms, pyramids) is refused with a message naming it.
+ * Point elements are ignored.
+ *
+ * Writing is atomic: the file is written under a temporary name in the same directory (same
+ * extension, so gmsh picks the same format) and renamed into place; on any failure the temporary
+ * file is removed and nothing is left at the destination.
+ *
+ * gmsh calls are made under pm_gmsh_lock() inside a model scope (gmsh_session.h), so a CAD model
+ * loaded in gmsh stays current and untouched.
+ */
+#ifndef PM_MESH_IO_H
+#define PM_MESH_IO_H
+
+#include <packmesh/packmesh.h>
+
+#include "common/mesh.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Entity tag of the catch-all entity for unclassified nodes and untagged elements in .msh. */
+#define PM_MSH_UNTAGGED 1073741824
+
+typedef enum pm_mesh_format {
+  PM_MESH_MSH = 0,
+  PM_MESH_VTK,
+  PM_MESH_VTU,
+  PM_MESH_STL,
+  PM_MESH_OBJ,
+  PM_MESH_MEDIT,
+  PM_MESH_FORMAT_COUNT
+} pm_mesh_format;
+
+/* The format of a path from its extension; PM_ERR_ARG naming the extension when unknown. */
+pm_status pm_mesh_format_of(const char *path, pm_mesh_format *fmt, pm_error *err);
+
+/* The extension of a format, without the dot ("msh"). */
+const char *pm_mesh_format_ext(pm_mesh_format fmt);
+
+/* Write m to path (format by extension), atomically. Element indices must be in range and cell
+ * indices below PM_MSH_UNTAGGED - 1 (PM_ERR_ARG otherwise); PM_ERR_IO when the file cannot be
+ * written; PM_ERR_BACKEND when gmsh fails. */
+pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err);
+
+/* Read a mesh from path (.msh, .stl, .vtk, .mesh). *out receives a new mesh
+ * (pm_mesh_destroy) on success, NULL on failure. PM_ERR_IO for a missing or unreadable file,
+ * PM_ERR_PARSE for a file gmsh cannot read or that holds no mesh, PM_ERR_ARG for an unknown or
+ * unreadable extension or an unsupported element type. */
+pm_status pm_mesh_read(const char *path, pm_mesh **out, pm_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PM_MESH_IO_H */
