@@ -17,6 +17,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "common/atomic_file.h"
 #include "common/gmsh_session.h"
 
 static const char *const format_ext[PM_MESH_FORMAT_COUNT] = {"msh", "vtk", "vtu",
@@ -49,38 +50,6 @@ pm_status pm_mesh_format_of(const char *path, pm_mesh_format *fmt, pm_error *err
   return pm_error_setf(err, PM_ERR_ARG,
                        "%s: unknown mesh format '.%s' (use .msh, .vtk, .vtu, .stl, .obj or .mesh)",
                        path, ext);
-}
-
-/* ---- atomic output ------------------------------------------------------------------------ */
-
-/* A new empty file next to path with the same extension: "<stem>.pmtmp-XXXXXX.<ext>". */
-static pm_status temp_create(const char *path, char **tmp, pm_error *err) {
-  const char *ext = path_ext(path);
-  size_t n = strlen(path), stem = ext ? (size_t)(ext - 1 - path) : n;
-  size_t suffix = n - stem;
-  char *t = malloc(n + 16);
-  if (!t) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  memcpy(t, path, stem);
-  memcpy(t + stem, ".pmtmp-XXXXXX", 13);
-  memcpy(t + stem + 13, path + stem, suffix + 1);
-  int fd = mkstemps(t, (int)suffix);
-  if (fd < 0) {
-    pm_status s = pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
-    free(t);
-    return s;
-  }
-  close(fd);
-  *tmp = t;
-  return PM_OK;
-}
-
-/* Move tmp onto path, or remove tmp when s is a failure. Returns the final status. */
-static pm_status temp_finish(char *tmp, const char *path, pm_status s, pm_error *err) {
-  if (!s && rename(tmp, path) != 0)
-    s = pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
-  if (s) unlink(tmp);
-  free(tmp);
-  return s;
 }
 
 /* ---- gmsh helpers ------------------------------------------------------------------------- */
@@ -414,19 +383,10 @@ static int write_obj(const pm_mesh *m, FILE *f) {
   return !ferror(f);
 }
 
-static pm_status hand_write(const pm_mesh *m, pm_mesh_format fmt, const char *tmp,
-                            const char *path, pm_error *err) {
-  FILE *f = fopen(tmp, "w");
-  if (!f) return pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
-  static char buf[1 << 16];
-  setvbuf(f, buf, _IOFBF, sizeof buf);
+static pm_status hand_write(const pm_mesh *m, pm_mesh_format fmt, FILE *f, const char *path,
+                            pm_error *err) {
   int ok = fmt == PM_MESH_VTU ? write_vtu(m, f) : write_obj(m, f);
-  int e = errno;
-  if (fclose(f) != 0) {
-    ok = 0;
-    e = errno;
-  }
-  if (!ok) return pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(e));
+  if (!ok) return pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
   return PM_OK;
 }
 
@@ -440,14 +400,19 @@ pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err) {
   if (fmt == PM_MESH_STL && m->ntri == 0)
     return pm_error_setf(err, PM_ERR_ARG, "%s: an STL file holds triangles; the mesh has none",
                          path);
-  char *tmp = NULL;
-  s = temp_create(path, &tmp, err);
+  int by_hand = fmt == PM_MESH_VTU || fmt == PM_MESH_OBJ;
+  pm_atomic_file a;
+  s = pm_atomic_begin(&a, path, by_hand, err);
   if (s) return s;
-  if (fmt == PM_MESH_VTU || fmt == PM_MESH_OBJ)
-    s = hand_write(m, fmt, tmp, path, err);
+  if (by_hand)
+    s = hand_write(m, fmt, a.f, path, err);
   else
-    s = gmsh_write(m, fmt, tmp, path, err);
-  return temp_finish(tmp, path, s, err);
+    s = gmsh_write(m, fmt, a.tmp, path, err);
+  if (s) {
+    pm_atomic_abort(&a);
+    return s;
+  }
+  return pm_atomic_commit(&a, err);
 }
 
 /* ---- reading through gmsh ----------------------------------------------------------------- */
