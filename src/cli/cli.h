@@ -1,0 +1,17 @@
+/* The packmesh command's subcommands. Each takes the arguments after `packmesh` (argv[0] is the
+ * subcommand's name) and returns the process exit code:
+ *   0  success
+ *   1  the work failed (unreadable input, bad value, failed run): one line "packmesh: ..." on
+ *      stderr, no output file left
+ *   2  usage error (unknown option, missing argument): one line on stderr
+ * main.c dispatches through a table of the subcommands built into this binary. */
+#ifndef PM_CLI_H
+#define PM_CLI_H
+
+int pm_cli_quality(int argc, char **argv);
+int pm_cli_mesh(int argc, char **argv);
+int pm_cli_cases(int argc, char **argv);
+int pm_cli_compare(int argc, char **argv);
+int pm_cli_demo(int argc, char **argv);
+
+#endif /* PM_CLI_H */

@@ -1,0 +1,381 @@
+/* packmesh quality, end to end: a mesh made by gmsh's own mesher from a shared CAD model is
+ * measured by the command, and its --json figures are compared with a computation done here
+ * from gmsh's raw nodes and triangles, with formulas independent of quality.c (Qi's side-length
+ * form of the radius ratio, Heron's area, the law of cosines, a plain sort for percentiles, a
+ * sorted edge list for node degrees). Then the error paths: one line on stderr, a non-zero exit,
+ * nothing on stdout. */
+#include "test_support.h"
+
+#include <cjson/cJSON.h>
+#include <gmshc.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+
+#include "common/gmsh_session.h"
+
+static char dir[256];
+
+/* The mesh gmsh made, as the test sees it. */
+typedef struct raw {
+  size_t nnode, ntri;
+  size_t *tag;    /* node tags */
+  double *xyz;
+  int *dim;       /* dimension of each node's entity */
+  size_t *tri;    /* node tags, 3 per triangle */
+} raw;
+
+static raw R;
+static char msh[512];
+
+static int setup(void **state) {
+  (void)state;
+  snprintf(dir, sizeof dir, "/tmp/pm_test_cli_quality_XXXXXX");
+  if (!mkdtemp(dir)) return -1;
+  return 0;
+}
+
+static int teardown(void **state) {
+  (void)state;
+  char cmd[600];
+  snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+  if (system(cmd) != 0) return -1;
+  free(R.tag);
+  free(R.xyz);
+  free(R.dim);
+  free(R.tri);
+  pm_gmsh_shutdown();
+  return 0;
+}
+
+/* Mesh synth_torus.brep with gmsh (2D) and write it; keep the raw data. */
+static int make_mesh(void) {
+  if (!pm_test_have_cad()) return 0;
+  if (R.ntri) return 1;
+  char cad[512];
+  pm_test_cad("synth_torus.brep", cad, sizeof cad);
+  pm_error e = {0};
+  if (pm_gmsh_begin(&e)) fail_msg("%s", e.msg);
+  int ierr = 0;
+  pm_gmsh_lock();
+  gmshModelAdd("e2e", &ierr);
+  int *dt = NULL;
+  size_t ndt = 0;
+  int tok = pm_gmsh_mute_stdout();
+  gmshModelOccImportShapes(cad, &dt, &ndt, 0, "", &ierr);
+  pm_gmsh_unmute_stdout(tok);
+  assert_int_equal(ierr, 0);
+  gmshFree(dt);
+  gmshModelOccSynchronize(&ierr);
+  gmshOptionSetNumber("Mesh.MeshSizeMax", 0.12, &ierr);
+  gmshModelMeshGenerate(2, &ierr);
+  assert_int_equal(ierr, 0);
+  snprintf(msh, sizeof msh, "%s/torus.msh", dir);
+  gmshWrite(msh, &ierr);
+  assert_int_equal(ierr, 0);
+  /* Nodes entity by entity, to know each node's dimension. */
+  gmshModelGetEntities(&dt, &ndt, -1, &ierr);
+  size_t cap = 0;
+  for (size_t i = 0; i < ndt; i += 2) {
+    size_t *nt = NULL, nn = 0, nc = 0, np = 0;
+    double *c = NULL, *p = NULL;
+    gmshModelMeshGetNodes(&nt, &nn, &c, &nc, &p, &np, dt[i], dt[i + 1], 0, 0, &ierr);
+    if (R.nnode + nn > cap) {
+      cap = 2 * (R.nnode + nn);
+      R.tag = realloc(R.tag, cap * sizeof *R.tag);
+      R.xyz = realloc(R.xyz, 3 * cap * sizeof *R.xyz);
+      R.dim = realloc(R.dim, cap * sizeof *R.dim);
+    }
+    for (size_t k = 0; k < nn; ++k) {
+      R.tag[R.nnode] = nt[k];
+      memcpy(R.xyz + 3 * R.nnode, c + 3 * k, 3 * sizeof(double));
+      R.dim[R.nnode] = dt[i];
+      ++R.nnode;
+    }
+    gmshFree(nt);
+    gmshFree(c);
+    if (p) gmshFree(p);
+  }
+  gmshFree(dt);
+  size_t *et = NULL, net = 0, *en = NULL, nen = 0;
+  gmshModelMeshGetElementsByType(2, &et, &net, &en, &nen, -1, 0, 1, &ierr);
+  R.ntri = net;
+  R.tri = malloc(nen * sizeof *R.tri);
+  memcpy(R.tri, en, nen * sizeof *R.tri);
+  gmshFree(et);
+  gmshFree(en);
+  gmshModelRemove(&ierr);
+  pm_gmsh_unlock();
+  assert_true(R.ntri > 500);
+  return 1;
+}
+
+static size_t node_index(size_t tag) {
+  for (size_t i = 0; i < R.nnode; ++i)
+    if (R.tag[i] == tag) return i;
+  fail_msg("node tag %zu missing", tag);
+  return 0;
+}
+
+static int cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
+static int cmp_edge(const void *a, const void *b) {
+  const size_t *x = a, *y = b;
+  if (x[0] != y[0]) return (x[0] > y[0]) - (x[0] < y[0]);
+  return (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+static double quantile(const double *x, size_t n, double p) {
+  double h = (double)(n - 1) * p;
+  size_t i = (size_t)h;
+  return i + 1 < n ? x[i] + (h - (double)i) * (x[i + 1] - x[i]) : x[n - 1];
+}
+
+static void compare_summary(const cJSON *obj, double *v, size_t n, const char *what) {
+  qsort(v, n, sizeof *v, cmp_double);
+  double sum = 0;
+  for (size_t i = 0; i < n; ++i) sum += v[i];
+  const char *key[6] = {"min", "p25", "median", "p75", "max", "mean"};
+  double want[6] = {v[0], quantile(v, n, 0.25), quantile(v, n, 0.5), quantile(v, n, 0.75),
+                    v[n - 1], sum / (double)n};
+  for (int k = 0; k < 6; ++k) {
+    const cJSON *x = cJSON_GetObjectItemCaseSensitive(obj, key[k]);
+    if (!cJSON_IsNumber(x)) fail_msg("%s.%s missing", what, key[k]);
+    if (!(fabs(x->valuedouble - want[k]) <= 1e-9))
+      fail_msg("%s.%s = %.15g, independent value %.15g", what, key[k], x->valuedouble, want[k]);
+  }
+}
+
+/* Run the command line; capture stdout and stderr into files; return the exit code. */
+static int run(const char *args, char **out, char **err) {
+  char cmd[2048], po[600], pe[600];
+  snprintf(po, sizeof po, "%s/stdout", dir);
+  snprintf(pe, sizeof pe, "%s/stderr", dir);
+  snprintf(cmd, sizeof cmd, "'%s' %s > '%s' 2> '%s'", PM_CLI, args, po, pe);
+  int st = system(cmd);
+  assert_true(WIFEXITED(st));
+  const char *paths[2] = {po, pe};
+  char **bufs[2] = {out, err};
+  for (int k = 0; k < 2; ++k) {
+    FILE *f = fopen(paths[k], "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    *bufs[k] = malloc((size_t)n + 1);
+    assert_int_equal(fread(*bufs[k], 1, (size_t)n, f), (size_t)n);
+    (*bufs[k])[n] = '\0';
+    fclose(f);
+  }
+  return WEXITSTATUS(st);
+}
+
+static int count_lines(const char *s) {
+  int n = 0;
+  for (; *s; ++s) n += *s == '\n';
+  return n;
+}
+
+static void json_matches_independent_computation(void **state) {
+  (void)state;
+  if (!make_mesh()) skip();
+  char args[600], *out, *err;
+  snprintf(args, sizeof args, "quality '%s' --json", msh);
+  int code = run(args, &out, &err);
+  if (code != 0) fail_msg("exit %d: %s", code, err);
+  assert_string_equal(err, "");
+  cJSON *root = cJSON_Parse(out);
+  assert_non_null(root);
+  assert_string_equal(cJSON_GetObjectItem(root, "method")->valuestring, "external");
+  assert_string_equal(cJSON_GetObjectItem(root, "input")->valuestring, msh);
+  assert_true(cJSON_GetObjectItem(root, "nodes")->valuedouble == (double)R.nnode);
+  assert_true(cJSON_GetObjectItem(root, "triangles")->valuedouble == (double)R.ntri);
+  assert_true(cJSON_GetObjectItem(root, "tets")->valuedouble == 0);
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItem(root, "valid")));
+  const cJSON *tri = cJSON_GetObjectItem(root, "tri");
+  assert_non_null(tri);
+
+  size_t n = R.ntri;
+  double *q = malloc(n * sizeof *q), *ar = malloc(n * sizeof *ar), *amin = malloc(n * sizeof *amin),
+         *amax = malloc(n * sizeof *amax);
+  double eps_g = 0;
+  size_t (*edges)[2] = malloc(3 * n * sizeof *edges);
+  for (size_t t = 0; t < n; ++t) {
+    size_t id[3];
+    for (int k = 0; k < 3; ++k) id[k] = node_index(R.tri[3 * t + k]);
+    double l[3]; /* l[k] opposite vertex k */
+    for (int k = 0; k < 3; ++k) {
+      const double *p = R.xyz + 3 * id[(k + 1) % 3], *r = R.xyz + 3 * id[(k + 2) % 3];
+      l[k] = sqrt((p[0] - r[0]) * (p[0] - r[0]) + (p[1] - r[1]) * (p[1] - r[1]) +
+                  (p[2] - r[2]) * (p[2] - r[2]));
+    }
+    double a = l[0], b = l[1], c = l[2];
+    /* papers/004: q = (b + c - a)(c + a - b)(a + b - c) / (abc) */
+    q[t] = (b + c - a) * (c + a - b) * (a + b - c) / (a * b * c);
+    double area4 = sqrt((a + b + c) * (b + c - a) * (c + a - b) * (a + b - c)); /* Heron: 4A */
+    double R_ = a * b * c / area4;
+    ar[t] = R_ / fmin(a, fmin(b, c));
+    double ang[3];
+    for (int k = 0; k < 3; ++k) {
+      double x = l[k], y = l[(k + 1) % 3], z = l[(k + 2) % 3];
+      ang[k] = acos((y * y + z * z - x * x) / (2 * y * z)) * 180 / M_PI;
+    }
+    amin[t] = fmin(ang[0], fmin(ang[1], ang[2]));
+    amax[t] = fmax(ang[0], fmax(ang[1], ang[2]));
+    eps_g += 0.5 - q[t] / 2; /* papers/003 eq. 9, r/R = q/2 */
+    for (int k = 0; k < 3; ++k) {
+      size_t u = id[k], v = id[(k + 1) % 3];
+      edges[3 * t + k][0] = u < v ? u : v;
+      edges[3 * t + k][1] = u < v ? v : u;
+    }
+  }
+  compare_summary(cJSON_GetObjectItem(tri, "radius_ratio"), q, n, "tri.radius_ratio");
+  compare_summary(cJSON_GetObjectItem(tri, "aspect_ratio"), ar, n, "tri.aspect_ratio");
+  compare_summary(cJSON_GetObjectItem(tri, "min_angle_deg"), amin, n, "tri.min_angle_deg");
+  compare_summary(cJSON_GetObjectItem(tri, "max_angle_deg"), amax, n, "tri.max_angle_deg");
+  PM_ASSERT_NEAR(cJSON_GetObjectItem(tri, "eps_g")->valuedouble, eps_g / (double)n, 1e-9);
+
+  /* eps_t (papers/003 eq. 8): degrees from the unique edges, over the nodes gmsh put on the
+   * torus face (dim 2); the seam nodes lie on curves. */
+  qsort(edges, 3 * n, sizeof *edges, cmp_edge);
+  int *deg = calloc(R.nnode, sizeof *deg);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    if (i > 0 && edges[i][0] == edges[i - 1][0] && edges[i][1] == edges[i - 1][1]) continue;
+    deg[edges[i][0]]++;
+    deg[edges[i][1]]++;
+  }
+  double sum = 0;
+  size_t ni = 0;
+  for (size_t v = 0; v < R.nnode; ++v)
+    if (R.dim[v] == 2 && deg[v] > 0) {
+      sum += fabs(deg[v] - 6.0);
+      ++ni;
+    }
+  assert_true(ni > 100);
+  assert_true(cJSON_GetObjectItem(tri, "eps_t_nodes")->valuedouble == (double)ni);
+  PM_ASSERT_NEAR(cJSON_GetObjectItem(tri, "eps_t")->valuedouble, sum / (double)ni, 1e-12);
+
+  /* The torus surface: closed, V - E + F = 0, genus 1. */
+  const cJSON *sh = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "shells"), 0);
+  assert_true(cJSON_GetObjectItem(sh, "euler")->valuedouble == 0);
+  assert_true(cJSON_GetObjectItem(sh, "genus")->valuedouble == 1);
+
+  /* --csv: one row per triangle, the same radius ratios. */
+  free(out);
+  free(err);
+  snprintf(args, sizeof args, "quality '%s' --csv", msh);
+  assert_int_equal(run(args, &out, &err), 0);
+  assert_int_equal(count_lines(out), (int)n + 1);
+  assert_int_equal(strncmp(out, "kind,index,cell,radius_ratio,aspect_ratio,min_angle_deg,max_angle_deg\n", 70), 0);
+  double *qc = malloc(n * sizeof *qc);
+  size_t k = 0;
+  for (char *line = strchr(out, '\n') + 1; *line && k < n; line = strchr(line, '\n') + 1) {
+    char kind[8];
+    long idx, cell;
+    assert_int_equal(sscanf(line, "%7[^,],%ld,%ld,%lf", kind, &idx, &cell, &qc[k]), 4);
+    assert_string_equal(kind, "tri");
+    assert_int_equal(idx, (long)k);
+    assert_int_equal(cell, 0); /* the torus face, gmsh tag 1 */
+    ++k;
+  }
+  assert_int_equal(k, n);
+  qsort(qc, n, sizeof *qc, cmp_double);
+  for (size_t i = 0; i < n; ++i) PM_ASSERT_NEAR(qc[i], q[i], 1e-12); /* q sorted above */
+
+  /* The readable table. */
+  free(out);
+  free(err);
+  snprintf(args, sizeof args, "quality '%s'", msh);
+  assert_int_equal(run(args, &out, &err), 0);
+  assert_non_null(strstr(out, "radius ratio"));
+  assert_non_null(strstr(out, "genus 1"));
+  free(out);
+  free(err);
+  free(qc);
+  free(deg);
+  free(edges);
+  free(q);
+  free(ar);
+  free(amin);
+  free(amax);
+  cJSON_Delete(root);
+}
+
+static void write_file(const char *name, const char *text, char *path) {
+  snprintf(path, 512, "%s/%s", dir, name);
+  FILE *f = fopen(path, "w");
+  fputs(text, f);
+  fclose(f);
+}
+
+/* Each bad input: the expected exit code, exactly one line on stderr naming the problem, and
+ * nothing on stdout. */
+static void expect_error(const char *args, int code, const char *needle) {
+  char *out, *err;
+  int c = run(args, &out, &err);
+  if (c != code) fail_msg("'%s': exit %d, expected %d (stderr: %s)", args, c, code, err);
+  if (count_lines(err) != 1) fail_msg("'%s': stderr has %d lines: %s", args, count_lines(err), err);
+  assert_int_equal(strncmp(err, "packmesh: ", 10), 0);
+  if (!strstr(err, needle)) fail_msg("'%s': stderr '%s' does not name '%s'", args, err, needle);
+  assert_string_equal(out, "");
+  free(out);
+  free(err);
+}
+
+static void errors(void **state) {
+  (void)state;
+  char p[512], args[1200];
+  snprintf(args, sizeof args, "quality '%s/missing.msh'", dir);
+  expect_error(args, 1, "missing.msh");
+  write_file("corrupt.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 1 4\n", p);
+  snprintf(args, sizeof args, "quality '%s' --json", p);
+  expect_error(args, 1, "corrupt.msh");
+  write_file("noise.stl", "solid x\nfacet normal 0 0 1\n outer loop\n  vertex 0 0\n", p);
+  snprintf(args, sizeof args, "quality '%s'", p);
+  expect_error(args, 1, "noise.stl");
+  write_file("x.vtu", "<VTKFile/>\n", p);
+  snprintf(args, sizeof args, "quality '%s'", p);
+  expect_error(args, 1, ".vtu");
+  snprintf(args, sizeof args, "quality '%s'", dir);
+  expect_error(args, 1, "extension");
+  write_file("plain.txt", "1 2 3\n", p);
+  snprintf(args, sizeof args, "quality '%s'", p);
+  expect_error(args, 1, "'.txt'");
+  expect_error("quality some.msh --bogus", 2, "--bogus");
+  expect_error("quality", 2, "no mesh file");
+  expect_error("quality a.msh b.msh", 2, "b.msh");
+  expect_error("quality a.msh --json --csv", 2, "--csv");
+  expect_error("frobnicate", 2, "frobnicate");
+  expect_error("--frobnicate", 2, "--frobnicate");
+  expect_error("", 2, "no command");
+}
+
+static void help_and_version(void **state) {
+  (void)state;
+  char *out, *err;
+  assert_int_equal(run("--version", &out, &err), 0);
+  assert_int_equal(strncmp(out, "packmesh ", 9), 0);
+  free(out);
+  free(err);
+  assert_int_equal(run("--help", &out, &err), 0);
+  assert_non_null(strstr(out, "quality"));
+  free(out);
+  free(err);
+  assert_int_equal(run("quality --help", &out, &err), 0);
+  assert_non_null(strstr(out, "usage: packmesh quality"));
+  assert_string_equal(err, "");
+  free(out);
+  free(err);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(json_matches_independent_computation),
+      cmocka_unit_test(errors),
+      cmocka_unit_test(help_and_version),
+  };
+  return cmocka_run_group_tests(tests, setup, teardown);
+}
