@@ -111,32 +111,118 @@ double pm_percentile_sorted(const double *x, size_t n, double p) {
   return x[i] + f * (x[i + 1] - x[i]);
 }
 
+static inline void swapd(double *a, double *b) {
+  double t = *a;
+  *a = *b;
+  *b = t;
+}
+
+/* Partial sort: afterwards x[k] holds the value of rank k in x[lo, hi), everything before it is
+ * <= x[k] and everything after it >= x[k] (Hoare's selection with a median-of-three pivot).
+ * Expected linear time; should the partitions keep coming out lopsided (more rounds than twice
+ * the bits of the range size), the range is sorted instead, which bounds the worst case. */
+static pm_status select_kth(double *x, size_t lo, size_t hi, size_t k, pm_error *err) {
+  int rounds = 0, limit = 64;
+  for (size_t m = hi - lo; m > 1; m >>= 1) limit += 2;
+  while (hi - lo > 16) {
+    if (++rounds > limit) return pm_sort_doubles(x + lo, hi - lo, err);
+    size_t mid = lo + (hi - lo) / 2;
+    if (x[mid] < x[lo]) swapd(&x[mid], &x[lo]);
+    if (x[hi - 1] < x[lo]) swapd(&x[hi - 1], &x[lo]);
+    if (x[hi - 1] < x[mid]) swapd(&x[hi - 1], &x[mid]);
+    double pivot = x[mid];
+    size_t i = lo, j = hi - 1;
+    for (;;) {
+      while (x[i] < pivot) ++i;
+      while (x[j] > pivot) --j;
+      if (i >= j) break;
+      swapd(&x[i], &x[j]);
+      ++i;
+      --j;
+    }
+    /* now x[lo, j] <= pivot <= x[j + 1, hi) (and x[i - 1] == pivot when i == j) */
+    if (k <= j)
+      hi = j + 1;
+    else
+      lo = j + 1;
+  }
+  for (size_t a = lo + 1; a < hi; ++a)
+    for (size_t b = a; b > lo && x[b] < x[b - 1]; --b) swapd(&x[b], &x[b - 1]);
+  return PM_OK;
+}
+
+/* Smallest of x[lo, hi). */
+static double min_of(const double *x, size_t lo, size_t hi) {
+  double m = x[lo];
+  for (size_t a = lo + 1; a < hi; ++a)
+    if (x[a] < m) m = x[a];
+  return m;
+}
+
+/* The quartiles (type 7) of the n values of x, which are reordered. The median's rank is
+ * selected first; the lower quartile's is then searched left of it and the upper quartile's
+ * right of it. Rank i + 1, needed when h = (n - 1) p is not whole, is the smallest value right of
+ * rank i (up to the next rank already in place). */
+static pm_status quartiles(double *x, size_t n, double q[3], pm_error *err) {
+  double h[3];
+  size_t k[3];
+  for (int j = 0; j < 3; ++j) {
+    h[j] = (double)(n - 1) * 0.25 * (j + 1);
+    k[j] = (size_t)floor(h[j]);
+    if (k[j] > n - 1) k[j] = n - 1;
+  }
+  pm_status s = select_kth(x, 0, n, k[1], err);
+  if (!s && k[0] < k[1]) s = select_kth(x, 0, k[1], k[0], err);
+  if (!s && k[2] > k[1]) s = select_kth(x, k[1] + 1, n, k[2], err);
+  if (s) return s;
+  /* x[k[j]] is in place for every j; the value of rank k[j] + 1 lies in (k[j], end). */
+  size_t end[3] = {k[1] > k[0] ? k[1] + 1 : n, k[2] > k[1] ? k[2] + 1 : n, n};
+  for (int j = 0; j < 3; ++j) {
+    double f = h[j] - (double)k[j];
+    if (f == 0.0 || k[j] + 1 >= n) {
+      q[j] = x[k[j]];
+      continue;
+    }
+    size_t hi = end[j] < n ? end[j] : n;
+    double next = k[j] + 1 < hi ? min_of(x, k[j] + 1, hi) : x[k[j] + 1];
+    q[j] = x[k[j]] + f * (next - x[k[j]]);
+  }
+  return PM_OK;
+}
+
 pm_status pm_summary_compute(const double *v, size_t n, pm_summary *out, pm_error *err) {
   memset(out, 0, sizeof *out);
   if (n == 0) return PM_OK;
   double *x = malloc(n * sizeof *x);
   if (!x) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory summarizing %zu values", n);
   size_t m = 0;
-  for (size_t i = 0; i < n; ++i)
-    if (!isnan(v[i])) x[m++] = v[i];
-  pm_status s = pm_sort_doubles(x, m, err);
-  if (s || m == 0) {
-    free(x);
-    return s;
+  /* Neumaier's compensated sum: the mean does not drift with 10^6 terms. */
+  double sum = 0.0, comp = 0.0, lo = INFINITY, hi = -INFINITY;
+  for (size_t i = 0; i < n; ++i) {
+    double a = v[i];
+    if (isnan(a)) continue;
+    x[m++] = a;
+    double t = sum + a;
+    comp += fabs(sum) >= fabs(a) ? (sum - t) + a : (a - t) + sum;
+    sum = t;
+    if (a < lo) lo = a;
+    if (a > hi) hi = a;
   }
-  /* Summed in ascending order: smaller rounding error than index order, and the same answer
-   * for any permutation of the input. */
-  double sum = 0.0;
-  for (size_t i = 0; i < m; ++i) sum += x[i];
+  if (m == 0) {
+    free(x);
+    return PM_OK;
+  }
   out->n = (int64_t)m;
-  out->min = x[0];
-  out->max = x[m - 1];
-  out->p25 = pm_percentile_sorted(x, m, 0.25);
-  out->median = pm_percentile_sorted(x, m, 0.5);
-  out->p75 = pm_percentile_sorted(x, m, 0.75);
-  out->mean = sum / (double)m;
+  out->min = lo;
+  out->max = hi;
+  out->mean = (sum + comp) / (double)m;
+  double q[3];
+  pm_status s = quartiles(x, m, q, err);
+  out->p25 = q[0];
+  out->median = q[1];
+  out->p75 = q[2];
   free(x);
-  return PM_OK;
+  return s;
 }
 
 /* ---- single elements ---------------------------------------------------------------------- */
@@ -183,16 +269,28 @@ void pm_tri_measure_eval(const double a[3], const double b[3], const double c[3]
   out->rr = 0.5 * out->radius_ratio;
   double R = abc / (2.0 * a2);
   out->aspect_ratio = fmin(R / lmin, PM_QUALITY_HUGE);
-  double na[3], nb[3], nc[3];
-  double angA, angB, angC;
-  sub3(a, b, na); /* b -> a */
-  sub3(b, c, nb); /* c -> b */
-  sub3(c, a, nc); /* a -> c */
-  angA = angle_deg(ab, nc);
-  angB = angle_deg(bc, na);
-  angC = angle_deg(ca, nb);
-  out->min_angle = fmin(angA, fmin(angB, angC));
-  out->max_angle = fmax(angA, fmax(angB, angC));
+  /* The smallest angle faces the shortest edge and the largest the longest one; both are
+   * atan2(2A, dot) at their vertex (|cross| = 2A at every vertex), so two atan2 calls suffice. */
+  double e1[3], e2[3];
+  const double *pv[3] = {a, b, c};
+  const double lv[3] = {la, lb, lc};
+  int imin = 0, imax = 0;
+  for (int k = 1; k < 3; ++k) {
+    if (lv[k] < lv[imin]) imin = k;
+    if (lv[k] > lv[imax]) imax = k;
+  }
+  if (imin == imax) imax = (imin + 1) % 3; /* equilateral: any two vertices */
+  sub3(pv[(imin + 1) % 3], pv[imin], e1);
+  sub3(pv[(imin + 2) % 3], pv[imin], e2);
+  out->min_angle = atan2(a2, dot3(e1, e2)) * RAD2DEG;
+  sub3(pv[(imax + 1) % 3], pv[imax], e1);
+  sub3(pv[(imax + 2) % 3], pv[imax], e2);
+  out->max_angle = atan2(a2, dot3(e1, e2)) * RAD2DEG;
+  if (out->min_angle > out->max_angle) { /* ties broken the other way round */
+    double t = out->min_angle;
+    out->min_angle = out->max_angle;
+    out->max_angle = t;
+  }
 }
 
 void pm_tet_measure_eval(const double a[3], const double b[3], const double c[3],
@@ -305,12 +403,21 @@ void pm_quality_clear(pm_quality *q) {
   memset(q, 0, sizeof *q);
 }
 
+/* The four summaries are independent: one per thread. */
 static pm_status kind_summaries(pm_kind_quality *k, pm_error *err) {
-  pm_status s = pm_summary_compute(k->radius_ratio, (size_t)k->n, &k->s_radius_ratio, err);
-  if (!s) s = pm_summary_compute(k->aspect_ratio, (size_t)k->n, &k->s_aspect_ratio, err);
-  if (!s) s = pm_summary_compute(k->min_angle, (size_t)k->n, &k->s_min_angle, err);
-  if (!s) s = pm_summary_compute(k->max_angle, (size_t)k->n, &k->s_max_angle, err);
-  return s;
+  const double *in[4] = {k->radius_ratio, k->aspect_ratio, k->min_angle, k->max_angle};
+  pm_summary *out[4] = {&k->s_radius_ratio, &k->s_aspect_ratio, &k->s_min_angle,
+                        &k->s_max_angle};
+  pm_status st[4] = {PM_OK, PM_OK, PM_OK, PM_OK};
+  pm_error e[4];
+#pragma omp parallel for schedule(static, 1)
+  for (int i = 0; i < 4; ++i) st[i] = pm_summary_compute(in[i], (size_t)k->n, out[i], &e[i]);
+  for (int i = 0; i < 4; ++i)
+    if (st[i]) {
+      if (err) *err = e[i];
+      return st[i];
+    }
+  return PM_OK;
 }
 
 /* eps_t of papers/003 eq. 8 from the edge table: degree = number of distinct neighbours.

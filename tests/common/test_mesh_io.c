@@ -545,6 +545,7 @@ static void keeps_current_model(void **state) {
   PM_ASSERT_OK(pm_mesh_write(m, path_in("k.msh", p), &e), e);
   pm_mesh *r = NULL;
   PM_ASSERT_OK(pm_mesh_read(p, &r, &e), e);
+  pm_mesh_destroy(r);
   assert_int_equal(pm_mesh_read(path_in("garbage.msh", p), &r, &e), PM_ERR_PARSE);
   pm_gmsh_lock();
   char *cur = NULL;

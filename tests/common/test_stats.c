@@ -174,8 +174,11 @@ static void flatten_and_csv(void **state) {
     if (!f.item[i].is_text) assert_true(f.item[i].num == g.item[i].num);
   }
   free(text);
-  assert_int_equal(pm_stats_flatten_json("{not json", &g, &e), PM_ERR_PARSE);
-  assert_int_equal(pm_stats_flatten_json("[1, 2]", &g, &e), PM_ERR_PARSE);
+  pm_stats_flat bad;
+  assert_int_equal(pm_stats_flatten_json("{not json", &bad, &e), PM_ERR_PARSE);
+  assert_int_equal(bad.n, 0);
+  assert_int_equal(pm_stats_flatten_json("[1, 2]", &bad, &e), PM_ERR_PARSE);
+  assert_int_equal(bad.n, 0);
 
   /* CSV: header and row, quoting. */
   char *buf = NULL;
