@@ -64,7 +64,10 @@ static void cad_destroy_impl(pm_model *m) {
     if (cur) gmshFree(cur);
     cad_leave(&g);
   }
-  for (int d = 0; d < 4; ++d) free(cm->cells[d]);
+  for (int d = 0; d < 4; ++d) {
+    for (int32_t i = 0; cm->cells[d] && i < m->count[d]; ++i) free(cm->cells[d][i].grid);
+    free(cm->cells[d]);
+  }
   free(cm);
   m->impl = NULL;
 }

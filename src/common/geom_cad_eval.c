@@ -9,6 +9,7 @@
 #include <gmshc.h>
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "common/geom_cad_private.h"
@@ -180,6 +181,30 @@ static void face_eval_many(const pm_cell *self, int32_t n, const double *uv, int
   cad_leave(&g);
 }
 
+/* Projection starts for gmsh-evaluated cells. gmshModelGetParametrization costs 180-240 us on a
+ * B-spline face of the shared models (bench/bench_geom.c), where the particle methods need a
+ * few microseconds: the start is the nearest point of a grid sampled once at load (the same
+ * 25 x 25 samples geom.c's generic projection takes on every call), or the caller's guess when
+ * its point is nearer; geom.c's Newton iteration then converges from there. gmsh's projection
+ * remains the fallback for a cell without a grid. */
+#define GRID_FACE 25
+#define GRID_CURVE 65
+
+static double grid_param(double lo, double hi, int32_t i, int32_t n) {
+  return lo + (hi - lo) * (double)i / (double)(n - 1);
+}
+
+static int32_t grid_nearest(const cad_cell *cc, int32_t n, const double xyz[3], double *d2) {
+  int32_t best = 0;
+  double bd = 1e300;
+  for (int32_t i = 0; i < n; ++i) {
+    double d = pm_v3_dist2(cc->grid + 3 * i, xyz);
+    if (d < bd) bd = d, best = i;
+  }
+  *d2 = bd;
+  return best;
+}
+
 static int face_project(const pm_cell *self, const double xyz[3], const double *guess,
                         double *par) {
   const cad_cell *cc = self->impl;
@@ -187,6 +212,18 @@ static int face_project(const pm_cell *self, const double xyz[3], const double *
     double ref[2] = {0.5 * (self->lo[0] + self->hi[0]), 0.5 * (self->lo[1] + self->hi[1])};
     if (guess) ref[0] = guess[0], ref[1] = guess[1];
     return cad_form_project(&cc->form, xyz, ref, par);
+  }
+  if (cc->grid) {
+    double d2;
+    int32_t i = grid_nearest(cc, cc->gn[0] * cc->gn[1], xyz, &d2);
+    par[0] = grid_param(self->lo[0], self->hi[0], i % cc->gn[0], cc->gn[0]);
+    par[1] = grid_param(self->lo[1], self->hi[1], i / cc->gn[0], cc->gn[1]);
+    if (guess) {
+      pm_face_point p;
+      face_eval(self, guess, 0, &p);
+      if (pm_v3_dist2(p.p, xyz) <= d2) par[0] = guess[0], par[1] = guess[1];
+    }
+    return 0;
   }
   /* gmshModelGetParametrization, not gmshModelGetClosestPoint: the latter's (u, v) is always
    * (0, 0) in gmsh 4.8.4 (GMSH_API.md). Both project onto the untrimmed surface. */
@@ -208,6 +245,17 @@ static int curve_project(const pm_cell *self, const double xyz[3], const double 
     double ref = guess ? guess[0] : 0.5 * (self->lo[0] + self->hi[0]);
     return cad_form_project(&cc->form, xyz, &ref, par);
   }
+  if (cc->grid) {
+    double d2;
+    int32_t i = grid_nearest(cc, cc->gn[0], xyz, &d2);
+    par[0] = grid_param(self->lo[0], self->hi[0], i, cc->gn[0]);
+    if (guess) {
+      pm_curve_point p;
+      curve_eval(self, guess[0], 0, &p);
+      if (pm_v3_dist2(p.p, xyz) <= d2) par[0] = guess[0];
+    }
+    return 0;
+  }
   double *r;
   cad_guard g;
   cad_enter(cc->cm, &g);
@@ -217,6 +265,42 @@ static int curve_project(const pm_cell *self, const double xyz[3], const double 
   par[0] = r[0];
   gmshFree(r);
   return 0;
+}
+
+pm_status cad_build_grids(pm_model *m, pm_error *err) {
+  for (int d = PM_CURVE; d <= PM_FACE; ++d)
+    for (int32_t i = 0; i < m->count[d]; ++i) {
+      pm_cell *c = &m->cells[d][i];
+      cad_cell *cc = c->impl;
+      if (cc->form.kind != CAD_GMSH || c->degenerate) continue;
+      const int32_t nu = d == PM_FACE ? GRID_FACE : GRID_CURVE, nv = d == PM_FACE ? GRID_FACE : 1;
+      double *par = malloc(sizeof(double) * 2 * (size_t)(nu * nv));
+      cc->grid = malloc(sizeof(double) * 3 * (size_t)(nu * nv));
+      void *pts = malloc((d == PM_FACE ? sizeof(pm_face_point) : sizeof(pm_curve_point)) * (size_t)(nu * nv));
+      if (!par || !cc->grid || !pts) {
+        free(par), free(pts);
+        return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+      }
+      for (int32_t b = 0; b < nv; ++b)
+        for (int32_t a = 0; a < nu; ++a) {
+          par[2 * (b * nu + a)] = grid_param(c->lo[0], c->hi[0], a, nu);
+          par[2 * (b * nu + a) + 1] = d == PM_FACE ? grid_param(c->lo[1], c->hi[1], b, nv) : 0;
+        }
+      if (d == PM_FACE) {
+        pm_face_point *fp = pts;
+        face_eval_many(c, nu * nv, par, 0, fp);
+        for (int32_t k = 0; k < nu * nv; ++k) pm_v3_copy(cc->grid + 3 * k, fp[k].p);
+      } else {
+        pm_curve_point *cp = pts;
+        for (int32_t k = 0; k < nu; ++k) {
+          curve_eval(c, par[2 * k], 0, &cp[k]);
+          pm_v3_copy(cc->grid + 3 * k, cp[k].p);
+        }
+      }
+      cc->gn[0] = nu, cc->gn[1] = nv;
+      free(par), free(pts);
+    }
+  return PM_OK;
 }
 
 static void face_curve_uv(const pm_cell *self, const pm_use *use, double t, double uv[2]) {

@@ -53,6 +53,11 @@ typedef struct cad_cell {
   int synthetic;
   int32_t synth_face;
   double synth_uv[4];
+  /* gmsh-evaluated cells: the cell's points at a regular grid of its parameter box
+   * (gn[0] x gn[1] for faces, u fastest; gn[0] for curves), owned: projection starts from the
+   * nearest of them instead of calling gmshModelGetParametrization (see cad_build_grids). */
+  double *grid;
+  int32_t gn[2];
 } cad_cell;
 
 struct cad_model {
@@ -103,6 +108,9 @@ pm_status cad_build(const char *gname, const char *label, pm_model **out, pm_err
 /* Give model m (allocated, cells not yet filled) its backend data: the gmsh model name, the
  * per-cell cad_cell array (cell->impl) and the release function that removes the gmsh model. */
 pm_status cad_attach(pm_model *m, const char *gname, pm_error *err);
+
+/* Sample the projection grids of the gmsh-evaluated faces and curves of m. */
+pm_status cad_build_grids(pm_model *m, pm_error *err);
 
 /* Create a fresh uniquely named gmsh model ("pm_cad_<n>") and make it current inside `scope`
  * (gmsh locked by the caller). */
