@@ -38,6 +38,7 @@ static const char *const kind_names[PM_CHECK_NKIND] = {
     "shells oriented inwards",
     "tetrahedron faces shared badly",
     "tetrahedra boundary not matching the shell triangles",
+    "triangles running against their face's natural normal",
 };
 
 const char *pm_check_kind_name(pm_check_kind k) {
@@ -1035,6 +1036,67 @@ static int embedded_curves_in_tets(ctx *c, const int32_t *tet, int32_t ntet) {
   return 1;
 }
 
+/* ---- triangles against their face's normal ------------------------------------------------ */
+
+static int check_face_normals(ctx *c) {
+  const pm_mesh *m = c->m;
+  const pm_model *md = c->md;
+  int any = 0;
+  for (int32_t f = 0; f < c->nf && !any; ++f)
+    any = md->cells[2][f].cls && md->cells[2][f].cls->face_eval;
+  if (!any || m->ntri == 0) return 1;
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (int32_t v = 0; v < m->nnode; ++v)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = fmin(lo[k], m->xyz[3 * (size_t)v + k]);
+      hi[k] = fmax(hi[k], m->xyz[3 * (size_t)v + k]);
+    }
+  double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                     (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  if (md->diagonal > diag) diag = md->diagonal;
+  /* A node's parameters are trusted when they evaluate back to the node. */
+  double ptol = 1e-6 * diag;
+  uint8_t *bad = calloc((size_t)m->ntri, 1);
+  if (!bad) return 0;
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (int32_t t = 0; t < m->ntri; ++t) {
+    int32_t f = c->tri_c[t];
+    if (!c->tri_ok[t] || f < 0) continue;
+    const pm_cell *fc = &md->cells[2][f];
+    if (!fc->cls || !fc->cls->face_eval) continue;
+    const int32_t *v = m->tri + 3 * (size_t)t;
+    int j = 0;
+    while (j < 3 && !(m->node_dim[v[j]] == PM_FACE && m->node_cell[v[j]] == f)) ++j;
+    if (j == 3) continue;
+    const double *x = m->xyz + 3 * (size_t)v[j];
+    pm_face_point fp;
+    pm_face_eval(fc, m->node_par + 2 * (size_t)v[j], 1, &fp);
+    double dx = fp.p[0] - x[0], dy = fp.p[1] - x[1], dz = fp.p[2] - x[2];
+    if (!(dx * dx + dy * dy + dz * dz <= ptol * ptol)) continue;
+    double n[3] = {fp.su[1] * fp.sv[2] - fp.su[2] * fp.sv[1],
+                   fp.su[2] * fp.sv[0] - fp.su[0] * fp.sv[2],
+                   fp.su[0] * fp.sv[1] - fp.su[1] * fp.sv[0]};
+    double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    double su = sqrt(fp.su[0] * fp.su[0] + fp.su[1] * fp.su[1] + fp.su[2] * fp.su[2]);
+    double sv = sqrt(fp.sv[0] * fp.sv[0] + fp.sv[1] * fp.sv[1] + fp.sv[2] * fp.sv[2]);
+    if (!(nn > 1e-12 * su * sv)) continue; /* a pole: no normal to compare with */
+    const double *a = m->xyz + 3 * (size_t)v[0], *b = m->xyz + 3 * (size_t)v[1],
+                 *cc = m->xyz + 3 * (size_t)v[2];
+    double u1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double u2[3] = {cc[0] - a[0], cc[1] - a[1], cc[2] - a[2]};
+    double tn[3] = {u1[1] * u2[2] - u1[2] * u2[1], u1[2] * u2[0] - u1[0] * u2[2],
+                    u1[0] * u2[1] - u1[1] * u2[0]};
+    if (tn[0] * n[0] + tn[1] * n[1] + tn[2] * n[2] < 0) bad[t] = 1;
+  }
+  for (int32_t t = 0; t < m->ntri; ++t)
+    if (bad[t])
+      note(c, PM_CHECK_FACE_NORMAL,
+           "triangle %ld of face %ld runs against the face's natural normal Su x Sv", (long)t,
+           (long)c->tri_c[t]);
+  free(bad);
+  return 1;
+}
+
 /* ---- classification and missing cells ---------------------------------------------------- */
 
 static void check_classification(ctx *c) {
@@ -1252,6 +1314,7 @@ static int run(ctx *c) {
   free(tet);
   free(tet_id);
   if (ok && c->md) check_classification(c);
+  if (ok && c->md) ok = check_face_normals(c);
   return ok;
 }
 

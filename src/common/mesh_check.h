@@ -25,6 +25,10 @@
  *     (pm_use.sense: triangles follow the face's natural normal Su x Sv, sense +1 when it points
  *     out), neighbouring triangles are consistently oriented and the shell encloses a positive
  *     volume; each shell's Euler characteristic V - E + F is reported (pm_check_shell);
+ *   - triangles follow their face's natural normal: at a node of the triangle classified on the
+ *     face (whose parameters evaluate back to the node, within 1e-6 of the diagonal, so that
+ *     files without parameters are not misjudged), (b - a) x (c - a) . (Su x Sv) >= 0; skipped
+ *     where Su x Sv vanishes (a pole) and for faces without an evaluator;
  *   - tets of a volume: their boundary faces are exactly the triangles of the volume's shell,
  *     oriented outward, and the triangles of faces embedded in the volume have tets of that
  *     volume on both sides; segments of curves embedded in a volume are tet edges.
@@ -69,6 +73,7 @@ typedef enum pm_check_kind {
   PM_CHECK_SHELL_INWARD,     /* oriented shell encloses a negative volume */
   PM_CHECK_TET_FACE,         /* face of more than two tets, or two tets on one side of it */
   PM_CHECK_TET_BOUNDARY,     /* tet boundary faces differ from the shell triangles */
+  PM_CHECK_FACE_NORMAL,      /* triangle running against its face's natural normal */
   PM_CHECK_NKIND
 } pm_check_kind;
 

@@ -471,6 +471,112 @@ static void embedded_face(void **state) {
   model_free(md2);
 }
 
+/* ---- a planar face with an evaluator: triangles against the natural normal --------------- */
+
+static void plane_eval(const pm_cell *self, const double uv[2], int order, pm_face_point *out) {
+  (void)self;
+  (void)order;
+  memset(out, 0, sizeof *out);
+  out->p[0] = uv[0];
+  out->p[1] = uv[1];
+  out->su[0] = 1;
+  out->sv[1] = 1;
+}
+static const pm_cell_class plane_class = {"plane", NULL, plane_eval, NULL, NULL, NULL, NULL};
+
+/* The unit square: vertices 0..3 counter-clockwise from the origin, curve k from vertex k to
+ * k + 1, one face S(u, v) = (u, v, 0). Mesh: a 3 x 3 grid of nodes, classified, with parameters;
+ * triangles counter-clockwise (along +z = Su x Sv). */
+static void square(pm_model **mdp, pm_mesh **mp) {
+  pm_model *md = model_new(4, 4, 1, 0);
+  for (int k = 0; k < 4; ++k) {
+    int32_t v[2] = {k, (k + 1) % 4};
+    int8_t sn[2] = {-1, 1};
+    cell_bound(md, 1, k, 2, v, sn);
+  }
+  int32_t cu[4] = {0, 1, 2, 3};
+  cell_bound(md, 2, 0, 4, cu, NULL);
+  md->cells[2][0].cls = &plane_class;
+  md->diagonal = sqrt(2.0);
+  pm_mesh *m = pm_mesh_create();
+  pm_error e = {0};
+  /* node (i, j) = i + 3 j */
+  static const int corner_vertex[9] = {0, -1, 1, -1, -1, -1, 3, -1, 2};
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) {
+      double p[3] = {0.5 * i, 0.5 * j, 0}, par[2] = {0.5 * i, 0.5 * j};
+      int id = i + 3 * j;
+      if (corner_vertex[id] >= 0) {
+        pm_mesh_add_node(m, p, 0, corner_vertex[id], NULL, NULL, &e);
+      } else if (id == 4) {
+        pm_mesh_add_node(m, p, 2, 0, par, NULL, &e);
+      } else {
+        int curve = id == 1 ? 0 : id == 5 ? 1 : id == 7 ? 2 : 3;
+        double t = 0.5;
+        pm_mesh_add_node(m, p, 1, curve, &t, NULL, &e);
+      }
+    }
+  static const int segs[8][3] = {{0, 1, 0}, {1, 2, 0}, {2, 5, 1}, {5, 8, 1},
+                                 {8, 7, 2}, {7, 6, 2}, {6, 3, 3}, {3, 0, 3}};
+  for (int k = 0; k < 8; ++k) pm_mesh_add_seg(m, segs[k][0], segs[k][1], segs[k][2], &e);
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      int32_t a = i + 3 * j, b = a + 1, c = a + 4, d = a + 3;
+      pm_mesh_add_tri(m, a, b, c, 0, &e);
+      pm_mesh_add_tri(m, a, c, d, 0, &e);
+    }
+  *mdp = md;
+  *mp = m;
+}
+
+static void face_normal(void **state) {
+  (void)state;
+  pm_model *md;
+  pm_mesh *m;
+  square(&md, &m);
+  pm_check_report r;
+  check(m, md, &r);
+  if (!r.valid) fail_msg("%s", r.problem[0]);
+  assert_int_equal(r.nshell, 0);
+  pm_check_report_clear(&r);
+  /* Every triangle turned over: consistent among themselves, but against the face's normal. */
+  for (int32_t t = 0; t < m->ntri; ++t) {
+    int32_t x = m->tri[3 * t + 1];
+    m->tri[3 * t + 1] = m->tri[3 * t + 2];
+    m->tri[3 * t + 2] = x;
+  }
+  check(m, md, &r);
+  assert_false(r.valid);
+  assert_int_equal(r.count[PM_CHECK_ORIENTATION], 0);
+  /* 6: the two triangles (1, 2, 5) and (3, 7, 6) have no node on the face itself (only
+   * boundary nodes, without face parameters) and are not judged. */
+  assert_int_equal(r.count[PM_CHECK_FACE_NORMAL], 6);
+  assert_non_null(strstr(r.problem[0], "natural normal"));
+  pm_check_report_clear(&r);
+  /* Parameters that do not evaluate back to the node (a file without them): not judged. */
+  m->node_par[2 * 4] = 0;
+  m->node_par[2 * 4 + 1] = 0;
+  check(m, md, &r);
+  assert_int_equal(r.count[PM_CHECK_FACE_NORMAL], 0);
+  pm_check_report_clear(&r);
+  /* A missing boundary segment leaves an unexplained patch boundary and a bare curve piece. */
+  m->node_par[2 * 4] = 0.5;
+  m->node_par[2 * 4 + 1] = 0.5;
+  for (int32_t t = 0; t < m->ntri; ++t) {
+    int32_t x = m->tri[3 * t + 1];
+    m->tri[3 * t + 1] = m->tri[3 * t + 2];
+    m->tri[3 * t + 2] = x;
+  }
+  m->nseg--;
+  check(m, md, &r);
+  assert_false(r.valid);
+  assert_int_equal(r.count[PM_CHECK_PATCH_BOUNDARY], 1);
+  assert_int_equal(r.count[PM_CHECK_FACE_NORMAL], 0);
+  pm_check_report_clear(&r);
+  pm_mesh_destroy(m);
+  model_free(md);
+}
+
 static void null_arguments(void **state) {
   (void)state;
   pm_check_report r;
@@ -489,7 +595,7 @@ int main(void) {
       cmocka_unit_test(octahedron_valid), cmocka_unit_test(octahedron_defects),
       cmocka_unit_test(torus_genus),      cmocka_unit_test(cube_valid),
       cmocka_unit_test(cube_defects),     cmocka_unit_test(embedded_face),
-      cmocka_unit_test(null_arguments),
+      cmocka_unit_test(face_normal),      cmocka_unit_test(null_arguments),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
