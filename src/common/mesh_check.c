@@ -38,7 +38,7 @@ static const char *const kind_names[PM_CHECK_NKIND] = {
     "shells oriented inwards",
     "tetrahedron faces shared badly",
     "tetrahedra boundary not matching the shell triangles",
-    "triangles running against their face's natural normal",
+    "triangles against their face's mesh orientation",
 };
 
 const char *pm_check_kind_name(pm_check_kind k) {
@@ -115,7 +115,10 @@ typedef struct ctx {
   int32_t nc, nf, nv;
   int64_t *fc_off; int32_t *fc_curve;        /* face -> boundary curve uses, sorted */
   int64_t *cf_off; int32_t *cf_face;         /* curve -> faces it bounds or is embedded in */
-  int64_t *fv_off; int32_t *fv_vol; int8_t *fv_sense; /* face -> (volume, sense) of bound */
+  int64_t *fv_off; int32_t *fv_vol;         /* face -> volumes it bounds */
+  int8_t *fv_sense;                          /* ... and the sign that turns the face's triangles
+                                                outward of that volume (face_sign x sense) */
+  int8_t *face_sign;                         /* [nf] pm_face_mesh_sign of each face */
   int64_t *cv_off; int32_t *cv_vol; int32_t *cv_uses; /* curve -> (volume, uses in shell) */
   int64_t *fh_off; int32_t *fh_vol;          /* face -> volumes it is embedded in */
   int64_t *ch_off; int32_t *ch_vol;          /* curve -> volumes it is embedded in */
@@ -417,6 +420,11 @@ static int build_model_tables(ctx *c) {
       for (int32_t j = 0; j < fc2->nbound && ok; ++j)
         if (fc2->bound[j].cell >= 0 && fc2->bound[j].cell < c->nc)
           ok = trip_push(&cv, fc2->bound[j].cell, v, 1);
+      /* A curve embedded in a shell face has that face's triangles on both sides. */
+      for (int32_t j = 0; j < fc2->nembed && ok; ++j)
+        if (fc2->embed[j].dim == 1 && valid_ref(md, 1, fc2->embed[j].index))
+          ok = trip_push(&cv, fc2->embed[j].index, v, 1) &&
+               trip_push(&cv, fc2->embed[j].index, v, 1);
     }
     for (int32_t k = 0; k < cl->nembed && ok; ++k) {
       const pm_cellref *er = &cl->embed[k];
@@ -446,6 +454,24 @@ static int build_model_tables(ctx *c) {
     for (size_t i = 0; ok && i < fv.n; ++i) c->fv_sense[i] = (int8_t)(sense32[i] < 0 ? -1 : 1);
   }
   free(sense32);
+  /* The orientation of each face's triangles (geom.h, pm_face_mesh_sign): outward of the first
+   * volume the face bounds, the natural normal for a face that bounds none. A model whose `up`
+   * lists were not derived (pm_model_finish not run) gets the same rule from the bound lists:
+   * the first volume is the one of lowest index. */
+  if (ok) {
+    c->face_sign = malloc((size_t)(c->nf ? c->nf : 1));
+    ok = c->face_sign != NULL;
+  }
+  for (int32_t f = 0; ok && f < c->nf; ++f) {
+    if (md->cells[2][f].nup > 0)
+      c->face_sign[f] = (int8_t)pm_face_mesh_sign(md, f);
+    else
+      c->face_sign[f] = (int8_t)(c->fv_off[f + 1] > c->fv_off[f] ? c->fv_sense[c->fv_off[f]] : 1);
+  }
+  /* From here on fv_sense is the outward sign of the triangles themselves in each volume. */
+  for (int32_t f = 0; ok && f < c->nf; ++f)
+    for (int64_t k = c->fv_off[f]; k < c->fv_off[f + 1]; ++k)
+      c->fv_sense[k] = (int8_t)(c->fv_sense[k] * c->face_sign[f]);
   /* curve -> (volume, number of uses of the curve by the volume's shell faces) */
   if (ok && cv.n > 0) {
     qsort(cv.t, cv.n, sizeof *cv.t, cmp_trip);
@@ -628,8 +654,7 @@ static int walk_edges(ctx *c, const pm_edges *e, const int32_t *tri, const int32
              (long)a, (long)b, va[j].k, (long)vol, expect);
       } else if (va[j].k == 2 && va[j].sdir != 0) {
         note(c, PM_CHECK_SHELL_ORIENTATION,
-             "shell of volume %ld: the two triangles at edge %ld-%ld run the same way after "
-             "applying face senses",
+             "shell of volume %ld: the two triangles at edge %ld-%ld run the same way",
              (long)vol, (long)a, (long)b);
       }
     }
@@ -805,7 +830,7 @@ static int build_shells(ctx *c) {
         if (f < 0 || f >= nf) continue;
         for (int64_t j = foff[f]; j < foff[f + 1]; ++j) {
           list[nl] = ftri[j];
-          sense[nl++] = (int8_t)(cl->bound[k].sense < 0 ? -1 : 1);
+          sense[nl++] = (int8_t)((cl->bound[k].sense < 0 ? -1 : 1) * c->face_sign[f]);
         }
       }
       pm_check_shell *sh = &r->shell[v];
@@ -819,7 +844,7 @@ static int build_shells(ctx *c) {
         sh->genus = (int32_t)((2 * (int64_t)sh->components - sh->euler) / 2);
       if (sh->closed && !(sh->enclosed > 0))
         note(c, PM_CHECK_SHELL_INWARD,
-             "the shell of volume %ld encloses volume %g after applying face senses", (long)v,
+             "the shell of volume %ld encloses volume %g: its triangles point inwards", (long)v,
              sh->enclosed);
     }
     free(list);
@@ -960,7 +985,7 @@ static int check_tets(ctx *c, const int32_t *tet, const int32_t *tet_id, int32_t
         else if (!oriented)
           note(c, PM_CHECK_TET_BOUNDARY,
                "the shell triangle on face %ld %ld %ld of tetrahedron %ld (volume %ld) points "
-               "into the volume after applying its face's sense",
+               "into the volume",
                (long)a, (long)b, (long)cc, (long)t1, (long)vol);
       }
     }
@@ -1086,13 +1111,13 @@ static int check_face_normals(ctx *c) {
     double u2[3] = {cc[0] - a[0], cc[1] - a[1], cc[2] - a[2]};
     double tn[3] = {u1[1] * u2[2] - u1[2] * u2[1], u1[2] * u2[0] - u1[0] * u2[2],
                     u1[0] * u2[1] - u1[1] * u2[0]};
-    if (tn[0] * n[0] + tn[1] * n[1] + tn[2] * n[2] < 0) bad[t] = 1;
+    if (c->face_sign[f] * (tn[0] * n[0] + tn[1] * n[1] + tn[2] * n[2]) < 0) bad[t] = 1;
   }
   for (int32_t t = 0; t < m->ntri; ++t)
     if (bad[t])
       note(c, PM_CHECK_FACE_NORMAL,
-           "triangle %ld of face %ld runs against the face's natural normal Su x Sv", (long)t,
-           (long)c->tri_c[t]);
+           "triangle %ld of face %ld runs against the face's %s", (long)t, (long)c->tri_c[t],
+           c->face_sign[c->tri_c[t]] > 0 ? "natural normal Su x Sv" : "reversed normal -Su x Sv");
   free(bad);
   return 1;
 }
@@ -1193,6 +1218,7 @@ static void ctx_free(ctx *c) {
   free(c->fv_off);
   free(c->fv_vol);
   free(c->fv_sense);
+  free(c->face_sign);
   free(c->cv_off);
   free(c->cv_vol);
   free(c->cv_uses);

@@ -19,16 +19,20 @@
  *     or is embedded in; an edge of a face's triangle patch that has one triangle of that face
  *     carries a segment of one of the face's boundary curves; no edge has more than two
  *     triangles of one face;
+ *   - orientation (mesh.h, geom.h pm_face_mesh_sign): a face's triangles point out of the first
+ *     volume the face bounds, and follow its natural normal Su x Sv when it bounds none. So the
+ *     triangles of face f, seen from volume v, point out of v when multiplied by
+ *     pm_face_mesh_sign(f) x sense(f in v) (pm_use.sense: +1 when Su x Sv points out of v);
  *   - closed shells: for each volume, the triangles of its bounding faces use every edge exactly
  *     twice, or, along a curve, as many times as the shell's faces use that curve (non-manifold
- *     edges counted per shell); after applying each face's sense in the volume's bound list
- *     (pm_use.sense: triangles follow the face's natural normal Su x Sv, sense +1 when it points
- *     out), neighbouring triangles are consistently oriented and the shell encloses a positive
- *     volume; each shell's Euler characteristic V - E + F is reported (pm_check_shell);
- *   - triangles follow their face's natural normal: at a node of the triangle classified on the
+ *     edges counted per shell); with the signs above, neighbouring triangles are consistently
+ *     oriented and the shell encloses a positive volume; each shell's Euler characteristic
+ *     V - E + F is reported (pm_check_shell);
+ *   - triangles follow their face's orientation: at a node of the triangle classified on the
  *     face (whose parameters evaluate back to the node, within 1e-6 of the diagonal, so that
- *     files without parameters are not misjudged), (b - a) x (c - a) . (Su x Sv) >= 0; skipped
- *     where Su x Sv vanishes (a pole) and for faces without an evaluator;
+ *     files without parameters are not misjudged),
+ *     pm_face_mesh_sign(f) ((b - a) x (c - a)) . (Su x Sv) >= 0; skipped where Su x Sv vanishes
+ *     (a pole) and for faces without an evaluator;
  *   - tets of a volume: their boundary faces are exactly the triangles of the volume's shell,
  *     oriented outward, and the triangles of faces embedded in the volume have tets of that
  *     volume on both sides; segments of curves embedded in a volume are tet edges.
@@ -69,11 +73,11 @@ typedef enum pm_check_kind {
   PM_CHECK_PATCH_BOUNDARY,   /* face patch boundary edge without a boundary-curve segment */
   PM_CHECK_FACE_NONMANIFOLD, /* more than two triangles of one face along an edge */
   PM_CHECK_SHELL_OPEN,       /* volume shell edge used a wrong number of times */
-  PM_CHECK_SHELL_ORIENTATION,/* shell triangles disagree after applying face senses */
-  PM_CHECK_SHELL_INWARD,     /* oriented shell encloses a negative volume */
+  PM_CHECK_SHELL_ORIENTATION,/* neighbouring shell triangles disagree */
+  PM_CHECK_SHELL_INWARD,     /* a closed shell whose triangles point inwards */
   PM_CHECK_TET_FACE,         /* face of more than two tets, or two tets on one side of it */
   PM_CHECK_TET_BOUNDARY,     /* tet boundary faces differ from the shell triangles */
-  PM_CHECK_FACE_NORMAL,      /* triangle running against its face's natural normal */
+  PM_CHECK_FACE_NORMAL,      /* triangle against its face's orientation (pm_face_mesh_sign) */
   PM_CHECK_NKIND
 } pm_check_kind;
 

@@ -107,13 +107,24 @@ static void octahedron_valid(void **state) {
   PM_ASSERT_NEAR(r.shell[0].enclosed, 4.0 / 3.0, 1e-14);
   pm_check_report_clear(&r);
 
-  /* The face's natural normal pointing in (sense -1) makes the same triangles an inward
-   * shell. */
+  /* Triangles point out of the face's (first) volume whichever way its natural normal points
+   * (geom.h, pm_face_mesh_sign): sense -1 changes nothing. */
   md->cells[3][0].bound[0].sense = -1;
+  check(m, md, &r);
+  if (!r.valid) fail_msg("%s", r.problem[0]);
+  pm_check_report_clear(&r);
+  /* Every triangle turned over: consistent, closed, but inward. */
+  for (int32_t t = 0; t < m->ntri; ++t) {
+    int32_t x = m->tri[3 * t + 1];
+    m->tri[3 * t + 1] = m->tri[3 * t + 2];
+    m->tri[3 * t + 2] = x;
+  }
   check(m, md, &r);
   assert_false(r.valid);
   assert_int_equal(r.count[PM_CHECK_SHELL_INWARD], 1);
+  assert_int_equal(r.count[PM_CHECK_SHELL_ORIENTATION], 0);
   assert_non_null(strstr(r.problem[0], "oriented inwards"));
+  assert_true(r.shell[0].enclosed < 0);
   pm_check_report_clear(&r);
   model_free(md);
   pm_mesh_destroy(m);
@@ -471,6 +482,83 @@ static void embedded_face(void **state) {
   model_free(md2);
 }
 
+/* ---- two volumes sharing a face ------------------------------------------------------------ */
+
+/* Two tets glued along the face (0, 1, 2): apex 3 above (volume 0), apex 4 below (volume 1).
+ * Face k is one triangle whose natural normal is its listed order; faces 1..3 bound volume 0,
+ * faces 4..6 volume 1, face 0 both (its natural normal points up: out of volume 1, into
+ * volume 0). Its triangles point out of its first volume, volume 0: downwards. */
+static const int two_faces[7][3] = {{0, 1, 2}, {0, 1, 3}, {1, 2, 3}, {2, 0, 3},
+                                    {0, 4, 1}, {1, 4, 2}, {2, 4, 0}};
+
+static void two_volumes(void **state) {
+  (void)state;
+  int edges[9][2], ne = 0;
+  for (int f = 0; f < 7; ++f)
+    for (int k = 0; k < 3; ++k) {
+      int a = two_faces[f][k], b = two_faces[f][(k + 1) % 3];
+      int lo = a < b ? a : b, hi = a < b ? b : a, seen = 0;
+      for (int j = 0; j < ne; ++j) seen |= edges[j][0] == lo && edges[j][1] == hi;
+      if (!seen) {
+        edges[ne][0] = lo;
+        edges[ne][1] = hi;
+        ++ne;
+      }
+    }
+  assert_int_equal(ne, 9);
+  pm_model *md = model_new(5, 9, 7, 2);
+  for (int k = 0; k < 9; ++k) {
+    int32_t v[2] = {edges[k][0], edges[k][1]};
+    int8_t sn[2] = {-1, 1};
+    cell_bound(md, 1, k, 2, v, sn);
+  }
+  for (int f = 0; f < 7; ++f) {
+    int32_t c[3];
+    for (int k = 0; k < 3; ++k) {
+      int a = two_faces[f][k], b = two_faces[f][(k + 1) % 3];
+      for (int j = 0; j < 9; ++j)
+        if ((edges[j][0] == a && edges[j][1] == b) || (edges[j][0] == b && edges[j][1] == a))
+          c[k] = j;
+    }
+    cell_bound(md, 2, f, 3, c, NULL);
+  }
+  int32_t up_faces[4] = {0, 1, 2, 3}, down_faces[4] = {0, 4, 5, 6};
+  int8_t up_sense[4] = {-1, 1, 1, 1}, down_sense[4] = {1, 1, 1, 1};
+  cell_bound(md, 3, 0, 4, up_faces, up_sense);
+  cell_bound(md, 3, 1, 4, down_faces, down_sense);
+
+  pm_mesh *m = pm_mesh_create();
+  pm_error e = {0};
+  double p[5][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, 1}, {0.3, 0.3, -1}};
+  for (int i = 0; i < 5; ++i) pm_mesh_add_node(m, p[i], 0, i, NULL, NULL, &e);
+  for (int k = 0; k < 9; ++k) pm_mesh_add_seg(m, edges[k][0], edges[k][1], k, &e);
+  pm_mesh_add_tri(m, 0, 2, 1, 0, &e); /* face 0, pointing down: out of volume 0 */
+  for (int f = 1; f < 7; ++f) pm_mesh_add_tri(m, two_faces[f][0], two_faces[f][1], two_faces[f][2], f, &e);
+  pm_mesh_add_tet(m, 0, 1, 2, 3, 0, &e);
+  pm_mesh_add_tet(m, 0, 2, 1, 4, 1, &e);
+  pm_check_report r;
+  check(m, md, &r);
+  if (!r.valid) fail_msg("%s", r.problem[0]);
+  assert_int_equal(r.nshell, 2);
+  for (int v = 0; v < 2; ++v) {
+    assert_int_equal(r.shell[v].euler, 2);
+    assert_true(r.shell[v].closed);
+    PM_ASSERT_NEAR(r.shell[v].enclosed, 1.0 / 6.0, 1e-15);
+  }
+  pm_check_report_clear(&r);
+  /* The shared triangle pointing up (out of volume 1 instead of its first volume): both shells
+   * disagree along its three edges, and both tets see it the wrong way. */
+  m->tri[1] = 1;
+  m->tri[2] = 2;
+  check(m, md, &r);
+  assert_false(r.valid);
+  assert_int_equal(r.count[PM_CHECK_SHELL_ORIENTATION], 6);
+  assert_int_equal(r.count[PM_CHECK_TET_BOUNDARY], 2);
+  pm_check_report_clear(&r);
+  pm_mesh_destroy(m);
+  model_free(md);
+}
+
 /* ---- a planar face with an evaluator: triangles against the natural normal --------------- */
 
 static void plane_eval(const pm_cell *self, const double uv[2], int order, pm_face_point *out) {
@@ -595,7 +683,8 @@ int main(void) {
       cmocka_unit_test(octahedron_valid), cmocka_unit_test(octahedron_defects),
       cmocka_unit_test(torus_genus),      cmocka_unit_test(cube_valid),
       cmocka_unit_test(cube_defects),     cmocka_unit_test(embedded_face),
-      cmocka_unit_test(face_normal),      cmocka_unit_test(null_arguments),
+      cmocka_unit_test(two_volumes),      cmocka_unit_test(face_normal),
+      cmocka_unit_test(null_arguments),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
