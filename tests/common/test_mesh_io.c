@@ -527,6 +527,64 @@ static void foreign_elements(void **state) {
   assert_null(r);
 }
 
+/* Files gmsh writes in other ways: MSH 2.2, and sparse node tags (read through a sorted map). */
+static void msh2_and_sparse_tags(void **state) {
+  (void)state;
+  char p2[512], ps[512];
+  int ierr = 0;
+  pm_gmsh_lock();
+  gmshModelAdd("msh2", &ierr);
+  gmshModelAddDiscreteEntity(2, 7, NULL, 0, &ierr);
+  size_t nt[4] = {5, 900000, 17, 123456789};
+  double xyz[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0.25};
+  gmshModelMeshAddNodes(2, 7, nt, 4, xyz, 12, NULL, 0, &ierr);
+  size_t et[2] = {3, 1}, en[6] = {5, 900000, 17, 900000, 123456789, 17};
+  gmshModelMeshAddElementsByType(7, 2, et, 2, en, 6, &ierr);
+  assert_int_equal(ierr, 0);
+  gmshWrite(path_in("sparse.msh", ps), &ierr);
+  double saved = 0;
+  gmshOptionGetNumber("Mesh.MshFileVersion", &saved, &ierr);
+  gmshOptionSetNumber("Mesh.MshFileVersion", 2.2, &ierr);
+  gmshWrite(path_in("v22.msh", p2), &ierr);
+  gmshOptionSetNumber("Mesh.MshFileVersion", saved, &ierr);
+  gmshModelRemove(&ierr);
+  pm_gmsh_unlock();
+  FILE *f = fopen(p2, "r");
+  char line[64];
+  assert_non_null(fgets(line, sizeof line, f));
+  assert_non_null(fgets(line, sizeof line, f));
+  fclose(f);
+  assert_int_equal(strncmp(line, "2.2", 3), 0);
+
+  pm_error e = {0};
+  pm_mesh *r = NULL;
+  PM_ASSERT_OK(pm_mesh_read(ps, &r, &e), e);
+  assert_int_equal(r->nnode, 4);
+  assert_int_equal(r->ntri, 2);
+  /* nodes by increasing tag: 5, 17, 900000, 123456789 */
+  assert_true(r->xyz[0] == 0 && r->xyz[1] == 0);
+  assert_true(r->xyz[3 * 1 + 1] == 1);
+  assert_true(r->xyz[3 * 2 + 0] == 1 && r->xyz[3 * 2 + 1] == 0);
+  assert_true(r->xyz[3 * 3 + 2] == 0.25);
+  /* elements by increasing tag: 1 = (900000, 123456789, 17), 3 = (5, 900000, 17) */
+  assert_true(r->tri[0] == 2 && r->tri[1] == 3 && r->tri[2] == 1);
+  assert_true(r->tri[3] == 0 && r->tri[4] == 2 && r->tri[5] == 1);
+  assert_int_equal(r->tri_cell[0], 6);
+  assert_int_equal(r->tri_cell[1], 6);
+  assert_int_equal(r->node_dim[0], 2);
+  pm_mesh_destroy(r);
+  /* MSH 2.2: gmsh numbers nodes and elements in the order it writes them (5, 900000, 17,
+   * 123456789; element 3 first); the elementary tag still gives the cell. */
+  PM_ASSERT_OK(pm_mesh_read(p2, &r, &e), e);
+  assert_int_equal(r->nnode, 4);
+  assert_int_equal(r->ntri, 2);
+  assert_true(r->xyz[3 * 1] == 1 && r->xyz[3 * 2 + 1] == 1 && r->xyz[3 * 3 + 2] == 0.25);
+  assert_true(r->tri[0] == 0 && r->tri[1] == 1 && r->tri[2] == 2);
+  assert_true(r->tri[3] == 1 && r->tri[4] == 3 && r->tri[5] == 2);
+  assert_int_equal(r->tri_cell[1], 6);
+  pm_mesh_destroy(r);
+}
+
 /* Reading and writing leave the current gmsh model current and add no model. */
 static void keeps_current_model(void **state) {
   (void)state;
@@ -568,7 +626,8 @@ int main(void) {
       cmocka_unit_test(msh_round_trip),   cmocka_unit_test(vtk_medit_stl_round_trips),
       cmocka_unit_test(vtu_round_trip),   cmocka_unit_test(obj_round_trip),
       cmocka_unit_test(write_errors),     cmocka_unit_test(read_errors),
-      cmocka_unit_test(foreign_elements), cmocka_unit_test(keeps_current_model),
+      cmocka_unit_test(foreign_elements), cmocka_unit_test(msh2_and_sparse_tags),
+      cmocka_unit_test(keeps_current_model),
   };
   return cmocka_run_group_tests(tests, setup, teardown);
 }
