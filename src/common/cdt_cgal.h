@@ -12,6 +12,18 @@
  * PM_ERR_GEOM naming the two edges, instead of inserting an intersection point. Points equal to
  * an earlier point are merged: `merged_into` (optional) reports, for each input point, the index
  * of the point that represents it (itself when not merged).
+ *
+ * Details of the contract:
+ *   - a constraint that passes through an input point, or meets another constraint at an input
+ *     point (a T, an X through a given point, collinear overlaps), is split at that point: no
+ *     error, no new point; the pieces are edges of the output;
+ *   - equal points (exactly equal coordinates) are represented by the smallest index among them;
+ *     a constraint whose two ends are merged into one point is ignored;
+ *   - fewer than 3 distinct points, or all points collinear: PM_OK with ntri = 0;
+ *   - PM_ERR_ARG: npts or ncons negative, NULL arrays with positive counts, a non-finite
+ *     coordinate, a constraint index outside [0, npts) or a constraint joining a point to itself;
+ *   - PM_ERR_NOMEM / PM_ERR_BACKEND: allocation failure / any other CGAL exception.
+ * Cost: about a second for 10^6 points (bench/bench_cdt.c).
  */
 #ifndef PM_CDT_CGAL_H
 #define PM_CDT_CGAL_H

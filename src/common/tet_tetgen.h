@@ -14,9 +14,33 @@
  *                        an error, not a silent Steiner point;
  *   PM_TET_REFINE        TetGen's quality refinement (-q with the radius-edge bound, -a with the
  *                        volume bound when > 0), interior Steiner points allowed, boundary kept
- *                        (the psys pipeline of papers/001 section 4.4).
+ *                        (the psys pipeline of papers/001 section 4.4). Because the boundary is
+ *                        kept, TetGen rejects points that would encroach on it: the bounds are
+ *                        met only as far as the surface mesh is fine enough (a unit cube with 2
+ *                        triangles per face keeps a tet of volume 1/6 under a bound of 0.01; with
+ *                        5 x 5 squares per face the bound holds). Neither bound is re-checked.
  * TetGen's failures (self-intersecting input, its `int` exceptions) come back as PM_ERR_BACKEND
  * with TetGen's reason; the process never exits.
+ *
+ * Failures, by code:
+ *   PM_ERR_ARG      bad arguments: fewer than 4 points, no triangles, an index out of range, a
+ *                   triangle or segment repeating a point, non-finite numbers, radius_edge <= 1
+ *                   in PM_TET_REFINE mode;
+ *   PM_ERR_GEOM     two points coincide, a triangle is degenerate, an input point ends up in no
+ *                   tet (outside every closed volume), TetGen produced no tet, or (GIVEN_POINTS)
+ *                   the boundary needs Steiner points;
+ *   PM_ERR_BACKEND  the surface self-intersects (two triangles, segments or a point on another
+ *                   item meeting away from common vertices; checked with exact predicates before
+ *                   TetGen, which may crash on such input), TetGen threw, or TetGen did not keep
+ *                   an input triangle / segment;
+ *   PM_ERR_LIMIT    PM_TET_REFINE needs more than max_points points (or max_points < npts).
+ * Triangles repeated in the input (the same three points) are used once, with the first one's tag.
+ * Interior points are plain points of the complex (TetGen's input points, not -i): every one
+ * becomes a vertex; `nsurf` is informational. A program that links libgmsh must list libtet
+ * before it (libgmsh exports another TetGen under the same symbol names); otherwise every call
+ * fails with PM_ERR_BACKEND saying so instead of running TetGen.
+ * TetGen runs under a process-wide lock with file descriptor 1 redirected (it prints some errors
+ * even when quiet), so tetrahedralizations in several threads run one after the other.
  */
 #ifndef PM_TET_TETGEN_H
 #define PM_TET_TETGEN_H
@@ -62,6 +86,12 @@ pm_status pm_tet_tetrahedralize(const pm_tet_input *in, pm_tet_result *out, pm_e
 
 /* Free the arrays of a result and zero it. Accepts NULL. */
 void pm_tet_result_free(pm_tet_result *out);
+
+/* Diagnostics (tests, debugging): run the same tetrahedralization as pm_tet_tetrahedralize with
+ * TetGen's own consistency checks (-C: tet connectivity and orientation, boundary shells,
+ * segments) and store in *problems how many problems they report (0: consistent). TetGen prints
+ * these checks on stdout; the report is captured from file descriptor 1 and not printed. */
+pm_status pm_tet_check_with_tetgen(const pm_tet_input *in, int32_t *problems, pm_error *err);
 
 #ifdef __cplusplus
 }
