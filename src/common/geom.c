@@ -318,6 +318,15 @@ void pm_face_curvatures(const pm_cell *f, const double uv[2], double *kmax, doub
   *kmax = *kmin = 0;
 }
 
+int pm_face_mesh_sign(const pm_model *m, int32_t face) {
+  const pm_cell *f = &m->cells[PM_FACE][face];
+  if (f->nup == 0) return 1;
+  const pm_cell *v = &m->cells[PM_VOLUME][f->up[0]];
+  for (int32_t q = 0; q < v->nbound; ++q)
+    if (v->bound[q].cell == face) return v->bound[q].sense < 0 ? -1 : 1;
+  return 1;
+}
+
 /* ---- wrapping and the inside test ---------------------------------------------------------- */
 
 void pm_cell_wrap(const pm_cell *c, double *par) {

@@ -215,6 +215,12 @@ void pm_face_curvatures(const pm_cell *f, const double uv[2], double *kmax, doub
 /* (u, v) of a boundary-curve point on face f, for the use `use` of that curve. */
 void pm_face_curve_uv(const pm_cell *f, const pm_use *use, double t, double uv[2]);
 
+/* The orientation of a face's triangles in a mesh (mesh.h): +1 when they follow the natural
+ * normal Su x Sv, -1 when they are reversed. A face that bounds a volume has its triangles point
+ * out of the first volume listed in its `up` list (so a solid's surface mesh is outward); a face
+ * bounding no volume follows its natural normal. */
+int pm_face_mesh_sign(const pm_model *m, int32_t face);
+
 /* ---- trimmed region ---------------------------------------------------------------------- */
 
 /* Wrap periodic parameters into the cell's base range [lo, lo + period). */
