@@ -663,8 +663,10 @@ static int normal_sign(const pm_cell *f) {
   size_t nn = 0;
   int ierr = 0;
   cad_guard g;
-  cad_enter(cc->cm, &g);
-  gmshModelGetNormal(f->tag, uv, 2 * (size_t)n, &nr, &nn, &ierr);
+  if (cad_enter(cc->cm, &g) == 0)
+    gmshModelGetNormal(f->tag, uv, 2 * (size_t)n, &nr, &nn, &ierr);
+  else
+    ierr = 1;
   cad_leave(&g);
   double sum = 0;
   for (int i = 0; !ierr && i < n && nn == 3 * (size_t)n; ++i) {

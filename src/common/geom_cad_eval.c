@@ -129,8 +129,7 @@ static void curve_eval(const pm_cell *self, double t, int order, pm_curve_point 
   /* gmsh extrapolates outside [lo, hi]; a closed curve must wrap instead. */
   if (self->periodic[0] && (t < self->lo[0] || t > self->hi[0])) pm_cell_wrap(self, &t);
   cad_guard g;
-  cad_enter(cc->cm, &g);
-  int bad = cad_gmsh_curve(self->tag, 1, &t, order, self->hi[0] - self->lo[0], out);
+  int bad = cad_enter(cc->cm, &g) || cad_gmsh_curve(self->tag, 1, &t, order, self->hi[0] - self->lo[0], out);
   cad_leave(&g);
   if (bad) curve_fallback(cc, order, out);
 }
@@ -145,8 +144,7 @@ static void face_eval(const pm_cell *self, const double uv[2], int order, pm_fac
   double q[2] = {uv[0], uv[1]};
   pm_cell_wrap(self, q);
   cad_guard g;
-  cad_enter(cc->cm, &g);
-  int bad = cad_gmsh_face(self->tag, 1, q, order, out);
+  int bad = cad_enter(cc->cm, &g) || cad_gmsh_face(self->tag, 1, q, order, out);
   cad_leave(&g);
   if (bad) face_fallback(cc, order, out);
 }
@@ -165,7 +163,11 @@ static void face_eval_many(const pm_cell *self, int32_t n, const double *uv, int
   }
   double q[2 * BATCH];
   cad_guard g;
-  cad_enter(cc->cm, &g);
+  if (cad_enter(cc->cm, &g)) {
+    for (int32_t i = 0; i < n; ++i) face_fallback(cc, order, out + i);
+    cad_leave(&g);
+    return;
+  }
   for (int32_t i0 = 0; i0 < n; i0 += BATCH) {
     int32_t m = n - i0 < BATCH ? n - i0 : BATCH;
     for (int32_t i = 0; i < m; ++i) {
@@ -229,8 +231,7 @@ static int face_project(const pm_cell *self, const double xyz[3], const double *
    * (0, 0) in gmsh 4.8.4 (GMSH_API.md). Both project onto the untrimmed surface. */
   double *r;
   cad_guard g;
-  cad_enter(cc->cm, &g);
-  int bad = call(gmshModelGetParametrization, 2, self->tag, xyz, 3, 2, &r);
+  int bad = cad_enter(cc->cm, &g) || call(gmshModelGetParametrization, 2, self->tag, xyz, 3, 2, &r);
   cad_leave(&g);
   if (bad) return -1;
   par[0] = r[0], par[1] = r[1];
@@ -258,8 +259,7 @@ static int curve_project(const pm_cell *self, const double xyz[3], const double 
   }
   double *r;
   cad_guard g;
-  cad_enter(cc->cm, &g);
-  int bad = call(gmshModelGetParametrization, 1, self->tag, xyz, 3, 1, &r);
+  int bad = cad_enter(cc->cm, &g) || call(gmshModelGetParametrization, 1, self->tag, xyz, 3, 1, &r);
   cad_leave(&g);
   if (bad) return -1;
   par[0] = r[0];
@@ -320,8 +320,10 @@ static void face_curve_uv(const pm_cell *self, const pm_use *use, double t, doub
   size_t n = 0;
   double *r = NULL;
   cad_guard g;
-  cad_enter(cc->cm, &g);
-  gmshModelReparametrizeOnSurface(1, curve->tag, &t, 1, self->tag, &r, &n, use->side, &ierr);
+  if (cad_enter(cc->cm, &g) == 0)
+    gmshModelReparametrizeOnSurface(1, curve->tag, &t, 1, self->tag, &r, &n, use->side, &ierr);
+  else
+    ierr = 1;
   cad_leave(&g);
   if (!ierr && n == 2 && r && isfinite(r[0]) && isfinite(r[1])) {
     uv[0] = r[0], uv[1] = r[1];

@@ -66,12 +66,14 @@ struct cad_model {
   atomic_long failures;  /* gmsh evaluations replaced by the fallback output */
 };
 
-/* Lock gmsh and make cm's gmsh model current; remembers the previous current model. */
+/* Lock gmsh and make cm's gmsh model current, remembering the previous current model. Returns 0,
+ * or -1 when cm's gmsh model no longer exists (then no gmsh call may be made). cad_leave()
+ * restores the previous model and unlocks, in both cases. */
 typedef struct cad_guard {
   char previous[256];
   int switched;
 } cad_guard;
-void cad_enter(const cad_model *cm, cad_guard *g);
+int cad_enter(const cad_model *cm, cad_guard *g);
 void cad_leave(cad_guard *g);
 
 /* Evaluation classes: one per type name; the functions dispatch on the cell's form. */

@@ -138,11 +138,11 @@ static void gmsh_face(const pm_model *m, int tag, const double uv[2], pm_face_po
   size_t nx, nd, ndd;
   int ierr = 0;
   gmshModelGetValue(2, tag, (double *)uv, 2, &x, &nx, &ierr);
-  assert_int_equal(ierr, 0);
+  CAD_LOCKED_CHECK(ierr == 0);
   gmshModelGetDerivative(2, tag, (double *)uv, 2, &d, &nd, &ierr);
-  assert_int_equal(ierr, 0);
+  CAD_LOCKED_CHECK(ierr == 0);
   gmshModelGetSecondDerivative(2, tag, (double *)uv, 2, &dd, &ndd, &ierr);
-  assert_int_equal(ierr, 0);
+  CAD_LOCKED_CHECK(ierr == 0);
   cad_gmsh_end(&sc);
   pm_v3_copy(out->p, x), pm_v3_copy(out->su, d), pm_v3_copy(out->sv, d + 3);
   pm_v3_copy(out->suu, dd), pm_v3_copy(out->svv, dd + 3), pm_v3_copy(out->suv, dd + 6);
@@ -156,9 +156,9 @@ static void gmsh_curve(const pm_model *m, int tag, double t, pm_curve_point *out
   size_t nx, nd;
   int ierr = 0;
   gmshModelGetValue(1, tag, &t, 1, &x, &nx, &ierr);
-  assert_int_equal(ierr, 0);
+  CAD_LOCKED_CHECK(ierr == 0);
   gmshModelGetDerivative(1, tag, &t, 1, &d, &nd, &ierr);
-  assert_int_equal(ierr, 0);
+  CAD_LOCKED_CHECK(ierr == 0);
   cad_gmsh_end(&sc);
   pm_v3_copy(out->p, x), pm_v3_copy(out->d1, d);
   gmshFree(x), gmshFree(d);
@@ -271,13 +271,13 @@ static void evaluation_with_another_model_current(void **state) {
   pm_error e = {0};
   pm_gmsh_lock();
   pm_gmsh_scope sc;
-  PM_ASSERT_OK(pm_gmsh_scope_enter(&sc, "test_foreign_model", 1, &e), e);
+  CAD_LOCKED_CHECK(pm_gmsh_scope_enter(&sc, "test_foreign_model", 1, &e) == PM_OK);
   pm_face_eval(f, uv, 2, &p);
   pm_curve_eval(cv, 0.5 * (cv->lo[0] + cv->hi[0]), 2, &cp);
   char *cur = NULL;
   int ierr = 0;
   gmshModelGetCurrent(&cur, &ierr);
-  assert_string_equal(cur, "test_foreign_model");
+  CAD_LOCKED_CHECK(cur && strcmp(cur, "test_foreign_model") == 0);
   gmshFree(cur);
   pm_gmsh_scope_leave(&sc, 1);
   pm_gmsh_unlock();
@@ -295,6 +295,70 @@ static void evaluation_with_another_model_current(void **state) {
   pm_face_eval(f, uv, 2, &p);
   assert_memory_equal(&p, &ref, sizeof p);
   pm_model_destroy(a);
+}
+
+/* A gmsh evaluation that fails (here: the gmsh model was removed behind the backend's back)
+ * never aborts: the output is the cell's fallback point with zero derivatives, finite, and the
+ * failure is counted; closed forms do not need gmsh; other gmsh models are not touched. */
+static void evaluation_failure_is_finite(void **state) {
+  (void)state;
+  CAD_REQUIRE();
+  pm_model *m = cad_load_file("t20_component8.step");
+  pm_model *other = cad_load_file("synth_torus.brep");
+  const pm_cell *bs = cad_face_by_tag(m, 2, 2), *pl = cad_face_by_tag(m, 2, 3), *cv = cad_face_by_tag(m, 1, 7);
+  double uv[2] = {0.5 * (bs->lo[0] + bs->hi[0]), 0.3 * bs->lo[1] + 0.7 * bs->hi[1]};
+  double uvp[2] = {0.5 * (pl->lo[0] + pl->hi[0]), 0.5 * (pl->lo[1] + pl->hi[1])};
+  pm_face_point before, after, plane_before, plane_after;
+  pm_face_eval(bs, uv, 2, &before);
+  pm_face_eval(pl, uvp, 2, &plane_before);
+  pm_error e = {0};
+  pm_gmsh_lock();
+  pm_gmsh_scope sc;
+  CAD_LOCKED_CHECK(pm_gmsh_scope_enter(&sc, pm_cad_gmsh_model(m), 0, &e) == PM_OK);
+  pm_gmsh_scope_leave(&sc, 1);
+  CAD_LOCKED_CHECK(pm_gmsh_scope_enter(&sc, pm_cad_gmsh_model(other), 0, &e) == PM_OK);
+  pm_gmsh_unlock();
+  assert_int_equal(pm_cad_eval_failures(m), 0);
+  pm_face_eval(bs, uv, 2, &after);
+  assert_int_equal(pm_cad_eval_failures(m), 1);
+  const double *vals = after.p;
+  for (int k = 0; k < 18; ++k) assert_true(isfinite(vals[k]));
+  assert_true(pm_v3_norm(after.su) == 0 && pm_v3_norm(after.suu) == 0);
+  assert_true(pm_v3_dist(after.p, before.p) < m->diagonal); /* a point of the face */
+  pm_face_point many[3];
+  double three[6] = {uv[0], uv[1], uv[0], uv[1], uv[0], uv[1]};
+  pm_face_eval_many(bs, 3, three, 1, many);
+  assert_int_equal(pm_cad_eval_failures(m), 4);
+  assert_memory_equal(&many[2].p, &after.p, sizeof after.p);
+  pm_curve_point cp;
+  pm_curve_eval(cv, cv->lo[0], 2, &cp);
+  assert_true(isfinite(cp.p[0]) && isfinite(cp.d2[2]));
+  double fuv[2];
+  pm_face_curve_uv(bs, &bs->loop[0].use[0], pm_model_cell(m, 1, bs->loop[0].use[0].cell)->lo[0], fuv);
+  assert_true(isfinite(fuv[0]) && isfinite(fuv[1]));
+  /* Projection still returns (a finite answer from the fallback values). */
+  double par[2], dist;
+  PM_ASSERT_OK(pm_cell_project(bs, before.p, NULL, par, NULL, &dist, &e), e);
+  assert_true(isfinite(par[0]) && isfinite(par[1]) && isfinite(dist));
+  /* The closed form of the planar face is untouched. */
+  pm_face_eval(pl, uvp, 2, &plane_after);
+  assert_memory_equal(&plane_after, &plane_before, sizeof plane_after);
+  /* The other model stayed current and evaluates normally. */
+  pm_gmsh_lock();
+  char *cur = NULL;
+  int ierr = 0;
+  gmshModelGetCurrent(&cur, &ierr);
+  CAD_LOCKED_CHECK(cur && strcmp(cur, pm_cad_gmsh_model(other)) == 0);
+  gmshFree(cur);
+  pm_gmsh_scope_leave(&sc, 0);
+  pm_gmsh_unlock();
+  pm_model_destroy(m); /* its gmsh model is gone: destroying must not remove another one */
+  pm_gmsh_lock();
+  CAD_LOCKED_CHECK(pm_gmsh_scope_enter(&sc, pm_cad_gmsh_model(other), 0, &e) == PM_OK);
+  pm_gmsh_scope_leave(&sc, 0);
+  pm_gmsh_unlock();
+  assert_int_equal(pm_cad_eval_failures(other), 0);
+  pm_model_destroy(other);
 }
 
 typedef struct thread_arg {
@@ -426,7 +490,7 @@ static void bspline_projection_matches_gmsh(void **state) {
       size_t nr = 0, nq = 0;
       int ierr = 0;
       gmshModelGetParametrization(2, f->tag, x, 3, &r, &nr, &ierr);
-      assert_int_equal(ierr, 0);
+      CAD_LOCKED_CHECK(ierr == 0);
       gmshModelGetValue(2, f->tag, r, 2, &q, &nq, &ierr);
       cad_gmsh_end(&sc);
       double dg = pm_v3_dist(q, x);
@@ -475,6 +539,7 @@ int main(void) {
       cmocka_unit_test(fast_paths_agree_with_gmsh),
       cmocka_unit_test(batched_equals_single),
       cmocka_unit_test(evaluation_with_another_model_current),
+      cmocka_unit_test(evaluation_failure_is_finite),
       cmocka_unit_test(concurrent_evaluation),
       cmocka_unit_test(projection_round_trips),
       cmocka_unit_test(bspline_projection_matches_gmsh),

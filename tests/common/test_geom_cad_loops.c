@@ -237,7 +237,7 @@ static void shared_faces_orientation(void **state) {
   close(fd);
   pm_gmsh_lock();
   pm_gmsh_scope sc;
-  PM_ASSERT_OK(pm_gmsh_scope_enter(&sc, "test_shared_faces", 1, &e), e);
+  CAD_LOCKED_CHECK(pm_gmsh_scope_enter(&sc, "test_shared_faces", 1, &e) == PM_OK);
   int ierr = 0;
   int b1 = gmshModelOccAddBox(0, 0, 0, 1, 1, 1, -1, &ierr);
   int b2 = gmshModelOccAddBox(1, 0, 0, 1, 1, 1, -1, &ierr);
@@ -246,14 +246,14 @@ static void shared_faces_orientation(void **state) {
   int *out = NULL, **map = NULL;
   size_t nout = 0, *nmap = NULL, nnmap = 0;
   gmshModelOccFragment(obj, 2, tool, 4, &out, &nout, &map, &nmap, &nnmap, -1, 1, 1, &ierr);
-  assert_int_equal(ierr, 0);
+  CAD_LOCKED_CHECK(ierr == 0);
   if (out) gmshFree(out);
   for (size_t i = 0; i < nnmap; ++i) gmshFree(map[i]);
   if (map) gmshFree(map);
   if (nmap) gmshFree(nmap);
   gmshModelOccSynchronize(&ierr);
   gmshWrite(path, &ierr);
-  assert_int_equal(ierr, 0);
+  CAD_LOCKED_CHECK(ierr == 0);
   pm_gmsh_scope_leave(&sc, 1);
   pm_gmsh_unlock();
 
