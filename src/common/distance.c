@@ -1,0 +1,1291 @@
+/* The two-sided mesh-to-model distance (see distance.h for what is measured and how). */
+#include "common/distance.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/cdt_cgal.h"
+#include "common/closest_embree.h"
+#include "common/trim.h"
+#include "common/vec3.h"
+
+void pm_distance_params_init(pm_distance_params *p) {
+  p->spacing = 0.25;
+  p->tri_level = 4;
+  p->refine = 16;
+  p->max_face_samples = 250000;
+  p->max_samples = 4000000;
+  p->ref_tol = 1e-4;
+  p->ref_spacing = 0.25;
+  p->ref_max_points = 100000;
+}
+
+pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
+  if (!(p->spacing > 0 && p->spacing <= 1))
+    return pm_error_setf(err, PM_ERR_ARG, "distance: spacing must be in (0, 1], got %g", p->spacing);
+  if (p->tri_level < 1 || p->tri_level > 32)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: tri_level must be in 1..32, got %d",
+                         (int)p->tri_level);
+  if (p->refine < 0 || p->refine > 256)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: refine must be in 0..256, got %d",
+                         (int)p->refine);
+  if (p->max_face_samples < 16)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: max_face_samples must be >= 16, got %lld",
+                         (long long)p->max_face_samples);
+  if (p->max_samples < 1000)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: max_samples must be >= 1000, got %lld",
+                         (long long)p->max_samples);
+  if (!(p->ref_tol >= 1e-7 && p->ref_tol <= 1e-2))
+    return pm_error_setf(err, PM_ERR_ARG, "distance: ref_tol must be in [1e-7, 1e-2], got %g",
+                         p->ref_tol);
+  if (!(p->ref_spacing > 0 && p->ref_spacing <= 1))
+    return pm_error_setf(err, PM_ERR_ARG, "distance: ref_spacing must be in (0, 1], got %g",
+                         p->ref_spacing);
+  if (p->ref_max_points < 100)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: ref_max_points must be >= 100, got %lld",
+                         (long long)p->ref_max_points);
+  return PM_OK;
+}
+
+/* ---- projection onto one cell --------------------------------------------------------------- */
+
+/* Gauss-Newton iterations of a projection. From a start within a few mesh edges of the foot the
+ * iteration contracts by about (distance x curvature) per step; 40 is a cap for bad cases. Every
+ * accepted step decreases the distance (halving the step up to 12 times), so whatever the
+ * iteration count the result is a point of the cell at least as close as the start. */
+#define FOOT_MAX_IT 40
+#define FOOT_BACKTRACK 12
+/* Stop when the 3D step falls below this fraction of the model diagonal (round-off level). */
+#define FOOT_STEP_TOL 1e-14
+
+static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
+
+/* The foot of x on face f from uv (in place): returns the distance |x - S(uv)|; *inside says
+ * whether the final uv lies in the trimmed region by pm_face_inside (only then is S(uv) known to
+ * be a point of the model); foot and nrm (may be NULL) receive S(uv) and Su x Sv there. */
+static double face_foot(const pm_cell *f, const double x[3], double uv[2], int *inside,
+                        double foot[3], double nrm[3]) {
+  const double tol = FOOT_STEP_TOL * f->model->diagonal;
+  for (int k = 0; k < 2; ++k)
+    if (!f->periodic[k]) uv[k] = clampd(uv[k], f->lo[k], f->hi[k]);
+  pm_face_point fp;
+  pm_face_eval(f, uv, 1, &fp);
+  double d = pm_v3_dist(x, fp.p);
+  for (int it = 0; it < FOOT_MAX_IT && d > 0; ++it) {
+    /* Gauss-Newton: the parameter step whose image is the tangential part of x - S (the
+     * shared papers/001 eq. 7-9 routine, which also handles the singular metric at a pole). */
+    double r[3], dpar[2] = {0, 0}, der[6];
+    pm_v3_sub(r, x, fp.p);
+    pm_v3_copy(der, fp.su), pm_v3_copy(der + 3, fp.sv);
+    pm_cell_param_delta(f, uv, der, r, dpar);
+    double lam = 1, uvn[2] = {uv[0], uv[1]}, dn = d;
+    pm_face_point fn;
+    int ok = 0;
+    for (int bt = 0; bt < FOOT_BACKTRACK; ++bt, lam *= 0.5) {
+      uvn[0] = uv[0] + lam * dpar[0], uvn[1] = uv[1] + lam * dpar[1];
+      for (int k = 0; k < 2; ++k)
+        if (!f->periodic[k]) uvn[k] = clampd(uvn[k], f->lo[k], f->hi[k]);
+      pm_face_eval(f, uvn, 1, &fn);
+      dn = pm_v3_dist(x, fn.p);
+      if (dn <= d) {
+        ok = 1;
+        break;
+      }
+    }
+    if (!ok) break;
+    double step = pm_v3_dist(fn.p, fp.p);
+    uv[0] = uvn[0], uv[1] = uvn[1], fp = fn, d = dn;
+    if (step <= tol) break;
+  }
+  pm_cell_wrap(f, uv);
+  *inside = pm_face_inside(f, uv);
+  if (foot) pm_v3_copy(foot, fp.p);
+  if (nrm) pm_v3_cross(nrm, fp.su, fp.sv);
+  return d;
+}
+
+/* The foot of x on curve c from t (in place); every C(t) with t in range is a model point. */
+static double curve_foot(const pm_cell *c, const double x[3], double *t) {
+  const double tol = FOOT_STEP_TOL * c->model->diagonal;
+  if (!c->periodic[0]) *t = clampd(*t, c->lo[0], c->hi[0]);
+  pm_curve_point cp;
+  pm_curve_eval(c, *t, 1, &cp);
+  double d = pm_v3_dist(x, cp.p);
+  if (c->degenerate) return d;
+  for (int it = 0; it < FOOT_MAX_IT && d > 0; ++it) {
+    double r[3], dt = 0;
+    pm_v3_sub(r, x, cp.p);
+    pm_cell_param_delta(c, t, cp.d1, r, &dt); /* papers/003 eq. 15 */
+    double lam = 1, tn = *t, dn = d;
+    pm_curve_point cn;
+    int ok = 0;
+    for (int bt = 0; bt < FOOT_BACKTRACK; ++bt, lam *= 0.5) {
+      tn = *t + lam * dt;
+      if (!c->periodic[0]) tn = clampd(tn, c->lo[0], c->hi[0]);
+      pm_curve_eval(c, tn, 1, &cn);
+      dn = pm_v3_dist(x, cn.p);
+      if (dn <= d) {
+        ok = 1;
+        break;
+      }
+    }
+    if (!ok) break;
+    double step = pm_v3_dist(cn.p, cp.p);
+    *t = tn, cp = cn, d = dn;
+    if (step <= tol) break;
+  }
+  if (c->periodic[0]) pm_cell_wrap(c, t);
+  return d;
+}
+
+/* ---- growing arrays ---------------------------------------------------------------------------- */
+
+typedef struct dbuf {
+  double *v;
+  int64_t n, cap;
+} dbuf;
+typedef struct ibuf {
+  int32_t *v;
+  int64_t n, cap;
+} ibuf;
+
+static int dbuf_push(dbuf *b, const double *x, int64_t k) {
+  if (b->n + k > b->cap) {
+    int64_t cap = b->cap ? 2 * b->cap : 256;
+    while (cap < b->n + k) cap *= 2;
+    double *nv = realloc(b->v, sizeof(double) * (size_t)cap);
+    if (!nv) return 0;
+    b->v = nv, b->cap = cap;
+  }
+  for (int64_t i = 0; i < k; ++i) b->v[b->n++] = x[i];
+  return 1;
+}
+
+static int ibuf_push(ibuf *b, const int32_t *x, int64_t k) {
+  if (b->n + k > b->cap) {
+    int64_t cap = b->cap ? 2 * b->cap : 256;
+    while (cap < b->n + k) cap *= 2;
+    int32_t *nv = realloc(b->v, sizeof(int32_t) * (size_t)cap);
+    if (!nv) return 0;
+    b->v = nv, b->cap = cap;
+  }
+  for (int64_t i = 0; i < k; ++i) b->v[b->n++] = x[i];
+  return 1;
+}
+
+/* ---- reference tessellation of the faces ---------------------------------------------------------- */
+
+typedef struct ref_faces {
+  dbuf xyz, uv;   /* points: 3D and (u, v) on their face */
+  ibuf tri, face; /* triangles (global point indices) and their face */
+  pm_bvh *bvh;
+  double chord;   /* the largest chordal error bound over curved faces */
+  int32_t degraded;
+} ref_faces;
+
+/* Probe grid (per direction) for a face's derivative sizes and curvature. */
+#define PROBE 17
+/* Bounds on the subdivision of one trimming-polyline edge. */
+#define MAX_EDGE_SPLIT 4096
+
+/* The parameter box of the face's loops (the frame the polylines live in). */
+static void loop_box(const pm_cell *f, double box[4]) {
+  box[0] = box[1] = INFINITY, box[2] = box[3] = -INFINITY;
+  for (int32_t l = 0; l < f->nloop; ++l) {
+    box[0] = fmin(box[0], f->loop[l].box[0]), box[1] = fmin(box[1], f->loop[l].box[1]);
+    box[2] = fmax(box[2], f->loop[l].box[2]), box[3] = fmax(box[3], f->loop[l].box[3]);
+  }
+  if (!(box[2] > box[0]) || !(box[3] > box[1]))
+    box[0] = f->lo[0], box[1] = f->lo[1], box[2] = f->hi[0], box[3] = f->hi[1];
+}
+
+/* What the sampling needs to know of a face, probed once. */
+typedef struct face_info {
+  double box[4];      /* the loops' parameter box */
+  double su, sv;      /* largest |Su|, |Sv| over the probe grid */
+  double kappa;       /* largest principal curvature magnitude over the probe grid */
+} face_info;
+
+/* Largest |Su|, |Sv| and principal curvature over a probe grid of the box. */
+static void face_probe(const pm_cell *f, const double box[4], double *su, double *sv, double *kappa) {
+  *su = *sv = *kappa = 0;
+  for (int a = 0; a < PROBE; ++a)
+    for (int b = 0; b < PROBE; ++b) {
+      double uv[2] = {box[0] + (box[2] - box[0]) * (a + 0.5) / PROBE,
+                      box[1] + (box[3] - box[1]) * (b + 0.5) / PROBE};
+      pm_face_point fp;
+      pm_face_eval(f, uv, 1, &fp);
+      *su = fmax(*su, pm_v3_norm(fp.su)), *sv = fmax(*sv, pm_v3_norm(fp.sv));
+      double k1, k2;
+      pm_face_curvatures(f, uv, &k1, &k2, NULL);
+      if (isfinite(k1)) *kappa = fmax(*kappa, fabs(k1));
+    }
+}
+
+/* Append face f's reference triangles. The grid spacing h in 3D keeps the chordal error
+ * kappa h^2 / 8 (the sagitta of an arc of curvature kappa over a chord h) below eps, and h is at
+ * most h_mesh (a fraction of the mesh's edge length, so that the reference's chordal error is a
+ * small fraction of the mesh's own, whose edges are longer by 1 / ref_spacing); the trimming
+ * polylines are subdivided along their pcurves to the grid's (u, v) spacing so that the
+ * triangles along the boundary are no larger than the grid's. */
+static pm_status ref_face(ref_faces *rf, const pm_cell *f, const face_info *fi, double eps,
+                          double h_mesh, int64_t max_pts, pm_error *err) {
+  if (f->nloop <= 0) return PM_OK;
+  const double *box = fi->box, su = fi->su, sv = fi->sv, kappa = fi->kappa;
+  double Lu = su * (box[2] - box[0]), Lv = sv * (box[3] - box[1]);
+  double h = kappa > 0 ? fmin(sqrt(8 * eps / kappa), h_mesh) : INFINITY;
+  double nu = fmax(4, ceil(Lu / h)), nv = fmax(4, ceil(Lv / h));
+  if (nu * nv > (double)max_pts) {
+    double s = sqrt((double)max_pts / (nu * nv));
+    nu = fmax(2, floor(nu * s)), nv = fmax(2, floor(nv * s));
+  }
+  double hu = Lu / nu, hv = Lv / nv, hh = fmax(hu, hv);
+  if (kappa > 0) rf->chord = fmax(rf->chord, kappa * hh * hh / 8);
+  int inu = (int)nu, inv = (int)nv;
+  double du = (box[2] - box[0]) / inu, dv = (box[3] - box[1]) / inv;
+
+  dbuf uv = {0};
+  ibuf cons = {0};
+  pm_status s = PM_OK;
+  /* Loop polylines, subdivided. */
+  for (int32_t l = 0; l < f->nloop && !s; ++l) {
+    const pm_loop *lp = &f->loop[l];
+    int64_t first = uv.n / 2;
+    for (int32_t i = 0; i < lp->npts; ++i) {
+      int32_t j = (i + 1) % lp->npts;
+      const double *a = &lp->uv[2 * i], *b = &lp->uv[2 * j];
+      double m = ceil(fmax(fabs(b[0] - a[0]) / du, fabs(b[1] - a[1]) / dv));
+      int im = (int)clampd(m, 1, MAX_EDGE_SPLIT);
+      for (int q = 0; q < im; ++q) {
+        double p[2];
+        if (q == 0) {
+          p[0] = a[0], p[1] = a[1];
+        } else if (j == i + 1 && lp->pt_use[i] == lp->pt_use[j] &&
+                   fabs(lp->pt_t[j] - lp->pt_t[i]) <
+                       0.5 * (f->model->cells[PM_CURVE][lp->use[lp->pt_use[i]].cell].hi[0] -
+                              f->model->cells[PM_CURVE][lp->use[lp->pt_use[i]].cell].lo[0])) {
+          /* Within one pcurve (not across the closing point of a closed curve, where t jumps
+           * back): the pcurve's own point, closer to the curve than the chord. */
+          double t = lp->pt_t[i] + (lp->pt_t[j] - lp->pt_t[i]) * q / im;
+          pm_face_curve_uv(f, &lp->use[lp->pt_use[i]], t, p);
+        } else {
+          p[0] = a[0] + (b[0] - a[0]) * q / im, p[1] = a[1] + (b[1] - a[1]) * q / im;
+        }
+        if (!dbuf_push(&uv, p, 2)) goto nomem;
+      }
+    }
+    int64_t n = uv.n / 2 - first;
+    for (int64_t i = 0; i < n; ++i) {
+      int32_t e[2] = {(int32_t)(first + i), (int32_t)(first + (i + 1) % n)};
+      if (!ibuf_push(&cons, e, 2)) goto nomem;
+    }
+  }
+  int64_t nloop_pts = uv.n / 2;
+  /* Inside grid points (cell centres, in the polylines' frame). */
+  for (int a = 0; a < inu; ++a)
+    for (int b = 0; b < inv; ++b) {
+      double p[2] = {box[0] + (a + 0.5) * du, box[1] + (b + 0.5) * dv};
+      if (pm_trim_inside(f, p) && !dbuf_push(&uv, p, 2)) goto nomem;
+    }
+  int64_t npts = uv.n / 2;
+  if (npts > INT32_MAX / 4) {
+    free(uv.v), free(cons.v);
+    return pm_error_setf(err, PM_ERR_LIMIT, "distance: reference of face %d too large", f->tag);
+  }
+  pm_cdt_result res = {0};
+  pm_error cerr = {0};
+  int32_t *tris = NULL, ntris = 0;
+  if (pm_cdt_triangulate(uv.v, (int32_t)npts, cons.v, (int32_t)(cons.n / 2), 1, 0, &res, &cerr) ==
+      PM_OK) {
+    tris = res.tri, ntris = res.ntri;
+  } else {
+    /* The constrained triangulation failed (crossing polylines of a damaged face): triangulate
+     * the grid cells whose four corners are inside instead, leaving a gap of at most one cell
+     * along the boundary, which the curve reference and the projections cover. */
+    rf->degraded++;
+    int64_t *idx = malloc(sizeof(int64_t) * (size_t)inu * (size_t)inv);
+    tris = malloc(sizeof(int32_t) * 6 * (size_t)inu * (size_t)inv);
+    if (!idx || !tris) {
+      free(idx), free(tris);
+      goto nomem;
+    }
+    int64_t k = nloop_pts;
+    for (int a = 0; a < inu; ++a)
+      for (int b = 0; b < inv; ++b) {
+        double p[2] = {box[0] + (a + 0.5) * du, box[1] + (b + 0.5) * dv};
+        idx[(int64_t)a * inv + b] = pm_trim_inside(f, p) ? k++ : -1;
+      }
+    for (int a = 0; a + 1 < inu; ++a)
+      for (int b = 0; b + 1 < inv; ++b) {
+        int64_t c00 = idx[(int64_t)a * inv + b], c10 = idx[(int64_t)(a + 1) * inv + b],
+                c01 = idx[(int64_t)a * inv + b + 1], c11 = idx[(int64_t)(a + 1) * inv + b + 1];
+        if (c00 < 0 || c10 < 0 || c01 < 0 || c11 < 0) continue;
+        int32_t *t = &tris[3 * (size_t)ntris];
+        t[0] = (int32_t)c00, t[1] = (int32_t)c10, t[2] = (int32_t)c11;
+        t[3] = (int32_t)c00, t[4] = (int32_t)c11, t[5] = (int32_t)c01;
+        ntris += 2;
+      }
+    free(idx);
+  }
+  /* Lift and append. */
+  int64_t base = rf->xyz.n / 3;
+  for (int64_t i = 0; i < npts && !s; ++i) {
+    pm_face_point fp;
+    pm_face_eval(f, &uv.v[2 * i], 0, &fp);
+    if (!dbuf_push(&rf->xyz, fp.p, 3) || !dbuf_push(&rf->uv, &uv.v[2 * i], 2)) s = PM_ERR_NOMEM;
+  }
+  for (int32_t t = 0; t < ntris && !s; ++t) {
+    int32_t v[3] = {(int32_t)(base + tris[3 * t]), (int32_t)(base + tris[3 * t + 1]),
+                    (int32_t)(base + tris[3 * t + 2])};
+    int32_t fidx = f->index;
+    if (!ibuf_push(&rf->tri, v, 3) || !ibuf_push(&rf->face, &fidx, 1)) s = PM_ERR_NOMEM;
+  }
+  if (tris == res.tri)
+    pm_cdt_result_free(&res);
+  else
+    free(tris);
+  free(uv.v), free(cons.v);
+  if (s) return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
+  return PM_OK;
+nomem:
+  free(uv.v), free(cons.v);
+  return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference of face %d)", f->tag);
+}
+
+static void ref_faces_free(ref_faces *rf) {
+  free(rf->xyz.v), free(rf->uv.v), free(rf->tri.v), free(rf->face.v);
+  pm_bvh_destroy(rf->bvh);
+  memset(rf, 0, sizeof *rf);
+}
+
+/* ---- reference polylines of the curves ------------------------------------------------------------ */
+
+typedef struct ref_curves {
+  dbuf xyz, t;    /* points and their curve parameter */
+  ibuf seg, curve; /* segments as (a, b, b) triples, and their curve */
+  pm_bvh *bvh;
+} ref_curves;
+
+#define CURVE_INITIAL 16
+#define CURVE_MAX_DEPTH 14
+
+static int curve_sample(ref_curves *rc, const pm_cell *c, double ta, const double pa[3], double tb,
+                        const double pb[3], double eps, int depth) {
+  double tm = 0.5 * (ta + tb);
+  pm_curve_point cp;
+  pm_curve_eval(c, tm, 0, &cp);
+  double mid[3] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])};
+  if (depth < CURVE_MAX_DEPTH && pm_v3_dist(mid, cp.p) > eps) {
+    if (!curve_sample(rc, c, ta, pa, tm, cp.p, eps, depth + 1)) return 0;
+    return curve_sample(rc, c, tm, cp.p, tb, pb, eps, depth + 1);
+  }
+  return dbuf_push(&rc->xyz, pb, 3) && dbuf_push(&rc->t, &tb, 1);
+}
+
+/* Append curve c's polyline: bisected until the chord's midpoint is within eps of the curve. */
+static pm_status ref_curve(ref_curves *rc, const pm_cell *c, double eps, pm_error *err) {
+  int64_t first = rc->xyz.n / 3;
+  pm_curve_point cp;
+  double t0 = c->lo[0];
+  pm_curve_eval(c, t0, 0, &cp);
+  if (!dbuf_push(&rc->xyz, cp.p, 3) || !dbuf_push(&rc->t, &t0, 1)) goto nomem;
+  int n = c->degenerate ? 1 : CURVE_INITIAL;
+  double pa[3];
+  pm_v3_copy(pa, cp.p);
+  for (int i = 0; i < n; ++i) {
+    double ta = c->lo[0] + (c->hi[0] - c->lo[0]) * i / n;
+    double tb = i + 1 == n ? c->hi[0] : c->lo[0] + (c->hi[0] - c->lo[0]) * (i + 1) / n;
+    pm_curve_point cb;
+    pm_curve_eval(c, tb, 0, &cb);
+    if (c->degenerate) {
+      if (!dbuf_push(&rc->xyz, cb.p, 3) || !dbuf_push(&rc->t, &tb, 1)) goto nomem;
+    } else if (!curve_sample(rc, c, ta, pa, tb, cb.p, eps, 0)) {
+      goto nomem;
+    }
+    pm_v3_copy(pa, cb.p);
+  }
+  int64_t last = rc->xyz.n / 3;
+  for (int64_t i = first; i + 1 < last; ++i) {
+    int32_t s[3] = {(int32_t)i, (int32_t)(i + 1), (int32_t)(i + 1)};
+    int32_t ci = c->index;
+    if (!ibuf_push(&rc->seg, s, 3) || !ibuf_push(&rc->curve, &ci, 1)) goto nomem;
+  }
+  return PM_OK;
+nomem:
+  return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference of curve %d)", c->tag);
+}
+
+static void ref_curves_free(ref_curves *rc) {
+  free(rc->xyz.v), free(rc->t.v), free(rc->seg.v), free(rc->curve.v);
+  pm_bvh_destroy(rc->bvh);
+  memset(rc, 0, sizeof *rc);
+}
+
+/* ---- the context ---------------------------------------------------------------------------------- */
+
+enum { PART_SURF = 0, PART_WIRE = 1 };
+
+typedef struct dctx {
+  const pm_mesh *mesh;
+  const pm_model *m;
+  const pm_sizing *size;
+  const pm_distance_params *p;
+  int surf, wire;            /* which parts are measured */
+  pm_bvh *mesh_tri;          /* the mesh's triangles */
+  pm_bvh *mesh_wire;         /* the wire part's segments as (a, b, b), or NULL */
+  int32_t nwire;
+  int32_t *wire_seg;         /* [nwire] indices of the wire part's mesh segments */
+  int8_t *dangling;          /* [count[CURVE]] 1 for curves that bound no face */
+  ref_faces rf;              /* faces */
+  ref_curves rc_surf;        /* curves bounding faces */
+  ref_curves rc_wire;        /* dangling curves */
+  int level;                 /* lattice level */
+  int npt_tri, npt_seg;      /* lattice points per triangle / segment */
+} dctx;
+
+/* A mesh point's classification hint: a cell and a starting parameter, or cell = -1. */
+typedef struct hint {
+  int32_t cell;
+  double par[2];
+} hint;
+
+/* A face candidate of model_dist. */
+typedef struct fcand {
+  int32_t f;
+  double d, p[3], n[3];
+  int in;
+} fcand;
+
+/* The trimming polylines cut the corners of curved boundaries (by up to 2e-4 of the parameter
+ * box, trim.c): next to a convex piece of boundary the polyline region misses a sliver of the
+ * face, next to a concave piece (a hole) it takes in a sliver outside the face. A point of the
+ * untrimmed surface close to a boundary curve is therefore judged against the curve itself: it is
+ * inside when it lies on the face's side of the curve, along n x T from the curve's closest point,
+ * with n = Su x Sv and T the curve's tangent in the loop's direction (the trimmed region lies to
+ * the left of its loops in (u, v): outer loops counter-clockwise, holes clockwise). This applies
+ * within BOUNDARY_BAND x diagonal of a boundary curve of f that f uses once (a seam is no
+ * boundary), at an interior point of the curve (at a corner the tangent says nothing); elsewhere
+ * pm_face_inside decides. Returns the corrected verdict. */
+#define BOUNDARY_BAND 1e-3
+
+static int inside_exact(const dctx *c, int32_t fi, int poly_in, const double p[3], const double n[3]) {
+  const pm_model *m = c->m;
+  if (!c->rc_surf.bvh) return poly_in;
+  double band = BOUNDARY_BAND * m->diagonal;
+  pm_bvh_hit hit;
+  if (!pm_bvh_closest(c->rc_surf.bvh, p, band + 2 * c->p->ref_tol * m->diagonal, &hit)) return poly_in;
+  int32_t cu = c->rc_surf.curve.v[hit.tri];
+  const pm_cell *f = &m->cells[PM_FACE][fi], *cc = &m->cells[PM_CURVE][cu];
+  int uses = 0, sense = 0;
+  for (int32_t k = 0; k < f->nbound; ++k)
+    if (f->bound[k].cell == cu) ++uses, sense = f->bound[k].sense;
+  if (uses != 1 || cc->degenerate) return poly_in;
+  const int32_t *v = &c->rc_surf.seg.v[3 * (size_t)hit.tri];
+  double t = hit.bary[0] * c->rc_surf.t.v[v[0]] + (hit.bary[1] + hit.bary[2]) * c->rc_surf.t.v[v[1]];
+  double dq = curve_foot(cc, p, &t);
+  double span = cc->hi[0] - cc->lo[0];
+  if (dq > band || (!cc->periodic[0] && (t <= cc->lo[0] + 1e-9 * span || t >= cc->hi[0] - 1e-9 * span)))
+    return poly_in;
+  pm_curve_point cp;
+  pm_curve_eval(cc, t, 1, &cp);
+  double T[3], in_dir[3], off[3];
+  pm_v3_scale(T, cp.d1, sense >= 0 ? 1 : -1);
+  pm_v3_cross(in_dir, n, T);
+  pm_v3_sub(off, p, cp.p);
+  return pm_v3_dot(off, in_dir) >= 0;
+}
+
+/* Distance from x to the model's faces (surface part) or dangling curves (wire part): the
+ * smallest exact candidate (see distance.h). *fallback is set when none existed. */
+static double model_dist(const dctx *c, int part, const double x[3], const hint *h, int *fallback) {
+  const pm_model *m = c->m;
+  double best = INFINITY, eps = c->p->ref_tol * m->diagonal;
+  *fallback = 0;
+  if (part == PART_SURF) {
+    fcand fc[2];
+    int nf = 0;
+    if (h && h->cell >= 0) {
+      double uv[2] = {h->par[0], h->par[1]};
+      fcand *a = &fc[nf++];
+      a->f = h->cell;
+      a->d = face_foot(&m->cells[PM_FACE][h->cell], x, uv, &a->in, a->p, a->n);
+    }
+    double dref = INFINITY;
+    if (c->rf.bvh) {
+      pm_bvh_hit hit;
+      if (pm_bvh_closest(c->rf.bvh, x, INFINITY, &hit)) {
+        dref = hit.dist;
+        int32_t f = c->rf.face.v[hit.tri];
+        const int32_t *v = &c->rf.tri.v[3 * (size_t)hit.tri];
+        double uv[2] = {0, 0};
+        for (int k = 0; k < 3; ++k)
+          uv[0] += hit.bary[k] * c->rf.uv.v[2 * (size_t)v[k]],
+              uv[1] += hit.bary[k] * c->rf.uv.v[2 * (size_t)v[k] + 1];
+        fcand *b = &fc[nf++];
+        b->f = f;
+        b->d = face_foot(&m->cells[PM_FACE][f], x, uv, &b->in, b->p, b->n);
+      }
+    }
+    for (int i = 0; i < nf; ++i) {
+      fc[i].in = inside_exact(c, fc[i].f, fc[i].in, fc[i].p, fc[i].n);
+      if (fc[i].in) best = fmin(best, fc[i].d);
+    }
+    /* Curves: only points closer than the best face candidate matter (the reference polyline
+     * is within eps of its curve). */
+    if (c->rc_surf.bvh) {
+      pm_bvh_hit hit;
+      if (pm_bvh_closest(c->rc_surf.bvh, x, best < INFINITY ? best + 2 * eps : INFINITY, &hit)) {
+        int32_t cu = c->rc_surf.curve.v[hit.tri];
+        const int32_t *v = &c->rc_surf.seg.v[3 * (size_t)hit.tri];
+        double t = hit.bary[0] * c->rc_surf.t.v[v[0]] + (hit.bary[1] + hit.bary[2]) * c->rc_surf.t.v[v[1]];
+        best = fmin(best, curve_foot(&m->cells[PM_CURVE][cu], x, &t));
+      }
+    }
+    if (best == INFINITY) {
+      *fallback = 1;
+      best = dref;
+    }
+    return best;
+  }
+  if (h && h->cell >= 0) {
+    double t = h->par[0];
+    best = curve_foot(&m->cells[PM_CURVE][h->cell], x, &t);
+  }
+  if (c->rc_wire.bvh) {
+    pm_bvh_hit hit;
+    if (pm_bvh_closest(c->rc_wire.bvh, x, best < INFINITY ? best + 2 * eps : INFINITY, &hit)) {
+      int32_t cu = c->rc_wire.curve.v[hit.tri];
+      const int32_t *v = &c->rc_wire.seg.v[3 * (size_t)hit.tri];
+      double t = hit.bary[0] * c->rc_wire.t.v[v[0]] + (hit.bary[1] + hit.bary[2]) * c->rc_wire.t.v[v[1]];
+      best = fmin(best, curve_foot(&m->cells[PM_CURVE][cu], x, &t));
+    }
+  }
+  if (best == INFINITY) *fallback = 1;
+  return best;
+}
+
+/* The hint of mesh triangle t: its face when the triangle and its three nodes are classified on
+ * it, with the nodes' (u, v) unwrapped across a periodic face's seam (relative to the first node)
+ * so that interpolating them stays on one sheet; the caller interpolates with barycentrics. */
+static int tri_hint_nodes(const dctx *c, int32_t t, double par[3][2]) {
+  const pm_mesh *me = c->mesh;
+  if (!me->tri_cell || !me->node_dim || !me->node_cell || !me->node_par) return -1;
+  int32_t f = me->tri_cell[t];
+  if (f < 0 || f >= c->m->count[PM_FACE]) return -1;
+  const pm_cell *fc = &c->m->cells[PM_FACE][f];
+  for (int k = 0; k < 3; ++k) {
+    int32_t v = me->tri[3 * (size_t)t + k];
+    if (me->node_dim[v] != PM_FACE || me->node_cell[v] != f) return -1;
+    par[k][0] = me->node_par[2 * (size_t)v], par[k][1] = me->node_par[2 * (size_t)v + 1];
+    for (int q = 0; q < 2 && k > 0; ++q)
+      if (fc->periodic[q] && fc->period[q] > 0)
+        par[k][q] += fc->period[q] * round((par[0][q] - par[k][q]) / fc->period[q]);
+  }
+  return f;
+}
+
+static int seg_hint_nodes(const dctx *c, int32_t s, double par[2]) {
+  const pm_mesh *me = c->mesh;
+  if (!me->seg_cell || !me->node_dim || !me->node_cell || !me->node_par) return -1;
+  int32_t cu = me->seg_cell[s];
+  if (cu < 0 || cu >= c->m->count[PM_CURVE]) return -1;
+  const pm_cell *cc = &c->m->cells[PM_CURVE][cu];
+  for (int k = 0; k < 2; ++k) {
+    int32_t v = me->seg[2 * (size_t)s + k];
+    if (me->node_dim[v] != PM_CURVE || me->node_cell[v] != cu) return -1;
+    par[k] = me->node_par[2 * (size_t)v];
+    if (k == 1 && cc->periodic[0] && cc->period[0] > 0)
+      par[1] += cc->period[0] * round((par[0] - par[1]) / cc->period[0]);
+  }
+  return cu;
+}
+
+/* ---- sampling ------------------------------------------------------------------------------------- */
+
+/* A sample of either direction, addressed by (kind, element, parameters). */
+enum { S_TRI = 0, S_SEG = 1, S_FACE = 2, S_CURVE = 3 };
+
+/* Model-side sample blocks: a face grid or a curve's points. */
+typedef struct mblock {
+  int kind;       /* S_FACE or S_CURVE */
+  int part;       /* PART_SURF or PART_WIRE */
+  int32_t cell;
+  int32_t nu, nv; /* grid (curves: nu points, nv = 1) */
+  double u0, v0, du, dv;
+  int64_t first;  /* global index of the block's first sample */
+} mblock;
+
+/* Evaluate a mesh-side sample at parameters par (triangle: barycentric (s, t) of vertices 1 and
+ * 2; segment: t in [0, 1]). Returns the distance, NAN outside the element; fills x and weight
+ * is left to the caller. */
+static double mesh_eval(const dctx *c, int kind, int32_t e, const double par[2], double x[3],
+                        int *fallback) {
+  const pm_mesh *me = c->mesh;
+  *fallback = 0;
+  if (kind == S_TRI) {
+    double s = par[0], t = par[1];
+    if (!(s >= 0 && t >= 0 && s + t <= 1)) return NAN;
+    const int32_t *v = &me->tri[3 * (size_t)e];
+    const double w[3] = {1 - s - t, s, t};
+    pm_v3_zero(x);
+    for (int k = 0; k < 3; ++k) pm_v3_axpy(x, x, w[k], &me->xyz[3 * (size_t)v[k]]);
+    double np[3][2];
+    hint h = {-1, {0, 0}};
+    int32_t f = tri_hint_nodes(c, e, np);
+    if (f >= 0) {
+      h.cell = f;
+      for (int q = 0; q < 2; ++q) h.par[q] = w[0] * np[0][q] + w[1] * np[1][q] + w[2] * np[2][q];
+    }
+    return model_dist(c, PART_SURF, x, &h, fallback);
+  }
+  double t = par[0];
+  if (!(t >= 0 && t <= 1)) return NAN;
+  int32_t sg = c->wire_seg[e];
+  const double *a = &me->xyz[3 * (size_t)me->seg[2 * (size_t)sg]],
+               *b = &me->xyz[3 * (size_t)me->seg[2 * (size_t)sg + 1]];
+  for (int k = 0; k < 3; ++k) x[k] = (1 - t) * a[k] + t * b[k];
+  double np[2];
+  hint h = {-1, {0, 0}};
+  int32_t cu = seg_hint_nodes(c, sg, np);
+  if (cu >= 0 && c->dangling[cu]) h.cell = cu, h.par[0] = (1 - t) * np[0] + t * np[1];
+  return model_dist(c, PART_WIRE, x, &h, fallback);
+}
+
+/* Evaluate a model-side sample at parameters par of block b's cell: NAN outside the cell. */
+static double model_eval(const dctx *c, const mblock *b, const double par[2], double x[3]) {
+  if (b->kind == S_FACE) {
+    const pm_cell *f = &c->m->cells[PM_FACE][b->cell];
+    pm_face_point fp;
+    pm_face_eval(f, par, 1, &fp);
+    double n[3];
+    pm_v3_cross(n, fp.su, fp.sv);
+    if (!inside_exact(c, b->cell, pm_face_inside(f, par), fp.p, n)) return NAN;
+    pm_v3_copy(x, fp.p);
+  } else {
+    const pm_cell *cu = &c->m->cells[PM_CURVE][b->cell];
+    double t = par[0];
+    if (!cu->periodic[0] && !(t >= cu->lo[0] && t <= cu->hi[0])) return NAN;
+    pm_curve_point cp;
+    pm_curve_eval(cu, t, 0, &cp);
+    pm_v3_copy(x, cp.p);
+  }
+  const pm_bvh *target = (b->part == PART_WIRE && c->mesh_wire) ? c->mesh_wire : c->mesh_tri;
+  if (!target) return NAN;
+  pm_bvh_hit hit;
+  pm_bvh_closest(target, x, INFINITY, &hit);
+  return hit.dist;
+}
+
+/* ---- accumulation ------------------------------------------------------------------------------------ */
+
+typedef struct acc {
+  double sum_wd, sum_w, sum_wr, max, rel_max;
+  double max_at[3];
+  int64_t n;
+} acc;
+
+/* One of the largest samples, for refinement. */
+typedef struct topk {
+  double d;
+  int kind;
+  int32_t elem;    /* triangle / wire segment index, or model block index */
+  int64_t key;     /* one entry per key */
+  double par[2];
+  double step[2];  /* initial pattern-search step per parameter */
+} topk;
+
+static void topk_offer(topk *list, int *n, int K, const topk *cand) {
+  if (K <= 0 || !(cand->d > 0)) return;
+  if (*n == K && cand->d <= list[K - 1].d) return;
+  for (int i = 0; i < *n; ++i)
+    if (list[i].key == cand->key) {
+      if (cand->d <= list[i].d) return;
+      /* Replace and bubble up. */
+      list[i] = *cand;
+      while (i > 0 && list[i - 1].d < list[i].d) {
+        topk t = list[i - 1];
+        list[i - 1] = list[i], list[i] = t;
+        --i;
+      }
+      return;
+    }
+  int i = *n < K ? (*n)++ : K - 1;
+  list[i] = *cand;
+  while (i > 0 && list[i - 1].d < list[i].d) {
+    topk t = list[i - 1];
+    list[i - 1] = list[i], list[i] = t;
+    --i;
+  }
+}
+
+static void acc_add(acc *a, double d, double w, double rel, const double x[3]) {
+  a->sum_wd += w * d, a->sum_w += w, a->sum_wr += w * rel;
+  if (d > a->max) a->max = d, pm_v3_copy(a->max_at, x);
+  if (rel > a->rel_max) a->rel_max = rel;
+  a->n++;
+}
+
+static double size_at(const dctx *c, const double x[3]) {
+  if (!c->size) return 0;
+  double s = pm_sizing_eval(c->size, x);
+  return s > 0 && isfinite(s) ? s : 0;
+}
+
+/* Pattern search: the local maximum of the distance around a sample, over the element's
+ * parameters (8 directions: the axes and diagonals, steps halved when no neighbour is better,
+ * down to 1e-7 of the start step or 400 evaluations). */
+#define PS_MIN_STEP 1e-7
+#define PS_MAX_EVAL 400
+
+static double refine_one(const dctx *c, const mblock *blocks, topk *e, double x_best[3]) {
+  static const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
+  int ndim = (e->kind == S_SEG || (e->kind == S_CURVE)) ? 1 : 2;
+  double par[2] = {e->par[0], e->par[1]}, step[2] = {e->step[0], e->step[1]};
+  double best = e->d, x[3];
+  int fb;
+  /* Re-evaluate the start for its point (and a consistent value). */
+  double d0 = e->kind <= S_SEG ? mesh_eval(c, e->kind, e->elem, par, x, &fb)
+                               : model_eval(c, &blocks[e->elem], par, x);
+  if (isfinite(d0)) best = d0, pm_v3_copy(x_best, x);
+  int evals = 0;
+  while (evals < PS_MAX_EVAL && step[0] > PS_MIN_STEP * e->step[0]) {
+    int moved = 0;
+    double bp[2] = {par[0], par[1]};
+    for (int k = 0; k < (ndim == 1 ? 2 : 8) && evals < PS_MAX_EVAL; ++k) {
+      double q[2] = {par[0] + dirs[k][0] * step[0], par[1] + dirs[k][1] * step[1]};
+      ++evals;
+      double d = e->kind <= S_SEG ? mesh_eval(c, e->kind, e->elem, q, x, &fb)
+                                  : model_eval(c, &blocks[e->elem], q, x);
+      if (isfinite(d) && d > best) best = d, bp[0] = q[0], bp[1] = q[1], pm_v3_copy(x_best, x), moved = 1;
+    }
+    if (moved)
+      par[0] = bp[0], par[1] = bp[1];
+    else
+      step[0] *= 0.5, step[1] *= 0.5;
+  }
+  return best;
+}
+
+/* ---- driver ---------------------------------------------------------------------------------------------- */
+
+static int cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
+/* The 5th percentile of the edge lengths of the triangles in list (all when list is NULL). */
+static double edge_percentile(const pm_mesh *me, const int32_t *list, int64_t n) {
+  if (n <= 0) return 0;
+  double *len = malloc(sizeof(double) * 3 * (size_t)n);
+  if (!len) return 0;
+  int64_t k = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    int32_t t = list ? list[i] : (int32_t)i;
+    const int32_t *v = &me->tri[3 * (size_t)t];
+    for (int q = 0; q < 3; ++q) {
+      double l = pm_v3_dist(&me->xyz[3 * (size_t)v[q]], &me->xyz[3 * (size_t)v[(q + 1) % 3]]);
+      if (l > 0) len[k++] = l;
+    }
+  }
+  double r = 0;
+  if (k > 0) {
+    qsort(len, (size_t)k, sizeof(double), cmp_double);
+    r = len[(size_t)(0.05 * (double)(k - 1))];
+  }
+  free(len);
+  return r;
+}
+
+static double seg_length_percentile(const pm_mesh *me, const int32_t *list, int64_t n) {
+  if (n <= 0) return 0;
+  double *len = malloc(sizeof(double) * (size_t)n);
+  if (!len) return 0;
+  int64_t k = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    const int32_t *v = &me->seg[2 * (size_t)list[i]];
+    double l = pm_v3_dist(&me->xyz[3 * (size_t)v[0]], &me->xyz[3 * (size_t)v[1]]);
+    if (l > 0) len[k++] = l;
+  }
+  double r = 0;
+  if (k > 0) {
+    qsort(len, (size_t)k, sizeof(double), cmp_double);
+    r = len[(size_t)(0.05 * (double)(k - 1))];
+  }
+  free(len);
+  return r;
+}
+
+/* Approximate 3D length of a curve (polygon of 64 chords). */
+static double curve_length(const pm_cell *c) {
+  if (c->degenerate) return 0;
+  double L = 0, prev[3];
+  for (int i = 0; i <= 64; ++i) {
+    pm_curve_point cp;
+    pm_curve_eval(c, c->lo[0] + (c->hi[0] - c->lo[0]) * i / 64, 0, &cp);
+    if (i) L += pm_v3_dist(prev, cp.p);
+    pm_v3_copy(prev, cp.p);
+  }
+  return L;
+}
+
+/* Samples evaluated per parallel chunk (results are reduced in index order after each). */
+#define CHUNK (1 << 15)
+
+pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_sizing *size,
+                           const pm_distance_params *pin, pm_distance *out, pm_error *err) {
+  memset(out, 0, sizeof *out);
+  if (!mesh || !model) return pm_error_setf(err, PM_ERR_ARG, "distance: no mesh or no model");
+  pm_distance_params p;
+  if (pin)
+    p = *pin;
+  else
+    pm_distance_params_init(&p);
+  pm_status s = pm_distance_params_check(&p, err);
+  if (s) return s;
+  const pm_model *m = model;
+  const int32_t nface = m->count[PM_FACE], ncurve = m->count[PM_CURVE];
+  if (nface == 0 && ncurve == 0)
+    return pm_error_setf(err, PM_ERR_GEOM, "distance: the model %s has neither faces nor curves",
+                         m->name);
+
+  dctx c;
+  memset(&c, 0, sizeof c);
+  c.mesh = mesh, c.m = m, c.size = size, c.p = &p;
+  out->bbox_diagonal = m->diagonal;
+  out->has_size = size != NULL;
+  const double eps = p.ref_tol * m->diagonal;
+
+  c.dangling = calloc((size_t)(ncurve > 0 ? ncurve : 1), 1);
+  int32_t *face_tris_off = calloc((size_t)nface + 2, sizeof(int32_t));
+  int32_t *face_tris = malloc(sizeof(int32_t) * (size_t)(mesh->ntri > 0 ? mesh->ntri : 1));
+  double *Lface = malloc(sizeof(double) * (size_t)(nface > 0 ? nface : 1));
+  mblock *blocks = NULL;
+  face_info *finfo = NULL;
+  double *dres = NULL, *wres = NULL, *rres = NULL, *xres = NULL;
+  int *fres = NULL;
+  if (!c.dangling || !face_tris_off || !face_tris || !Lface) goto nomem;
+  int ndangling = 0;
+  for (int32_t i = 0; i < ncurve; ++i) {
+    c.dangling[i] = m->cells[PM_CURVE][i].nup == 0;
+    ndangling += c.dangling[i];
+  }
+
+  /* Which parts: see distance.h. */
+  c.surf = nface > 0;
+  if (c.surf && mesh->ntri == 0) {
+    s = pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no triangles but the model %s has %d faces",
+                      m->name, (int)nface);
+    goto done;
+  }
+  c.wire_seg = malloc(sizeof(int32_t) * (size_t)(mesh->nseg > 0 ? mesh->nseg : 1));
+  if (!c.wire_seg) goto nomem;
+  for (int32_t i = 0; i < mesh->nseg; ++i) {
+    int32_t cu = mesh->seg_cell ? mesh->seg_cell[i] : -1;
+    int known = cu >= 0 && cu < ncurve;
+    if ((known && c.dangling[cu]) || (!known && nface == 0)) c.wire_seg[c.nwire++] = i;
+  }
+  c.wire = ndangling > 0;
+  if (!c.surf && c.nwire == 0) {
+    s = pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no segments to compare with the curves of %s",
+                      m->name);
+    goto done;
+  }
+
+  /* BVHs of the mesh. */
+  if (mesh->ntri > 0 && (s = pm_bvh_create(mesh->xyz, mesh->nnode, mesh->tri, mesh->ntri, &c.mesh_tri, err))) {
+    pm_error_prefix(err, "distance");
+    goto done;
+  }
+  if (c.nwire > 0) {
+    int32_t *st = malloc(sizeof(int32_t) * 3 * (size_t)c.nwire);
+    if (!st) goto nomem;
+    for (int32_t i = 0; i < c.nwire; ++i) {
+      const int32_t *v = &mesh->seg[2 * (size_t)c.wire_seg[i]];
+      st[3 * i] = v[0], st[3 * i + 1] = v[1], st[3 * i + 2] = v[1];
+    }
+    s = pm_bvh_create(mesh->xyz, mesh->nnode, st, c.nwire, &c.mesh_wire, err);
+    free(st);
+    if (s) {
+      pm_error_prefix(err, "distance");
+      goto done;
+    }
+  }
+
+  /* Local edge lengths per face (5th percentile), from the triangles classified on it. */
+  double Lglobal = c.surf ? edge_percentile(mesh, NULL, mesh->ntri) : 0;
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+    face_tris_off[(f >= 0 && f < nface ? f : nface) + 1]++;
+  }
+  for (int32_t f = 0; f <= nface; ++f) face_tris_off[f + 1] += face_tris_off[f];
+  {
+    int32_t *fill = calloc((size_t)nface + 1, sizeof(int32_t));
+    if (!fill) goto nomem;
+    for (int32_t t = 0; t < mesh->ntri; ++t) {
+      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+      if (!(f >= 0 && f < nface)) f = nface;
+      face_tris[face_tris_off[f] + fill[f]++] = t;
+    }
+    free(fill);
+  }
+  for (int32_t f = 0; f < nface; ++f) {
+    int32_t n = face_tris_off[f + 1] - face_tris_off[f];
+    Lface[f] = n > 0 ? edge_percentile(mesh, &face_tris[face_tris_off[f]], n) : Lglobal;
+    if (!(Lface[f] > 0)) Lface[f] = Lglobal > 0 ? Lglobal : 0.01 * m->diagonal;
+  }
+  double Lwire = c.nwire > 0 ? seg_length_percentile(mesh, c.wire_seg, c.nwire) : 0;
+  if (!(Lwire > 0)) Lwire = Lglobal > 0 ? Lglobal : 0.01 * m->diagonal;
+
+  /* Probe every face once (derivative sizes and curvature over its parameter box). */
+  finfo = malloc(sizeof(face_info) * (size_t)(nface > 0 ? nface : 1));
+  if (!finfo) goto nomem;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int32_t f = 0; f < nface; ++f) {
+    const pm_cell *fc = &m->cells[PM_FACE][f];
+    loop_box(fc, finfo[f].box);
+    face_probe(fc, finfo[f].box, &finfo[f].su, &finfo[f].sv, &finfo[f].kappa);
+  }
+
+  /* Reference tessellation and polylines. */
+  if (c.surf) {
+    /* Faces in parallel, each into its own buffers, then appended in face order (so the result
+     * does not depend on the thread count). */
+    ref_faces *part = calloc((size_t)nface, sizeof(ref_faces));
+    pm_status *fst = calloc((size_t)nface, sizeof(pm_status));
+    pm_error *ferr = calloc((size_t)nface, sizeof(pm_error));
+    if (!part || !fst || !ferr) {
+      free(part), free(fst), free(ferr);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int32_t f = 0; f < nface; ++f)
+      fst[f] = ref_face(&part[f], &m->cells[PM_FACE][f], &finfo[f], eps, p.ref_spacing * Lface[f],
+                        p.ref_max_points, &ferr[f]);
+    for (int32_t f = 0; f < nface && !s; ++f) {
+      if (fst[f]) {
+        s = fst[f];
+        if (err) *err = ferr[f];
+        break;
+      }
+      int32_t base = (int32_t)(c.rf.xyz.n / 3);
+      c.rf.chord = fmax(c.rf.chord, part[f].chord);
+      c.rf.degraded += part[f].degraded;
+      if (!dbuf_push(&c.rf.xyz, part[f].xyz.v, part[f].xyz.n) ||
+          !dbuf_push(&c.rf.uv, part[f].uv.v, part[f].uv.n) ||
+          !ibuf_push(&c.rf.face, part[f].face.v, part[f].face.n)) {
+        s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
+        break;
+      }
+      for (int64_t k = 0; k < part[f].tri.n; ++k) part[f].tri.v[k] += base;
+      if (!ibuf_push(&c.rf.tri, part[f].tri.v, part[f].tri.n))
+        s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
+    }
+    for (int32_t f = 0; f < nface; ++f) ref_faces_free(&part[f]);
+    free(part), free(fst), free(ferr);
+    if (s) goto done;
+    if (c.rf.tri.n > 0 &&
+        (s = pm_bvh_create(c.rf.xyz.v, (int32_t)(c.rf.xyz.n / 3), c.rf.tri.v, (int32_t)(c.rf.tri.n / 3),
+                           &c.rf.bvh, err))) {
+      pm_error_prefix(err, "distance: reference");
+      goto done;
+    }
+    out->ref_chord = c.rf.chord;
+    out->ref_faces_degraded = c.rf.degraded;
+  }
+  for (int32_t i = 0; i < ncurve; ++i) {
+    ref_curves *rc = c.dangling[i] ? &c.rc_wire : &c.rc_surf;
+    if (!c.dangling[i] && !c.surf) continue;
+    if ((s = ref_curve(rc, &m->cells[PM_CURVE][i], eps, err))) goto done;
+  }
+  for (int k = 0; k < 2; ++k) {
+    ref_curves *rc = k ? &c.rc_wire : &c.rc_surf;
+    if (rc->seg.n > 0 &&
+        (s = pm_bvh_create(rc->xyz.v, (int32_t)(rc->xyz.n / 3), rc->seg.v, (int32_t)(rc->seg.n / 3),
+                           &rc->bvh, err))) {
+      pm_error_prefix(err, "distance: reference");
+      goto done;
+    }
+  }
+
+  /* ---- model -> mesh: blocks -------------------------------------------------------------- */
+  int32_t nblock = 0;
+  blocks = malloc(sizeof(mblock) * (size_t)(nface + ncurve + 1));
+  if (!blocks) goto nomem;
+  double grow = 1; /* spacing multiplier to meet max_samples */
+  for (int pass = 0; pass < 8; ++pass) {
+    nblock = 0;
+    int64_t total = 0;
+    for (int32_t f = 0; f < nface && c.surf; ++f) {
+      const pm_cell *fc = &m->cells[PM_FACE][f];
+      if (fc->nloop <= 0) continue;
+      const double *box = finfo[f].box, su = finfo[f].su, sv = finfo[f].sv;
+      double h = p.spacing * Lface[f] * grow;
+      double nu = fmax(2, ceil(su * (box[2] - box[0]) / h)), nv = fmax(2, ceil(sv * (box[3] - box[1]) / h));
+      if (nu * nv > (double)p.max_face_samples) {
+        double sc = sqrt((double)p.max_face_samples / (nu * nv));
+        nu = fmax(2, floor(nu * sc)), nv = fmax(2, floor(nv * sc));
+      }
+      mblock *b = &blocks[nblock++];
+      b->kind = S_FACE, b->part = PART_SURF, b->cell = f;
+      b->nu = (int32_t)nu, b->nv = (int32_t)nv;
+      b->du = (box[2] - box[0]) / nu, b->dv = (box[3] - box[1]) / nv;
+      b->u0 = box[0] + 0.5 * b->du, b->v0 = box[1] + 0.5 * b->dv;
+      b->first = total;
+      total += (int64_t)b->nu * b->nv;
+    }
+    for (int32_t i = 0; i < ncurve; ++i) {
+      const pm_cell *cu = &m->cells[PM_CURVE][i];
+      if (cu->degenerate) continue;
+      if (!c.dangling[i] && !c.surf) continue;
+      double h;
+      if (c.dangling[i]) {
+        h = Lwire;
+      } else {
+        h = INFINITY;
+        for (int32_t k = 0; k < cu->nup; ++k) h = fmin(h, Lface[cu->up[k]]);
+        if (!(h < INFINITY)) h = Lglobal;
+      }
+      h *= p.spacing * grow;
+      double n = fmax(3, ceil(curve_length(cu) / h) + 1);
+      if (n > (double)p.max_face_samples) n = (double)p.max_face_samples;
+      mblock *b = &blocks[nblock++];
+      b->kind = S_CURVE, b->part = c.dangling[i] ? PART_WIRE : PART_SURF, b->cell = i;
+      b->nu = (int32_t)n, b->nv = 1;
+      b->u0 = cu->lo[0], b->du = (cu->hi[0] - cu->lo[0]) / (n - 1), b->v0 = 0, b->dv = 0;
+      b->first = total;
+      total += b->nu;
+    }
+    if (total <= p.max_samples) break;
+    grow *= sqrt((double)total / (double)p.max_samples) * 1.01;
+  }
+  int64_t nmodel = nblock > 0 ? blocks[nblock - 1].first + (int64_t)blocks[nblock - 1].nu * blocks[nblock - 1].nv : 0;
+
+  /* Lattice level for the mesh side. */
+  c.level = p.tri_level;
+  while (c.level > 1 && (int64_t)mesh->ntri * ((c.level + 1) * (c.level + 2) / 2) +
+                                (int64_t)c.nwire * (c.level + 1) > p.max_samples)
+    c.level--;
+  c.npt_tri = (c.level + 1) * (c.level + 2) / 2;
+  c.npt_seg = c.level + 1;
+  out->tri_level = c.level;
+  int64_t ntri_s = c.surf ? (int64_t)mesh->ntri * c.npt_tri : 0;
+  int64_t nmesh = ntri_s + (int64_t)c.nwire * c.npt_seg;
+
+  dres = malloc(sizeof(double) * CHUNK);
+  wres = malloc(sizeof(double) * CHUNK);
+  rres = malloc(sizeof(double) * CHUNK);
+  xres = malloc(sizeof(double) * 3 * CHUNK);
+  fres = malloc(sizeof(int) * CHUNK);
+  topk *top = malloc(sizeof(topk) * (size_t)(2 * p.refine + 1));
+  if (!dres || !wres || !rres || !xres || !fres || !top) {
+    free(top);
+    goto nomem;
+  }
+  acc A[2][2]; /* [direction: 0 mesh->model, 1 model->mesh][part] */
+  memset(A, 0, sizeof A);
+  int ntop[2] = {0, 0};
+  topk *tops[2] = {top, top + p.refine};
+  int64_t nfallback = 0;
+
+  /* ---- mesh -> model ------------------------------------------------------------------------- */
+  for (int64_t s0 = 0; s0 < nmesh; s0 += CHUNK) {
+    int64_t n = nmesh - s0 < CHUNK ? nmesh - s0 : CHUNK;
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t k = 0; k < n; ++k) {
+      int64_t sidx = s0 + k;
+      int kind;
+      int32_t e;
+      double par[2], w;
+      if (sidx < ntri_s) {
+        kind = S_TRI, e = (int32_t)(sidx / c.npt_tri);
+        int q = (int)(sidx % c.npt_tri), i = 0;
+        /* q-th lattice point (i, j), i + j <= L, enumerated by i then j. */
+        while (q > c.level - i) q -= c.level - i + 1, ++i;
+        par[0] = (double)i / c.level, par[1] = (double)q / c.level;
+        const int32_t *v = &mesh->tri[3 * (size_t)e];
+        double ab[3], ac[3], nrm[3];
+        pm_v3_sub(ab, &mesh->xyz[3 * (size_t)v[1]], &mesh->xyz[3 * (size_t)v[0]]);
+        pm_v3_sub(ac, &mesh->xyz[3 * (size_t)v[2]], &mesh->xyz[3 * (size_t)v[0]]);
+        pm_v3_cross(nrm, ab, ac);
+        w = 0.5 * pm_v3_norm(nrm) / c.npt_tri;
+      } else {
+        int64_t r = sidx - ntri_s;
+        kind = S_SEG, e = (int32_t)(r / c.npt_seg);
+        par[0] = (double)(r % c.npt_seg) / c.level, par[1] = 0;
+        const int32_t *v = &mesh->seg[2 * (size_t)c.wire_seg[e]];
+        w = pm_v3_dist(&mesh->xyz[3 * (size_t)v[0]], &mesh->xyz[3 * (size_t)v[1]]) / c.npt_seg;
+      }
+      double *x = &xres[3 * k];
+      dres[k] = mesh_eval(&c, kind, e, par, x, &fres[k]);
+      wres[k] = w;
+      double sz = size_at(&c, x);
+      rres[k] = sz > 0 ? dres[k] / sz : 0;
+    }
+    for (int64_t k = 0; k < n; ++k) {
+      if (!isfinite(dres[k])) continue;
+      int64_t sidx = s0 + k;
+      int part = sidx < ntri_s ? PART_SURF : PART_WIRE;
+      acc_add(&A[0][part], dres[k], wres[k], rres[k], &xres[3 * k]);
+      nfallback += fres[k];
+      topk t;
+      t.d = dres[k];
+      if (part == PART_SURF) {
+        t.kind = S_TRI, t.elem = (int32_t)(sidx / c.npt_tri);
+        int q = (int)(sidx % c.npt_tri), i = 0;
+        while (q > c.level - i) q -= c.level - i + 1, ++i;
+        t.par[0] = (double)i / c.level, t.par[1] = (double)q / c.level;
+        t.step[0] = t.step[1] = 0.5 / c.level;
+      } else {
+        int64_t r = sidx - ntri_s;
+        t.kind = S_SEG, t.elem = (int32_t)(r / c.npt_seg);
+        t.par[0] = (double)(r % c.npt_seg) / c.level, t.par[1] = 0;
+        t.step[0] = 0.5 / c.level, t.step[1] = 0;
+      }
+      t.key = (int64_t)t.kind << 40 | t.elem;
+      topk_offer(tops[0], &ntop[0], p.refine, &t);
+    }
+  }
+
+  /* ---- model -> mesh ------------------------------------------------------------------------- */
+  for (int64_t s0 = 0; s0 < nmodel; s0 += CHUNK) {
+    int64_t n = nmodel - s0 < CHUNK ? nmodel - s0 : CHUNK;
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t k = 0; k < n; ++k) {
+      int64_t sidx = s0 + k;
+      /* The block holding sample sidx (binary search on `first`). */
+      int32_t lo = 0, hi = nblock - 1;
+      while (lo < hi) {
+        int32_t mid = (lo + hi + 1) / 2;
+        if (blocks[mid].first <= sidx)
+          lo = mid;
+        else
+          hi = mid - 1;
+      }
+      const mblock *b = &blocks[lo];
+      int64_t r = sidx - b->first;
+      double par[2], w = 0;
+      double *x = &xres[3 * k];
+      if (b->kind == S_FACE) {
+        int32_t i = (int32_t)(r / b->nv), j = (int32_t)(r % b->nv);
+        par[0] = b->u0 + i * b->du, par[1] = b->v0 + j * b->dv;
+        dres[k] = model_eval(&c, b, par, x);
+        if (isfinite(dres[k])) {
+          pm_face_point fp;
+          pm_face_eval(&m->cells[PM_FACE][b->cell], par, 1, &fp);
+          double nrm[3];
+          pm_v3_cross(nrm, fp.su, fp.sv);
+          w = pm_v3_norm(nrm) * b->du * b->dv;
+        }
+      } else {
+        par[0] = r + 1 == b->nu ? m->cells[PM_CURVE][b->cell].hi[0] : b->u0 + r * b->du, par[1] = 0;
+        dres[k] = model_eval(&c, b, par, x);
+        /* Boundary curves of faces carry no area: they count in the maximum only. Dangling
+         * curves are the wire part, weighted by length. */
+        if (b->part == PART_WIRE && isfinite(dres[k])) {
+          pm_curve_point cp;
+          pm_curve_eval(&m->cells[PM_CURVE][b->cell], par[0], 1, &cp);
+          w = pm_v3_norm(cp.d1) * b->du * ((r == 0 || r + 1 == b->nu) ? 0.5 : 1);
+        }
+      }
+      wres[k] = w;
+      fres[k] = lo;
+      double sz = isfinite(dres[k]) ? size_at(&c, x) : 0;
+      rres[k] = sz > 0 ? dres[k] / sz : 0;
+    }
+    for (int64_t k = 0; k < n; ++k) {
+      if (!isfinite(dres[k])) continue;
+      const mblock *b = &blocks[fres[k]];
+      acc_add(&A[1][b->part], dres[k], wres[k], rres[k], &xres[3 * k]);
+      int64_t r = s0 + k - b->first;
+      topk t;
+      t.d = dres[k];
+      t.kind = b->kind, t.elem = fres[k];
+      if (b->kind == S_FACE) {
+        int32_t i = (int32_t)(r / b->nv), j = (int32_t)(r % b->nv);
+        t.par[0] = b->u0 + i * b->du, t.par[1] = b->v0 + j * b->dv;
+        t.step[0] = 0.5 * b->du, t.step[1] = 0.5 * b->dv;
+        t.key = ((int64_t)(S_FACE) << 40) | ((int64_t)fres[k] << 8) | (((int64_t)i * 8 / b->nu) * 8 + (int64_t)j * 8 / b->nv);
+      } else {
+        t.par[0] = b->u0 + r * b->du, t.par[1] = 0;
+        if (r + 1 == b->nu) t.par[0] = m->cells[PM_CURVE][b->cell].hi[0];
+        t.step[0] = 0.5 * b->du, t.step[1] = 0;
+        t.key = ((int64_t)(S_CURVE) << 40) | ((int64_t)fres[k] << 8) | (r * 64 / b->nu);
+      }
+      topk_offer(tops[1], &ntop[1], p.refine, &t);
+    }
+  }
+
+  /* ---- refinement of the largest samples ------------------------------------------------------- */
+  for (int dir = 0; dir < 2; ++dir) {
+    double rd[256], rx[256][3];
+    int nt = ntop[dir];
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int i = 0; i < nt; ++i) {
+      pm_v3_zero(rx[i]);
+      rd[i] = refine_one(&c, blocks, &tops[dir][i], rx[i]);
+    }
+    for (int i = 0; i < nt; ++i) {
+      int part = (tops[dir][i].kind == S_SEG ||
+                  (tops[dir][i].kind == S_CURVE && blocks[tops[dir][i].elem].part == PART_WIRE))
+                     ? PART_WIRE
+                     : PART_SURF;
+      acc *a = &A[dir][part];
+      if (rd[i] > a->max) {
+        a->max = rd[i];
+        pm_v3_copy(a->max_at, rx[i]);
+        double sz = size_at(&c, rx[i]);
+        if (sz > 0) a->rel_max = fmax(a->rel_max, rd[i] / sz);
+      }
+    }
+  }
+  free(top);
+
+  /* ---- results ---------------------------------------------------------------------------------- */
+  /* The mean is over the surface part when there is one, else over the wire part; the maximum
+   * over everything. */
+  int mpart = c.surf ? PART_SURF : PART_WIRE;
+  out->nsamples_mesh = A[0][0].n + A[0][1].n;
+  out->nsamples_model = A[1][0].n + A[1][1].n;
+  out->nfallback = nfallback;
+  out->mesh_to_model_mean = A[0][mpart].sum_w > 0 ? A[0][mpart].sum_wd / A[0][mpart].sum_w : 0;
+  out->model_to_mesh_mean = A[1][mpart].sum_w > 0 ? A[1][mpart].sum_wd / A[1][mpart].sum_w : 0;
+  double W = A[0][mpart].sum_w + A[1][mpart].sum_w;
+  out->mean = W > 0 ? (A[0][mpart].sum_wd + A[1][mpart].sum_wd) / W : 0;
+  out->rel_mean = W > 0 && size ? (A[0][mpart].sum_wr + A[1][mpart].sum_wr) / W : 0;
+  out->max = -1;
+  for (int dir = 0; dir < 2; ++dir)
+    for (int part = 0; part < 2; ++part) {
+      const acc *a = &A[dir][part];
+      if (a->n == 0) continue;
+      if (dir == 0) out->mesh_to_model_max = fmax(out->mesh_to_model_max, a->max);
+      else out->model_to_mesh_max = fmax(out->model_to_mesh_max, a->max);
+      if (a->max > out->max) {
+        out->max = a->max;
+        pm_v3_copy(out->max_at, a->max_at);
+        out->max_from_model = dir == 1;
+      }
+      if (size) out->rel_max = fmax(out->rel_max, a->rel_max);
+    }
+  if (out->max < 0) out->max = 0;
+  s = PM_OK;
+  goto done;
+
+nomem:
+  s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory");
+done:
+  free(dres), free(wres), free(rres), free(xres), free(fres);
+  free(blocks), free(finfo);
+  free(face_tris_off), free(face_tris), free(Lface);
+  free(c.dangling), free(c.wire_seg);
+  pm_bvh_destroy(c.mesh_tri), pm_bvh_destroy(c.mesh_wire);
+  ref_faces_free(&c.rf);
+  ref_curves_free(&c.rc_surf), ref_curves_free(&c.rc_wire);
+  if (s) {
+    pm_error e2 = err ? *err : (pm_error){0};
+    memset(out, 0, sizeof *out);
+    if (err) *err = e2;
+  }
+  return s;
+}

@@ -1,0 +1,627 @@
+/* Tests of distance.c: the two-sided mesh-to-model distance against closed-form answers (a plane
+ * meshed in its plane, a lifted node, the sagitta of an inscribed polygon, the chordal error of an
+ * inscribed sphere polyhedron, a dangling wire), classified against unclassified meshes, thread-
+ * count independence, parameters and bad input. */
+#include "test_support.h"
+
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/closest_embree.h"
+#include "common/distance.h"
+#include "common/geom_analytic.h"
+#include "common/geom_cad.h"
+#include "common/mesh.h"
+#include "common/sizing.h"
+
+/* ---- models and meshes ----------------------------------------------------------------------- */
+
+static pm_model *square_model(void) {
+  const pm_planar_piece sq[4] = {{PM_PIECE_LINE, {0, 0}, {0, 0}, 0},
+                                 {PM_PIECE_LINE, {1, 0}, {0, 0}, 0},
+                                 {PM_PIECE_LINE, {1, 1}, {0, 0}, 0},
+                                 {PM_PIECE_LINE, {0, 1}, {0, 0}, 0}};
+  pm_planar_loop l = {4, sq};
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_planar_model("square", 1, &l, &m, &e), e);
+  return m;
+}
+
+static pm_model *disk_model(double R) {
+  const pm_planar_piece arc[1] = {{PM_PIECE_ARC, {R, 0}, {0, 0}, 1}};
+  pm_planar_loop l = {1, arc};
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_planar_model("disk", 1, &l, &m, &e), e);
+  return m;
+}
+
+/* The unit square as an n x n grid of cells, two triangles each, in z = 0; classified on face 0
+ * with (u, v) = (x, y) when `classify`. */
+static pm_mesh *square_mesh(int n, int classify) {
+  pm_mesh *me = pm_mesh_create();
+  pm_error e = {0};
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      double p[3] = {(double)i / n, (double)j / n, 0}, uv[2] = {p[0], p[1]};
+      PM_ASSERT_OK(pm_mesh_add_node(me, p, classify ? PM_FACE : -1, classify ? 0 : -1,
+                                    classify ? uv : NULL, NULL, &e), e);
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      int32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+      PM_ASSERT_OK(pm_mesh_add_tri(me, a, b, d, classify ? 0 : -1, &e), e);
+      PM_ASSERT_OK(pm_mesh_add_tri(me, a, d, c, classify ? 0 : -1, &e), e);
+    }
+  return me;
+}
+
+/* The regular n-gon inscribed in the circle of radius R, as a fan of n triangles around the
+ * centre. */
+static pm_mesh *fan_mesh(int n, double R) {
+  pm_mesh *me = pm_mesh_create();
+  pm_error e = {0};
+  const double o[3] = {0, 0, 0};
+  PM_ASSERT_OK(pm_mesh_add_node(me, o, -1, -1, NULL, NULL, &e), e);
+  for (int k = 0; k < n; ++k) {
+    double p[3] = {R * cos(2 * M_PI * k / n), R * sin(2 * M_PI * k / n), 0};
+    PM_ASSERT_OK(pm_mesh_add_node(me, p, -1, -1, NULL, NULL, &e), e);
+  }
+  for (int k = 0; k < n; ++k) PM_ASSERT_OK(pm_mesh_add_tri(me, 0, 1 + k, 1 + (k + 1) % n, -1, &e), e);
+  return me;
+}
+
+/* ---- plane ---------------------------------------------------------------------------------- */
+
+static void test_square_in_plane_is_zero(void **state) {
+  (void)state;
+  pm_model *m = square_model();
+  for (int classify = 0; classify < 2; ++classify) {
+    pm_mesh *me = square_mesh(8, classify);
+    pm_distance d;
+    pm_error e = {0};
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+    PM_ASSERT_NEAR(d.max, 0.0, 1e-14);
+    PM_ASSERT_NEAR(d.mean, 0.0, 1e-14);
+    PM_ASSERT_NEAR(d.mesh_to_model_max, 0.0, 1e-14);
+    PM_ASSERT_NEAR(d.model_to_mesh_max, 0.0, 1e-14);
+    PM_ASSERT_NEAR(d.bbox_diagonal, sqrt(2.0), 1e-12);
+    assert_int_equal(d.tri_level, 4);
+    assert_int_equal(d.nsamples_mesh, 128 * 15);
+    assert_true(d.nsamples_model > 1000);
+    assert_int_equal(d.nfallback, 0);
+    assert_int_equal(d.has_size, 0);
+    pm_mesh_destroy(me);
+  }
+  pm_model_destroy(m);
+}
+
+/* One interior node lifted by delta: the mesh -> model maximum is delta (at the node), the mean
+ * is the exact mean height of the mesh (z is linear on each triangle, and the lattice average of
+ * a linear function is its mean); the model point under the node is within delta of the tent. */
+static void test_square_lifted_node(void **state) {
+  (void)state;
+  pm_model *m = square_model();
+  const int n = 8;
+  const double delta = 0.01;
+  for (int classify = 0; classify < 2; ++classify) {
+    pm_mesh *me = square_mesh(n, classify);
+    int32_t mid = (n / 2) * (n + 1) + n / 2;
+    me->xyz[3 * mid + 2] = delta;
+    pm_distance d;
+    pm_error e = {0};
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+    PM_ASSERT_NEAR(d.mesh_to_model_max, delta, 1e-14);
+    PM_ASSERT_NEAR(d.max, delta, 1e-14);
+    assert_int_equal(d.max_from_model, 0);
+    PM_ASSERT_NEAR(d.max_at[0], 0.5, 1e-14);
+    PM_ASSERT_NEAR(d.max_at[1], 0.5, 1e-14);
+    double sum_az = 0, sum_a = 0;
+    for (int32_t t = 0; t < me->ntri; ++t) {
+      const int32_t *v = &me->tri[3 * t];
+      double ab[3], ac[3], nn[3], z = 0;
+      for (int k = 0; k < 3; ++k) {
+        ab[k] = me->xyz[3 * v[1] + k] - me->xyz[3 * v[0] + k];
+        ac[k] = me->xyz[3 * v[2] + k] - me->xyz[3 * v[0] + k];
+        z += me->xyz[3 * v[k] + 2] / 3;
+      }
+      nn[0] = ab[1] * ac[2] - ab[2] * ac[1], nn[1] = ab[2] * ac[0] - ab[0] * ac[2], nn[2] = ab[0] * ac[1] - ab[1] * ac[0];
+      double a = 0.5 * sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+      sum_az += a * z, sum_a += a;
+    }
+    PM_ASSERT_NEAR(d.mesh_to_model_mean, sum_az / sum_a, 1e-12 * delta);
+    /* Model -> mesh: at most delta, and most of it right under the node (the tent's faces have
+     * slope delta / h, so the distance there is delta / sqrt(1 + (delta n)^2) for this grid). */
+    assert_true(d.model_to_mesh_max <= delta);
+    assert_true(d.model_to_mesh_max > 0.99 * delta / sqrt(1 + (delta * n) * (delta * n)));
+    pm_mesh_destroy(me);
+  }
+  pm_model_destroy(m);
+}
+
+/* ---- disk: the sagitta of an inscribed polygon ------------------------------------------------- */
+
+static void test_disk_sagitta(void **state) {
+  (void)state;
+  const double R = 1.3;
+  pm_model *m = disk_model(R);
+  const int ns[3] = {6, 16, 64};
+  for (int q = 0; q < 3; ++q) {
+    int n = ns[q];
+    pm_mesh *me = fan_mesh(n, R);
+    pm_distance d;
+    pm_error e = {0};
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+    double sag = R * (1 - cos(M_PI / n));
+    /* The triangles lie in the disk's plane, inside it. */
+    PM_ASSERT_NEAR(d.mesh_to_model_max, 0.0, 1e-14);
+    /* The disk's boundary bulges out of the polygon by the sagitta, at the arcs' midpoints. */
+    PM_ASSERT_NEAR(d.model_to_mesh_max, sag, 1e-3 * sag);
+    PM_ASSERT_NEAR(d.max, sag, 1e-3 * sag);
+    assert_int_equal(d.max_from_model, 1);
+    PM_ASSERT_NEAR(hypot(d.max_at[0], d.max_at[1]), R, 1e-9);
+    pm_mesh_destroy(me);
+  }
+  pm_model_destroy(m);
+}
+
+/* A polygon whose vertices lie just inside the circle, between the circle and the face's trimming
+ * polyline (which cuts the arc's corners by up to 2e-4 of the parameter box): those points are
+ * in the face, at distance 0, even though the polyline-based inside test says "outside" there. */
+static void test_disk_points_between_polyline_and_circle(void **state) {
+  (void)state;
+  const double R = 1.3;
+  pm_model *m = disk_model(R);
+  const pm_cell *f = &m->cells[PM_FACE][0];
+  const int n = 7;
+  pm_mesh *me = fan_mesh(n, R * (1 - 2e-5));
+  int outside = 0;
+  for (int k = 1; k <= n; ++k) outside += !pm_face_inside(f, &me->xyz[3 * k]);
+  assert_true(outside > 0); /* the situation the test is about does occur */
+  pm_distance d;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  PM_ASSERT_NEAR(d.mesh_to_model_max, 0.0, 1e-14);
+  /* Just outside the circle instead: the distance is the radial offset. */
+  pm_mesh_destroy(me);
+  me = fan_mesh(n, R * (1 + 2e-5));
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  PM_ASSERT_NEAR(d.mesh_to_model_max, 2e-5 * R, 1e-12);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+/* An annulus meshed by a ring of triangles between two regular 256-gons inscribed in its circles.
+ * Mesh -> model: the inner polygon's edges cut into the hole by r (1 - cos(pi/256)), less than
+ * the hole's trimming polyline does, so only the curve itself can tell that those points are off
+ * the face. Model -> mesh: the outer circle bulges out of the outer polygon by
+ * R (1 - cos(pi/256)); the hole's circle lies inside the ring of triangles. */
+static void test_annulus_hole_sagitta(void **state) {
+  (void)state;
+  const double R = 1.0, r = 0.4;
+  const int n = 256;
+  const pm_planar_piece outer[1] = {{PM_PIECE_ARC, {R, 0}, {0, 0}, 1}};
+  const pm_planar_piece hole[1] = {{PM_PIECE_ARC, {r, 0}, {0, 0}, 0}};
+  pm_planar_loop loops[2] = {{1, outer}, {1, hole}};
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_planar_model("annulus", 2, loops, &m, &e), e);
+  pm_mesh *me = pm_mesh_create();
+  for (int k = 0; k < n; ++k) {
+    double a = 2 * M_PI * k / n;
+    double po[3] = {R * cos(a), R * sin(a), 0}, pi[3] = {r * cos(a), r * sin(a), 0};
+    PM_ASSERT_OK(pm_mesh_add_node(me, po, -1, -1, NULL, NULL, &e), e);
+    PM_ASSERT_OK(pm_mesh_add_node(me, pi, -1, -1, NULL, NULL, &e), e);
+  }
+  for (int k = 0; k < n; ++k) {
+    int32_t o0 = 2 * k, i0 = 2 * k + 1, o1 = 2 * ((k + 1) % n), i1 = o1 + 1;
+    PM_ASSERT_OK(pm_mesh_add_tri(me, i0, o0, o1, -1, &e), e);
+    PM_ASSERT_OK(pm_mesh_add_tri(me, i0, o1, i1, -1, &e), e);
+  }
+  /* The hole's inscribed polygon lies inside the polyline region of the face: the polyline-based
+   * test alone would put the inner edges on the face. */
+  const pm_cell *f = &m->cells[PM_FACE][0];
+  double mid[2] = {0.5 * (me->xyz[3] + me->xyz[9]), 0.5 * (me->xyz[4] + me->xyz[10])};
+  assert_true(pm_face_inside(f, mid));
+  pm_distance d;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  double sag_in = r * (1 - cos(M_PI / n)), sag_out = R * (1 - cos(M_PI / n));
+  PM_ASSERT_NEAR(d.mesh_to_model_max, sag_in, 1e-3 * sag_in);
+  PM_ASSERT_NEAR(d.model_to_mesh_max, sag_out, 1e-3 * sag_out);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+/* The means over the disk: zero inside the polygon, the distance to the chord in each circular
+ * segment. Per segment of half-angle a (c = R cos a):
+ *   int (x - c) dA = (2/3) R^3 sin^3 a - c R^2 (a - sin a cos a),
+ * model -> mesh mean = n x that / (pi R^2); two-sided mean = n x that / (pi R^2 + polygon area).
+ * Dense sampling makes the grid quadrature good to about a percent. */
+static void test_disk_means_and_size(void **state) {
+  (void)state;
+  const double R = 1.0;
+  const int n = 6;
+  pm_model *m = disk_model(R);
+  pm_mesh *me = fan_mesh(n, R);
+  pm_distance_params p;
+  pm_distance_params_init(&p);
+  p.spacing = 0.02;
+  pm_sizing *sz = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(0.5, &sz, &e), e);
+  pm_distance d;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, sz, &p, &d, &e), e);
+  double a = M_PI / n, c = R * cos(a);
+  double I = (2.0 / 3.0) * R * R * R * pow(sin(a), 3) - c * R * R * (a - sin(a) * cos(a));
+  double disk = M_PI * R * R, poly = 0.5 * n * R * R * sin(2 * a);
+  PM_ASSERT_NEAR(d.model_to_mesh_mean, n * I / disk, 0.02 * n * I / disk);
+  PM_ASSERT_NEAR(d.mean, n * I / (disk + poly), 0.02 * n * I / (disk + poly));
+  PM_ASSERT_NEAR(d.mesh_to_model_mean, 0.0, 1e-14);
+  /* Relative to a constant size 0.5: twice the distances. */
+  assert_int_equal(d.has_size, 1);
+  PM_ASSERT_NEAR(d.rel_mean, d.mean / 0.5, 1e-12);
+  PM_ASSERT_NEAR(d.rel_max, d.max / 0.5, 1e-12);
+  pm_sizing_destroy(sz);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+/* ---- sphere: the chordal error of an inscribed polyhedron ----------------------------------------- */
+
+/* A subdivided octahedron with its vertices on the unit sphere (welded: nodes shared between
+ * faces), k subdivisions per octant edge. When `classify`, triangles are tagged with face 0 and
+ * every node off the poles carries its sphere (u, v) = (longitude in [0, 2 pi), latitude) -- so
+ * that triangles across the seam u = 0 have nodes at u near 0 and near 2 pi. */
+static pm_mesh *octasphere(int k, int classify) {
+  pm_mesh *me = pm_mesh_create();
+  pm_error e = {0};
+  const double V[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  const int F[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  int per = (k + 1) * (k + 2) / 2;
+  int32_t *id = malloc(sizeof(int32_t) * 8 * per);
+  double *pts = NULL;
+  int32_t np = 0;
+  for (int f = 0; f < 8; ++f)
+    for (int i = 0; i <= k; ++i)
+      for (int j = 0; i + j <= k; ++j) {
+        double p[3], s = 0;
+        for (int q = 0; q < 3; ++q) {
+          p[q] = ((k - i - j) * V[F[f][0]][q] + i * V[F[f][1]][q] + j * V[F[f][2]][q]) / k;
+          s += p[q] * p[q];
+        }
+        for (int q = 0; q < 3; ++q) p[q] /= sqrt(s);
+        /* Weld: identical coordinates are produced for shared edge points (exact integer
+         * combinations before the normalization). */
+        int32_t found = -1;
+        for (int32_t r = 0; r < np && found < 0; ++r)
+          if (pts[3 * r] == p[0] && pts[3 * r + 1] == p[1] && pts[3 * r + 2] == p[2]) found = r;
+        if (found < 0) {
+          pts = realloc(pts, sizeof(double) * 3 * (size_t)(np + 1));
+          memcpy(&pts[3 * np], p, sizeof p);
+          found = np++;
+          int pole = p[0] == 0 && p[1] == 0;
+          double uv[2] = {atan2(p[1], p[0]), asin(fmax(-1.0, fmin(1.0, p[2])))};
+          if (uv[0] < 0) uv[0] += 2 * M_PI;
+          int cls = classify && !pole;
+          PM_ASSERT_OK(pm_mesh_add_node(me, p, cls ? PM_FACE : -1, cls ? 0 : -1, cls ? uv : NULL, NULL, &e), e);
+        }
+        id[f * per + i * (k + 1) - i * (i - 1) / 2 + j] = found;
+      }
+  for (int f = 0; f < 8; ++f) {
+#define ID(i, j) id[f * per + (i) * (k + 1) - (i) * ((i)-1) / 2 + (j)]
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; i + j < k; ++j) {
+        PM_ASSERT_OK(pm_mesh_add_tri(me, ID(i, j), ID(i + 1, j), ID(i, j + 1), classify ? 0 : -1, &e), e);
+        if (i + j + 1 < k)
+          PM_ASSERT_OK(pm_mesh_add_tri(me, ID(i + 1, j), ID(i + 1, j + 1), ID(i, j + 1), classify ? 0 : -1, &e), e);
+      }
+#undef ID
+  }
+  free(id), free(pts);
+  return me;
+}
+
+/* The largest distance from the unit sphere of a point of the polyhedron: per triangle,
+ * 1 - (the distance from the origin to the triangle); where the origin's foot on the plane (the
+ * circumcentre) lies in the triangle this is 1 - |n . a| for the unit normal n. */
+static double sphere_chord_max(const pm_mesh *me, int *all_acute) {
+  double best = 0;
+  const double o[3] = {0, 0, 0};
+  *all_acute = 1;
+  for (int32_t t = 0; t < me->ntri; ++t) {
+    const int32_t *v = &me->tri[3 * t];
+    const double *a = &me->xyz[3 * v[0]], *b = &me->xyz[3 * v[1]], *c = &me->xyz[3 * v[2]];
+    double q[3], w[3];
+    double dist = pm_point_triangle_closest(o, a, b, c, q, w);
+    if (!(w[0] > 0 && w[1] > 0 && w[2] > 0)) *all_acute = 0;
+    double ab[3], ac[3], nn[3];
+    for (int k = 0; k < 3; ++k) ab[k] = b[k] - a[k], ac[k] = c[k] - a[k];
+    nn[0] = ab[1] * ac[2] - ab[2] * ac[1], nn[1] = ab[2] * ac[0] - ab[0] * ac[2], nn[2] = ab[0] * ac[1] - ab[1] * ac[0];
+    double ln = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+    double na = fabs(nn[0] * a[0] + nn[1] * a[1] + nn[2] * a[2]) / ln;
+    if (w[0] > 0 && w[1] > 0 && w[2] > 0) PM_ASSERT_NEAR(dist, na, 1e-12);
+    best = fmax(best, 1 - dist);
+  }
+  return best;
+}
+
+static void test_sphere_chordal_error(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_case("sphere", &m, &e), e);
+  double dmax[2];
+  for (int classify = 0; classify < 2; ++classify) {
+    pm_mesh *me = octasphere(6, classify);
+    int acute;
+    double expect = sphere_chord_max(me, &acute);
+    assert_true(acute);
+    pm_distance d;
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+    if (getenv("PM_TEST_VERBOSE"))
+      printf("sphere classify=%d expect %.10g m2M %.10g M2m %.10g mean %.6g/%.6g ref_chord %.3g nmesh %lld nmodel %lld\n",
+             classify, expect, d.mesh_to_model_max, d.model_to_mesh_max, d.mesh_to_model_mean,
+             d.model_to_mesh_mean, d.ref_chord, (long long)d.nsamples_mesh, (long long)d.nsamples_model);
+    /* Mesh -> model: the distance of a point x inside the sphere is 1 - |x|. */
+    PM_ASSERT_NEAR(d.mesh_to_model_max, expect, 1e-3 * expect);
+    /* Model -> mesh: the sphere point above the worst triangle's circumcentre is as far from the
+     * polyhedron as that circumcentre is from the sphere. */
+    PM_ASSERT_NEAR(d.model_to_mesh_max, expect, 1e-3 * expect);
+    PM_ASSERT_NEAR(d.bbox_diagonal, 2 * sqrt(3.0), 1e-6);
+    assert_int_equal(d.nfallback, 0);
+    /* The reference tessellation met its tolerance (1e-4 of the diagonal by default), well
+     * below the chordal error measured here; it only seeds the projections. */
+    assert_true(d.ref_chord > 0 && d.ref_chord <= 1e-4 * d.bbox_diagonal);
+    assert_true(d.ref_chord < 0.05 * expect);
+    dmax[classify] = d.mesh_to_model_max;
+    /* The mean mesh -> model distance is below the maximum and of its order. */
+    assert_true(d.mesh_to_model_mean > 0.2 * expect && d.mesh_to_model_mean < expect);
+    pm_mesh_destroy(me);
+  }
+  /* The classification hints (with the seam unwrapped) only speed things up: same answer. */
+  PM_ASSERT_NEAR(dmax[0], dmax[1], 1e-9);
+  pm_model_destroy(m);
+}
+
+/* A vertex pushed off the sphere: the mesh -> model maximum is its radial offset. */
+static void test_sphere_pushed_vertex(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_case("sphere", &m, &e), e);
+  pm_mesh *me = octasphere(5, 0);
+  /* The node nearest to (1, 1, 1)/sqrt(3), pushed out to radius 1.05. */
+  int32_t best = 0;
+  double bd = -1;
+  for (int32_t i = 0; i < me->nnode; ++i) {
+    double s = me->xyz[3 * i] + me->xyz[3 * i + 1] + me->xyz[3 * i + 2];
+    if (s > bd) bd = s, best = i;
+  }
+  for (int k = 0; k < 3; ++k) me->xyz[3 * best + k] *= 1.05;
+  pm_distance d;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  PM_ASSERT_NEAR(d.mesh_to_model_max, 0.05, 1e-9);
+  PM_ASSERT_NEAR(d.max, 0.05, 1e-9);
+  assert_int_equal(d.max_from_model, 0);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+/* The cylinder case (radius 0.5, z in [-1, 1]): a prism over the regular n-gon with its caps as
+ * fans. Three faces, a periodic side with a seam, circles shared by two faces. Both directions'
+ * maxima are the sagitta r (1 - cos(pi/n)): the middle of a side facet is that far inside the
+ * cylinder, and the cylinder (side and cap rims) bulges that far out of the prism. */
+static void test_cylinder_prism(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_case("cylinder", &m, &e), e);
+  const int n = 24, layers = 6;
+  const double r = 0.5;
+  pm_mesh *me = pm_mesh_create();
+  for (int j = 0; j <= layers; ++j)
+    for (int k = 0; k < n; ++k) {
+      double a = 2 * M_PI * k / n, p[3] = {r * cos(a), r * sin(a), -1 + 2.0 * j / layers};
+      PM_ASSERT_OK(pm_mesh_add_node(me, p, -1, -1, NULL, NULL, &e), e);
+    }
+  const double bot[3] = {0, 0, -1}, top[3] = {0, 0, 1};
+  int32_t cb = me->nnode, ct = cb + 1;
+  PM_ASSERT_OK(pm_mesh_add_node(me, bot, -1, -1, NULL, NULL, &e), e);
+  PM_ASSERT_OK(pm_mesh_add_node(me, top, -1, -1, NULL, NULL, &e), e);
+  for (int j = 0; j < layers; ++j)
+    for (int k = 0; k < n; ++k) {
+      int32_t a = j * n + k, b = j * n + (k + 1) % n, c = a + n, d = b + n;
+      PM_ASSERT_OK(pm_mesh_add_tri(me, a, b, d, -1, &e), e);
+      PM_ASSERT_OK(pm_mesh_add_tri(me, a, d, c, -1, &e), e);
+    }
+  for (int k = 0; k < n; ++k) {
+    PM_ASSERT_OK(pm_mesh_add_tri(me, cb, (k + 1) % n, k, -1, &e), e);
+    PM_ASSERT_OK(pm_mesh_add_tri(me, ct, layers * n + k, layers * n + (k + 1) % n, -1, &e), e);
+  }
+  pm_distance d;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  double sag = r * (1 - cos(M_PI / n));
+  PM_ASSERT_NEAR(d.mesh_to_model_max, sag, 1e-3 * sag);
+  PM_ASSERT_NEAR(d.model_to_mesh_max, sag, 1e-3 * sag);
+  assert_int_equal(d.nfallback, 0);
+  assert_int_equal(d.ref_faces_degraded, 0);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+/* ---- determinism --------------------------------------------------------------------------------- */
+
+static void test_thread_count_independent(void **state) {
+  (void)state;
+  pm_model *m = disk_model(1.0);
+  pm_mesh *me = fan_mesh(10, 1.0);
+  /* Perturb the centre so that both directions have non-trivial sums. */
+  me->xyz[2] = 0.03;
+  pm_distance d1, d3;
+  pm_error e = {0};
+  int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d1, &e), e);
+  omp_set_num_threads(3);
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d3, &e), e);
+  omp_set_num_threads(saved);
+  assert_true(d1.mean == d3.mean);
+  assert_true(d1.max == d3.max);
+  assert_true(d1.mesh_to_model_mean == d3.mesh_to_model_mean);
+  assert_true(d1.model_to_mesh_mean == d3.model_to_mesh_mean);
+  assert_true(d1.model_to_mesh_max == d3.model_to_mesh_max);
+  assert_true(d1.mesh_to_model_max > 0.029);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+/* ---- wire: the dangling segment of the non-manifold case ---------------------------------------- */
+
+/* The non-manifold case's faces, meshed unclassified: the six cube faces as n x n grids and the
+ * internal triangle as itself. */
+static pm_mesh *cube_and_fin_mesh(int n) {
+  pm_mesh *me = pm_mesh_create();
+  pm_error e = {0};
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      int32_t base = me->nnode;
+      for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+          double p[3];
+          p[axis] = side, p[(axis + 1) % 3] = (double)i / n, p[(axis + 2) % 3] = (double)j / n;
+          PM_ASSERT_OK(pm_mesh_add_node(me, p, -1, -1, NULL, NULL, &e), e);
+        }
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          int32_t a = base + j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+          PM_ASSERT_OK(pm_mesh_add_tri(me, a, b, d, -1, &e), e);
+          PM_ASSERT_OK(pm_mesh_add_tri(me, a, d, c, -1, &e), e);
+        }
+    }
+  const double fin[3][3] = {{0, 0, 0}, {0, 0, 1}, {0.5, 0.5, 0.5}};
+  int32_t f0 = me->nnode;
+  for (int k = 0; k < 3; ++k) PM_ASSERT_OK(pm_mesh_add_node(me, fin[k], -1, -1, NULL, NULL, &e), e);
+  PM_ASSERT_OK(pm_mesh_add_tri(me, f0, f0 + 1, f0 + 2, -1, &e), e);
+  return me;
+}
+
+static void test_wire_dangling_segment(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_case("nonmanifold", &m, &e), e);
+  int32_t wire = -1;
+  for (int32_t i = 0; i < m->count[PM_CURVE]; ++i)
+    if (m->cells[PM_CURVE][i].nup == 0) wire = i;
+  assert_true(wire >= 0);
+  const pm_cell *wc = &m->cells[PM_CURVE][wire];
+  pm_curve_point c0, c1;
+  pm_curve_eval(wc, wc->lo[0], 0, &c0);
+  pm_curve_eval(wc, wc->hi[0], 0, &c1);
+
+  /* Without the wire in the mesh, the dangling curve is far from every triangle: the distance
+   * says so. */
+  pm_mesh *me = cube_and_fin_mesh(4);
+  pm_distance d;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  assert_true(d.model_to_mesh_max > 0.1);
+  assert_int_equal(d.max_from_model, 1);
+
+  /* With the wire as 4 classified segments on the curve: exact, everything is at distance 0. */
+  const int ns = 4;
+  int32_t first = me->nnode;
+  for (int k = 0; k <= ns; ++k) {
+    double t = wc->lo[0] + (wc->hi[0] - wc->lo[0]) * k / ns;
+    pm_curve_point cp;
+    pm_curve_eval(wc, t, 0, &cp);
+    PM_ASSERT_OK(pm_mesh_add_node(me, cp.p, PM_CURVE, wire, &t, NULL, &e), e);
+  }
+  for (int k = 0; k < ns; ++k) PM_ASSERT_OK(pm_mesh_add_seg(me, first + k, first + k + 1, wire, &e), e);
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  PM_ASSERT_NEAR(d.max, 0.0, 1e-12);
+  PM_ASSERT_NEAR(d.mean, 0.0, 1e-12);
+  assert_int_equal(d.nfallback, 0);
+  int64_t with_wire = d.nsamples_mesh;
+
+  /* The wire's middle node moved by 0.02 across the curve: the mesh -> model maximum is 0.02. */
+  double dir[3] = {c1.p[0] - c0.p[0], c1.p[1] - c0.p[1], c1.p[2] - c0.p[2]};
+  double off[3] = {0, 0, 1}; /* the curve lies in z = 0.5: z is across it */
+  (void)dir;
+  for (int k = 0; k < 3; ++k) me->xyz[3 * (first + ns / 2) + k] += 0.02 * off[k];
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  PM_ASSERT_NEAR(d.mesh_to_model_max, 0.02, 1e-12);
+  assert_true(d.model_to_mesh_max > 0 && d.model_to_mesh_max <= 0.02);
+  assert_true(d.nsamples_mesh == with_wire);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+/* ---- parameters and bad input --------------------------------------------------------------------- */
+
+static void test_params_and_bad_input(void **state) {
+  (void)state;
+  pm_distance_params p;
+  pm_distance_params_init(&p);
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_distance_params_check(&p, &e), e);
+  p.spacing = 0;
+  assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "spacing"));
+  pm_distance_params_init(&p);
+  p.tri_level = 40;
+  assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "tri_level"));
+  pm_distance_params_init(&p);
+  p.ref_tol = 0.5;
+  assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "ref_tol"));
+
+  pm_model *m = square_model();
+  pm_distance d;
+  /* Bad parameters reach pm_mesh_distance's caller too. */
+  pm_mesh *me = square_mesh(2, 0);
+  assert_int_equal(pm_mesh_distance(me, m, NULL, &p, &d, &e), PM_ERR_ARG);
+  /* A mesh without triangles for a model with a face. */
+  pm_mesh *empty = pm_mesh_create();
+  assert_int_equal(pm_mesh_distance(empty, m, NULL, NULL, &d, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "no triangles"));
+  assert_int_equal(pm_mesh_distance(NULL, m, NULL, NULL, &d, &e), PM_ERR_ARG);
+  /* A non-finite coordinate. */
+  me->xyz[4] = NAN;
+  assert_int_equal(pm_mesh_distance(me, m, NULL, NULL, &d, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "non-finite"));
+  assert_true(d.max == 0 && d.mean == 0);
+  /* The sample cap lowers the lattice level instead of failing. */
+  me->xyz[4] = 0.5;
+  pm_distance_params_init(&p);
+  p.max_samples = 1000;
+  pm_mesh *big = square_mesh(20, 0); /* 800 triangles: even level 1 exceeds the cap; it is the floor */
+  PM_ASSERT_OK(pm_mesh_distance(big, m, NULL, &p, &d, &e), e);
+  assert_int_equal(d.tri_level, 1);
+  assert_true(d.nsamples_model <= 1000);
+  PM_ASSERT_NEAR(d.max, 0.0, 1e-14);
+  pm_mesh_destroy(big);
+  pm_mesh_destroy(empty);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(test_square_in_plane_is_zero),
+      cmocka_unit_test(test_square_lifted_node),
+      cmocka_unit_test(test_disk_sagitta),
+      cmocka_unit_test(test_disk_points_between_polyline_and_circle),
+      cmocka_unit_test(test_annulus_hole_sagitta),
+      cmocka_unit_test(test_disk_means_and_size),
+      cmocka_unit_test(test_sphere_chordal_error),
+      cmocka_unit_test(test_sphere_pushed_vertex),
+      cmocka_unit_test(test_cylinder_prism),
+      cmocka_unit_test(test_thread_count_independent),
+      cmocka_unit_test(test_wire_dangling_segment),
+      cmocka_unit_test(test_params_and_bad_input),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
