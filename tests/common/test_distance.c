@@ -451,6 +451,82 @@ static void test_cylinder_prism(void **state) {
   pm_model_destroy(m);
 }
 
+/* The torus case (R = 1, r = 0.35 about z; S(u, v) = ((R + r cos v) cos u, (R + r cos v) sin u,
+ * r sin v), periodic in both parameters) meshed on a 24 x 12 parameter grid. The distance of a
+ * point to the torus has a closed form, | sqrt((sqrt(x^2 + y^2) - R)^2 + z^2) - r |, so the mesh ->
+ * model maximum is checked against a dense lattice on every triangle; model -> mesh against a
+ * dense parameter grid of the torus queried with the (brute-force checked) BVH. Classified nodes
+ * carry (u, v) in [0, 2 pi): triangles across both seams interpolate unwrapped parameters. */
+static double torus_dist(const double x[3]) {
+  double rho = hypot(x[0], x[1]) - 1.0;
+  return fabs(hypot(rho, x[2]) - 0.35);
+}
+
+static void test_torus_doubly_periodic(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_case("torus", &m, &e), e);
+  const int nu = 24, nv = 12;
+  double res[2];
+  for (int classify = 0; classify < 2; ++classify) {
+    pm_mesh *me = pm_mesh_create();
+    for (int j = 0; j < nv; ++j)
+      for (int i = 0; i < nu; ++i) {
+        double uv[2] = {2 * M_PI * i / nu, 2 * M_PI * j / nv};
+        double p[3] = {(1 + 0.35 * cos(uv[1])) * cos(uv[0]), (1 + 0.35 * cos(uv[1])) * sin(uv[0]),
+                       0.35 * sin(uv[1])};
+        PM_ASSERT_OK(pm_mesh_add_node(me, p, classify ? PM_FACE : -1, classify ? 0 : -1,
+                                      classify ? uv : NULL, NULL, &e), e);
+      }
+    for (int j = 0; j < nv; ++j)
+      for (int i = 0; i < nu; ++i) {
+        int32_t a = j * nu + i, b = j * nu + (i + 1) % nu, c = ((j + 1) % nv) * nu + i,
+                d = ((j + 1) % nv) * nu + (i + 1) % nu;
+        PM_ASSERT_OK(pm_mesh_add_tri(me, a, b, d, classify ? 0 : -1, &e), e);
+        PM_ASSERT_OK(pm_mesh_add_tri(me, a, d, c, classify ? 0 : -1, &e), e);
+      }
+    /* Mesh -> model by brute force: a level-40 lattice on every triangle. */
+    double brute = 0;
+    for (int32_t t = 0; t < me->ntri; ++t) {
+      const int32_t *v = &me->tri[3 * t];
+      for (int i = 0; i <= 40; ++i)
+        for (int j = 0; i + j <= 40; ++j) {
+          double x[3];
+          for (int k = 0; k < 3; ++k)
+            x[k] = (1 - (i + j) / 40.0) * me->xyz[3 * v[0] + k] + i / 40.0 * me->xyz[3 * v[1] + k] +
+                   j / 40.0 * me->xyz[3 * v[2] + k];
+          brute = fmax(brute, torus_dist(x));
+        }
+    }
+    /* Model -> mesh: a 480 x 240 grid on the torus, each point's distance to the mesh. */
+    pm_bvh *bvh = NULL;
+    PM_ASSERT_OK(pm_bvh_create(me->xyz, me->nnode, me->tri, me->ntri, &bvh, &e), e);
+    double grid = 0;
+    for (int j = 0; j < 240; ++j)
+      for (int i = 0; i < 480; ++i) {
+        double u = 2 * M_PI * i / 480, w = 2 * M_PI * j / 240;
+        double x[3] = {(1 + 0.35 * cos(w)) * cos(u), (1 + 0.35 * cos(w)) * sin(u), 0.35 * sin(w)};
+        pm_bvh_hit h;
+        pm_bvh_closest(bvh, x, INFINITY, &h);
+        grid = fmax(grid, h.dist);
+      }
+    pm_bvh_destroy(bvh);
+    pm_distance d;
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+    /* The refined maxima are at least the dense samples' (less round-off) and hardly more. */
+    assert_true(d.mesh_to_model_max >= brute - 1e-12);
+    PM_ASSERT_NEAR(d.mesh_to_model_max, brute, 1e-3 * brute);
+    assert_true(d.model_to_mesh_max >= grid - 1e-12);
+    PM_ASSERT_NEAR(d.model_to_mesh_max, grid, 1e-2 * grid);
+    assert_int_equal(d.nfallback, 0);
+    res[classify] = d.mesh_to_model_max;
+    pm_mesh_destroy(me);
+  }
+  PM_ASSERT_NEAR(res[0], res[1], 1e-9);
+  pm_model_destroy(m);
+}
+
 /* ---- determinism --------------------------------------------------------------------------------- */
 
 static void test_thread_count_independent(void **state) {
@@ -619,6 +695,7 @@ int main(void) {
       cmocka_unit_test(test_sphere_chordal_error),
       cmocka_unit_test(test_sphere_pushed_vertex),
       cmocka_unit_test(test_cylinder_prism),
+      cmocka_unit_test(test_torus_doubly_periodic),
       cmocka_unit_test(test_thread_count_independent),
       cmocka_unit_test(test_wire_dangling_segment),
       cmocka_unit_test(test_params_and_bad_input),
