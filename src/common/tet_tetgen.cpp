@@ -9,7 +9,8 @@
 //     volume bound is reached only where the surface mesh is already fine enough.
 //   - Nothing forbids Steiner points during boundary recovery: even with -Y and -S0 TetGen adds
 //     an interior point to a Schoenhardt prism. Point counts are therefore checked after the
-//     fact; in PM_TET_GIVEN_POINTS mode any added point is an error (PM_ERR_GEOM).
+//     fact; in PM_TET_GIVEN_POINTS mode any added point is an error (PM_ERR_GEOM). In
+//     refinement -S is a hard cap (-S100 gives exactly 100 added points), used for max_points.
 //   - Interior points are plain input points of the PLC: they are in the initial Delaunay
 //     tetrahedralization and stay vertices. -J keeps unused input points in the output list,
 //     so input indices are output indices; an input point no tet uses is reported as an error.
@@ -18,9 +19,13 @@
 //   - Self-intersecting input can crash TetGen 1.5.0 (a segmentation fault for two
 //     interpenetrating tetrahedra, without -d) instead of throwing, so the surface is checked
 //     here first with exact predicates (CGAL, box intersection), as are duplicate points and
-//     degenerate triangles.
+//     degenerate triangles. Other inputs still end TetGen's process (a subnormal coordinate: a
+//     segmentation fault; Debian's libtet keeps its assert()s, which abort): TetGen therefore
+//     runs in a child process (run_tetgen), so such a failure is an error code, not the end of
+//     the caller.
 //   - TetGen prints some errors with printf even under -Q ("Error: Invalid PLC." before
-//     throwing 3), and -C prints its verdict; file descriptor 1 is redirected around the call.
+//     throwing 3), and -C prints its verdict: the child's stdout goes to /dev/null or, for -C,
+//     to a temporary file that is read back.
 //   - Output tets satisfy ((b-a)x(c-a)).(d-a) > 0 already (TetGen's orient3d < 0); each is
 //     still checked with the exact predicate and flipped if needed.
 //   - libgmsh exports a TetGen of its own under the same names (tetgenmesh::*,
@@ -40,16 +45,19 @@
 
 #include <dlfcn.h>
 #include <fcntl.h>
+#include <signal.h>
+#include <sys/types.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
-#include <mutex>
 #include <new>
 #include <string>
 #include <vector>
@@ -58,10 +66,6 @@ namespace {
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using P3 = K::Point_3;
-
-// TetGen keeps global state (exactinit's error bounds, static lookup tables) and the stdout
-// redirection is process-wide: one tetrahedralization at a time.
-std::mutex tetgen_mutex;
 
 // The reasons behind TetGen's exit codes, from terminatetetgen() in tetgen.h (1.5.0).
 const char *tetgen_reason(int code) {
@@ -75,33 +79,6 @@ const char *tetgen_reason(int code) {
     default: return "unknown failure";
   }
 }
-
-// Redirect file descriptor 1 to `target` (an open descriptor) until destruction. When stdout
-// cannot be duplicated the redirection is skipped: nothing then protects the terminal, but
-// nothing breaks either.
-class StdoutRedirect {
- public:
-  explicit StdoutRedirect(int target) {
-    fflush(stdout);
-    saved_ = dup(1);
-    if (saved_ >= 0 && target >= 0 && dup2(target, 1) < 0) {
-      close(saved_);
-      saved_ = -1;
-    }
-  }
-  ~StdoutRedirect() {
-    fflush(stdout);
-    if (saved_ >= 0) {
-      dup2(saved_, 1);
-      close(saved_);
-    }
-  }
-  StdoutRedirect(const StdoutRedirect &) = delete;
-  StdoutRedirect &operator=(const StdoutRedirect &) = delete;
-
- private:
-  int saved_ = -1;
-};
 
 // Where the program's global lookup sends two TetGen symbols that libgmsh also defines, compared
 // with the library that holds tetrahedralize() (libtet only). Empty when they agree.
@@ -515,68 +492,192 @@ void set_switches(const pm_tet_input *in, int docheck, tetgenbehavior *b) {
     if (in->max_points > 0) b->steinerleft = in->max_points - in->npts + 1;
   } else {
     // Optimization: flips (1) and smoothing (2, moves Steiner points only, of which there are
-    // none); not 4, which splits slivers with new points.
+    // none); not 4, which splits slivers with new points. No -S0: it does not stop boundary
+    // recovery from adding points (measured on a Schoenhardt prism) and only pushes TetGen down
+    // less travelled paths; added points are detected in collect() instead.
     b->optscheme = 3;
-    b->steinerleft = 0;
   }
   b->docheck = docheck;
 }
 
-// Run TetGen under the lock with stdout redirected (to /dev/null, or to a temporary file whose
-// content is returned when `capture`).
-pm_status run_tetgen(tetgenbehavior *b, tetgenio *io, tetgenio *out, bool capture,
-                     std::string *captured, pm_error *err) {
-  std::lock_guard<std::mutex> lock(tetgen_mutex);
-  FILE *tmp = capture ? tmpfile() : nullptr;
+// What TetGen returned, as plain arrays (it comes from the child process, see run_tetgen).
+struct Raw {
+  std::vector<double> xyz;      // [3 * npts]
+  std::vector<int32_t> tet;     // [4 * ntet]
+  std::vector<double> attr;     // [nattr * ntet]
+  int32_t npts = 0, ntet = 0, nattr = 0;
+  int32_t problems = 0;         // "!!" lines of TetGen's -C report
+};
+
+// The child's report: a fixed header, then the arrays, then the magic again.
+constexpr uint32_t kMagic = 0x70746774u;  // "ptgt"
+struct Header {
+  uint32_t magic;
+  int32_t kind;  // 0 done, 1 TetGen threw an int, 2 out of memory, 3 other exception
+  int32_t code;  // TetGen's int
+  int32_t npts, ntet, ncorners, nattr, problems;
+  char what[256];
+};
+
+bool write_full(int fd, const void *data, size_t n) {
+  const char *p = static_cast<const char *>(data);
+  while (n > 0) {
+    ssize_t w = write(fd, p, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return false;
+    p += w;
+    n -= static_cast<size_t>(w);
+  }
+  return true;
+}
+
+bool read_full(int fd, void *data, size_t n) {
+  char *p = static_cast<char *>(data);
+  while (n > 0) {
+    ssize_t r = read(fd, p, n);
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) return false;
+    p += r;
+    n -= static_cast<size_t>(r);
+  }
+  return true;
+}
+
+// The child: TetGen with stdout sent to /dev/null (or to a temporary file that the -C report is
+// read back from), the result written to `fd`. Never returns.
+[[noreturn]] void child_main(tetgenbehavior *b, tetgenio *io, bool check, int fd) {
+  // Crashes must end this process, not run a handler inherited from the caller (a test
+  // framework's handler would go on running the caller's code here).
+  const int fatal[] = {SIGSEGV, SIGABRT, SIGBUS, SIGFPE, SIGILL};
+  for (int sig : fatal) signal(sig, SIG_DFL);
+  FILE *tmp = check ? tmpfile() : nullptr;
   int sink = tmp ? fileno(tmp) : open("/dev/null", O_WRONLY);
-  int code = 0;
-  bool other = false;
-  bool nomem = false;
-  std::string what;
-  {
-    StdoutRedirect redirect(sink);
-    try {
-      tetrahedralize(b, io, out);
-    } catch (int c) {
-      code = c;
-    } catch (const std::bad_alloc &) {
-      nomem = true;
-    } catch (const std::exception &e) {
-      other = true;
-      what = e.what();
-    } catch (...) {
-      other = true;
-      what = "unknown exception";
-    }
+  if (sink >= 0) dup2(sink, 1);
+
+  Header h{};
+  h.magic = kMagic;
+  tetgenio o;
+  try {
+    tetrahedralize(b, io, &o);
+  } catch (int c) {
+    h.kind = 1;
+    h.code = c;
+  } catch (const std::bad_alloc &) {
+    h.kind = 2;
+  } catch (const std::exception &e) {
+    h.kind = 3;
+    snprintf(h.what, sizeof h.what, "%s", e.what());
+  } catch (...) {
+    h.kind = 3;
+    snprintf(h.what, sizeof h.what, "unknown exception");
   }
   if (tmp) {
+    // TetGen's checks mark each problem with "!!".
+    fflush(stdout);
     rewind(tmp);
-    char chunk[4096];
-    size_t got;
-    while ((got = fread(chunk, 1, sizeof chunk, tmp)) > 0) captured->append(chunk, got);
-    fclose(tmp);
-  } else if (sink >= 0) {
-    close(sink);
+    char line[1024];
+    while (fgets(line, sizeof line, tmp))
+      if (std::strstr(line, "!!")) ++h.problems;
   }
-  if (nomem) return pm_error_setf(err, PM_ERR_NOMEM, "tet: TetGen ran out of memory");
-  if (other) return pm_error_setf(err, PM_ERR_BACKEND, "tet: TetGen failed: %s", what.c_str());
-  if (code != 0)
-    return pm_error_setf(err, PM_ERR_BACKEND, "tet: TetGen failed (code %d): %s", code,
-                         tetgen_reason(code));
+  bool ok = true;
+  if (h.kind == 0) {
+    h.npts = o.pointlist ? o.numberofpoints : 0;
+    h.ntet = o.tetrahedronlist ? o.numberoftetrahedra : 0;
+    h.ncorners = o.numberofcorners;
+    h.nattr = o.tetrahedronattributelist ? o.numberoftetrahedronattributes : 0;
+    ok = write_full(fd, &h, sizeof h) &&
+         write_full(fd, o.pointlist, 3 * static_cast<size_t>(h.npts) * sizeof(REAL)) &&
+         write_full(fd, o.tetrahedronlist,
+                    static_cast<size_t>(h.ncorners) * h.ntet * sizeof(int)) &&
+         write_full(fd, o.tetrahedronattributelist,
+                    static_cast<size_t>(h.nattr) * h.ntet * sizeof(REAL));
+  } else {
+    ok = write_full(fd, &h, sizeof h);
+  }
+  ok = ok && write_full(fd, &kMagic, sizeof kMagic);
+  // _exit: no atexit handlers, no flush of stdio buffers inherited from the caller.
+  _exit(ok ? 0 : 1);
+}
+
+// Run TetGen in a child process. TetGen 1.5.0 ends the process on some inputs -- a failed
+// assert() (Debian's libtet keeps them: "insphere_s: Assertion `oriB != 0.0' failed" for
+// subnormal coordinates) or a segmentation fault -- which no try/catch can stop; in a child it
+// only ends the child, and the caller gets PM_ERR_BACKEND. The child also owns TetGen's global
+// state and its stdout, so calls from several threads need no lock and the caller's stdout is
+// never touched.
+pm_status run_tetgen(tetgenbehavior *b, tetgenio *io, bool check, Raw *raw, pm_error *err) {
+  int fds[2];
+  if (pipe(fds) != 0)
+    return pm_error_setf(err, PM_ERR_BACKEND, "tet: no pipe for TetGen's process: %s",
+                         strerror(errno));
+  // Hold stdout's lock across fork() so that no other thread holds it in the child, where
+  // TetGen's printf would then wait forever.
+  fflush(stdout);
+  flockfile(stdout);
+  pid_t pid = fork();
+  if (pid == 0) {
+    funlockfile(stdout);
+    close(fds[0]);
+    child_main(b, io, check, fds[1]);
+  }
+  funlockfile(stdout);
+  close(fds[1]);
+  if (pid < 0) {
+    close(fds[0]);
+    return pm_error_setf(err, PM_ERR_NOMEM, "tet: cannot start TetGen's process: %s",
+                         strerror(errno));
+  }
+
+  Header h{};
+  bool complete = read_full(fds[0], &h, sizeof h) && h.magic == kMagic;
+  bool arrays = false;
+  if (complete && h.kind == 0 && h.npts >= 0 && h.ntet >= 0 && h.nattr >= 0 &&
+      (h.ntet == 0 || h.ncorners == 4)) {
+    raw->npts = h.npts, raw->ntet = h.ntet, raw->nattr = h.nattr;
+    raw->xyz.resize(3 * static_cast<size_t>(h.npts));
+    raw->tet.resize(4 * static_cast<size_t>(h.ntet));
+    raw->attr.resize(static_cast<size_t>(h.nattr) * h.ntet);
+    static_assert(sizeof(int) == sizeof(int32_t), "TetGen's int indices copied as int32_t");
+    arrays = read_full(fds[0], raw->xyz.data(), raw->xyz.size() * sizeof(double)) &&
+             read_full(fds[0], raw->tet.data(), raw->tet.size() * sizeof(int32_t)) &&
+             read_full(fds[0], raw->attr.data(), raw->attr.size() * sizeof(double));
+  }
+  uint32_t tail = 0;
+  complete = complete && (h.kind != 0 || arrays) && read_full(fds[0], &tail, sizeof tail) &&
+             tail == kMagic;
+  close(fds[0]);
+  int status = 0;
+  pid_t w;
+  while ((w = waitpid(pid, &status, 0)) < 0 && errno == EINTR) {
+  }
+  // A caller that ignores SIGCHLD has the child reaped for it (ECHILD): the report then tells.
+  if (!complete) {
+    if (w == pid && WIFSIGNALED(status))
+      return pm_error_setf(err, PM_ERR_BACKEND, "tet: TetGen crashed (signal %d, %s)",
+                           WTERMSIG(status), strsignal(WTERMSIG(status)));
+    return pm_error_setf(err, PM_ERR_BACKEND, "tet: TetGen's process ended without a result");
+  }
+  raw->problems = h.problems;
+  if (h.kind == 2) return pm_error_setf(err, PM_ERR_NOMEM, "tet: TetGen ran out of memory");
+  if (h.kind == 3) return pm_error_setf(err, PM_ERR_BACKEND, "tet: TetGen failed: %s", h.what);
+  if (h.kind == 1)
+    return pm_error_setf(err, PM_ERR_BACKEND, "tet: TetGen failed (code %d): %s", h.code,
+                         tetgen_reason(h.code));
   return PM_OK;
 }
 
 // Verify TetGen's output against the contract and copy it into malloc'ed arrays.
-pm_status collect(const pm_tet_input *in, const Plc &plc, const tetgenio &o, pm_tet_result *res,
+pm_status collect(const pm_tet_input *in, const Plc &plc, Raw &o, pm_tet_result *res,
                   pm_error *err) {
   const int32_t n = in->npts;
-  if (o.numberofpoints < n || !o.pointlist)
+  if (o.npts < n)
     return pm_error_setf(err, PM_ERR_BACKEND, "tet: TetGen returned %d points for %d input points",
-                         o.numberofpoints, n);
-  if (o.numberoftetrahedra <= 0 || !o.tetrahedronlist || o.numberofcorners != 4)
+                         o.npts, n);
+  if (o.ntet <= 0)
     return pm_error_setf(err, PM_ERR_GEOM,
                          "tet: TetGen produced no tetrahedra (is the surface closed?)");
-  const int32_t nout = o.numberofpoints, ntet = o.numberoftetrahedra;
+  const int32_t nout = o.npts, ntet = o.ntet;
+  const double *pointlist = o.xyz.data();
   const int32_t nsteiner = nout - n;
   if (in->mode == PM_TET_GIVEN_POINTS && nsteiner > 0)
     return pm_error_setf(err, PM_ERR_GEOM,
@@ -588,11 +689,11 @@ pm_status collect(const pm_tet_input *in, const Plc &plc, const tetgenio &o, pm_
                          "tet: refinement needs more than max_points = %d points", in->max_points);
   // -J keeps input points first and in order; TetGen never moves an input point.
   for (int32_t i = 0; i < 3 * n; ++i)
-    if (o.pointlist[i] != in->xyz[i])
+    if (pointlist[i] != in->xyz[i])
       return pm_error_setf(err, PM_ERR_INTERNAL, "tet: TetGen moved or reordered input point %d",
                            i / 3);
 
-  std::vector<int32_t> tets(o.tetrahedronlist, o.tetrahedronlist + 4 * static_cast<size_t>(ntet));
+  std::vector<int32_t> &tets = o.tet;
   std::vector<char> used(static_cast<size_t>(nout), 0);
   for (int32_t t = 0; t < ntet; ++t) {
     int32_t *v = &tets[4 * static_cast<size_t>(t)];
@@ -602,8 +703,8 @@ pm_status collect(const pm_tet_input *in, const Plc &plc, const tetgenio &o, pm_
                              v[j]);
       used[v[j]] = 1;
     }
-    const double *a = o.pointlist + 3 * v[0], *b = o.pointlist + 3 * v[1];
-    const double *c = o.pointlist + 3 * v[2], *d = o.pointlist + 3 * v[3];
+    const double *a = pointlist + 3 * v[0], *b = pointlist + 3 * v[1];
+    const double *c = pointlist + 3 * v[2], *d = pointlist + 3 * v[3];
     int s = pm_orient3d(a, b, c, d);
     if (s == 0)
       return pm_error_setf(err, PM_ERR_INTERNAL, "tet: TetGen tet %d (%d, %d, %d, %d) is flat", t,
@@ -665,14 +766,13 @@ pm_status collect(const pm_tet_input *in, const Plc &plc, const tetgenio &o, pm_
     free(tag);
     return pm_error_setf(err, PM_ERR_NOMEM, "tet: out of memory copying %d tets", ntet);
   }
-  std::memcpy(xyz, o.pointlist, 3 * static_cast<size_t>(nout) * sizeof(double));
+  std::memcpy(xyz, pointlist, 3 * static_cast<size_t>(nout) * sizeof(double));
   std::memcpy(tet, tets.data(), tets.size() * sizeof(int32_t));
-  const bool attr = in->nregion > 0 && o.numberoftetrahedronattributes > 0 &&
-                    o.tetrahedronattributelist;
+  const bool attr = in->nregion > 0 && o.nattr > 0;
   for (int32_t t = 0; t < ntet; ++t) {
     tag[t] = -1;
     if (!attr) continue;
-    double a = o.tetrahedronattributelist[static_cast<size_t>(t) * o.numberoftetrahedronattributes];
+    double a = o.attr[static_cast<size_t>(t) * o.nattr];
     long r = std::lround(a) - 1;
     if (r >= 0 && r < in->nregion) tag[t] = static_cast<int32_t>(in->region[4 * r + 3]);
   }
@@ -687,7 +787,7 @@ pm_status collect(const pm_tet_input *in, const Plc &plc, const tetgenio &o, pm_
 
 // The whole pipeline; `docheck` > 0 adds TetGen's -C and captures its report.
 pm_status tetrahedralize_impl(const pm_tet_input *in, pm_tet_result *out, int docheck,
-                              std::string *captured, pm_error *err) {
+                              int32_t *problems, pm_error *err) {
   pm_status s = validate(in, err);
   if (s != PM_OK) return s;
   Plc plc;
@@ -703,13 +803,15 @@ pm_status tetrahedralize_impl(const pm_tet_input *in, pm_tet_result *out, int do
                          "link libtet before libgmsh)",
                          shadow.c_str());
 
-  tetgenio io, o;
+  tetgenio io;
   fill_tetgenio(in, plc, &io);
   tetgenbehavior b;
   set_switches(in, docheck, &b);
-  s = run_tetgen(&b, &io, &o, docheck > 0, captured, err);
+  Raw raw;
+  s = run_tetgen(&b, &io, docheck > 0, &raw, err);
   if (s != PM_OK) return s;
-  return collect(in, plc, o, out, err);
+  if (problems) *problems = raw.problems;
+  return collect(in, plc, raw, out, err);
 }
 
 }  // namespace
@@ -747,19 +849,10 @@ extern "C" pm_status pm_tet_check_with_tetgen(const pm_tet_input *in, int32_t *p
   pm_tet_result res;
   zero(&res);
   try {
-    std::string report;
-    pm_status s = tetrahedralize_impl(in, &res, 1, &report, err);
+    int32_t count = -1;
+    pm_status s = tetrahedralize_impl(in, &res, 1, &count, err);
     pm_tet_result_free(&res);
     if (s != PM_OK) return s;
-    // TetGen's checks (checkmesh, checkshells, checksegments) mark each problem with "!!".
-    int32_t count = 0;
-    size_t start = 0;
-    while (start < report.size()) {
-      size_t end = report.find('\n', start);
-      if (end == std::string::npos) end = report.size();
-      if (report.substr(start, end - start).find("!!") != std::string::npos) ++count;
-      start = end + 1;
-    }
     *problems = count;
     return PM_OK;
   } catch (const std::bad_alloc &) {

@@ -39,8 +39,10 @@
  * becomes a vertex; `nsurf` is informational. A program that links libgmsh must list libtet
  * before it (libgmsh exports another TetGen under the same symbol names); otherwise every call
  * fails with PM_ERR_BACKEND saying so instead of running TetGen.
- * TetGen runs under a process-wide lock with file descriptor 1 redirected (it prints some errors
- * even when quiet), so tetrahedralizations in several threads run one after the other.
+ * TetGen runs in a child process (fork): TetGen 1.5.0 ends its process on some inputs (failed
+ * assertions, segmentation faults), which then comes back as PM_ERR_BACKEND ("TetGen crashed");
+ * the child's stdout is discarded (TetGen prints some errors even when quiet), the caller's is
+ * never touched, and calls from several threads run in parallel.
  */
 #ifndef PM_TET_TETGEN_H
 #define PM_TET_TETGEN_H
@@ -90,7 +92,7 @@ void pm_tet_result_free(pm_tet_result *out);
 /* Diagnostics (tests, debugging): run the same tetrahedralization as pm_tet_tetrahedralize with
  * TetGen's own consistency checks (-C: tet connectivity and orientation, boundary shells,
  * segments) and store in *problems how many problems they report (0: consistent). TetGen prints
- * these checks on stdout; the report is captured from file descriptor 1 and not printed. */
+ * these checks on stdout; the child process's report is read back, never printed. */
 pm_status pm_tet_check_with_tetgen(const pm_tet_input *in, int32_t *problems, pm_error *err);
 
 #ifdef __cplusplus

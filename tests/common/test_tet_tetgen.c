@@ -725,6 +725,40 @@ static void dangling_face_and_edge(void **state) {
   free(s);
 }
 
+/* TetGen 1.5.0 crashes (segmentation fault) on a subnormal coordinate; the adapter runs it in a
+ * child process, so the caller gets an error and goes on. */
+static void tetgen_crash_contained(void **state) {
+  (void)state;
+  surf *s = malloc(sizeof *s);
+  surf_init(s, 1, 1);
+  add_cube(s, 0, 0);
+  add_point(s, 1e-310, 0.5, 0.5);
+  pm_tet_input in = input_of(s, PM_TET_GIVEN_POINTS);
+  pm_tet_result r;
+  pm_error e = {0};
+  watch w = watch_begin();
+  pm_status st = pm_tet_tetrahedralize(&in, &r, &e);
+  long printed = watch_end(w);
+  assert_int_equal(printed, 0);
+  if (st == PM_OK) { /* a TetGen that copes: then the result must be right */
+    check_mesh(&in, &r, 1.0, -1, 1);
+    pm_tet_result_free(&r);
+  } else {
+    assert_int_equal(st, PM_ERR_BACKEND);
+    assert_non_null(strstr(e.msg, "TetGen crashed"));
+    assert_null(r.tet);
+  }
+  /* The process is fine: the next call works. */
+  s->npts = 8;
+  add_point(s, 0.3, 0.5, 0.5);
+  in = input_of(s, PM_TET_GIVEN_POINTS);
+  PM_ASSERT_OK(pm_tet_tetrahedralize(&in, &r, &e), e);
+  check_mesh(&in, &r, 1.0, -1, 1);
+  pm_tet_result_free(&r);
+  surf_free(s);
+  free(s);
+}
+
 /* The same triangle given twice (as an internal face listed by both volumes) is used once. */
 static void duplicate_triangles(void **state) {
   (void)state;
@@ -757,6 +791,7 @@ int main(void) {
       cmocka_unit_test(bad_input),
       cmocka_unit_test(dangling_face_and_edge),
       cmocka_unit_test(duplicate_triangles),
+      cmocka_unit_test(tetgen_crash_contained),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
