@@ -53,6 +53,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -717,44 +718,61 @@ pm_status collect(const pm_tet_input *in, const Plc &plc, Raw &o, pm_tet_result 
                            "tet: point %d is a vertex of no tet (outside every closed volume?)", i);
 
   // Every input triangle must be a face of a tet and every segment an edge (-Y promises it;
-  // this is where the promise is checked).
-  std::vector<Tri> faces;
-  faces.reserve(4 * static_cast<size_t>(ntet));
-  for (int32_t t = 0; t < ntet; ++t) {
-    const int32_t *v = &tets[4 * static_cast<size_t>(t)];
-    faces.push_back(sorted3(v[1], v[2], v[3]));
-    faces.push_back(sorted3(v[0], v[2], v[3]));
-    faces.push_back(sorted3(v[0], v[1], v[3]));
-    faces.push_back(sorted3(v[0], v[1], v[2]));
+  // this is where the promise is checked). Only tet faces (edges) whose corners all lie on
+  // input triangles (segments) are looked up among the sorted input keys.
+  {
+    std::vector<std::pair<Tri, int32_t>> keys;  // sorted triangle, position in plc.tri
+    std::vector<char> on_tri(static_cast<size_t>(nout), 0);
+    for (size_t k = 0; k < plc.tri.size(); ++k) {
+      const Tri &t = plc.tri[k];
+      keys.emplace_back(sorted3(t[0], t[1], t[2]), static_cast<int32_t>(k));
+      on_tri[t[0]] = on_tri[t[1]] = on_tri[t[2]] = 1;
+    }
+    std::sort(keys.begin(), keys.end());
+    std::vector<char> found(plc.tri.size(), 0);
+    for (int32_t t = 0; t < ntet; ++t) {
+      const int32_t *v = &tets[4 * static_cast<size_t>(t)];
+      for (int o = 0; o < 4; ++o) {
+        const int32_t a = v[(o + 1) % 4], b = v[(o + 2) % 4], c = v[(o + 3) % 4];
+        if (!on_tri[a] || !on_tri[b] || !on_tri[c]) continue;
+        const Tri key = sorted3(a, b, c);
+        auto it = std::lower_bound(keys.begin(), keys.end(), std::make_pair(key, INT32_MIN));
+        if (it != keys.end() && it->first == key) found[it->second] = 1;
+      }
+    }
+    for (size_t k = 0; k < plc.tri.size(); ++k)
+      if (!found[k]) {
+        const Tri &t = plc.tri[k];
+        return pm_error_setf(err, PM_ERR_BACKEND,
+                             "tet: input triangle %d (%d, %d, %d) is not a face of the output",
+                             plc.tri_in[k], t[0], t[1], t[2]);
+      }
   }
-  std::sort(faces.begin(), faces.end());
-  for (size_t k = 0; k < plc.tri.size(); ++k) {
-    const Tri &t = plc.tri[k];
-    if (!std::binary_search(faces.begin(), faces.end(), sorted3(t[0], t[1], t[2])))
-      return pm_error_setf(err, PM_ERR_BACKEND,
-                           "tet: input triangle %d (%d, %d, %d) is not a face of the output",
-                           plc.tri_in[k], t[0], t[1], t[2]);
-  }
-  faces.clear();
-  faces.shrink_to_fit();
   if (!plc.seg.empty()) {
-    std::vector<Seg> edges;
-    edges.reserve(6 * static_cast<size_t>(ntet));
+    std::vector<std::pair<Seg, int32_t>> keys;
+    std::vector<char> on_seg(static_cast<size_t>(nout), 0);
+    for (size_t k = 0; k < plc.seg.size(); ++k) {
+      const Seg &e = plc.seg[k];
+      keys.emplace_back(Seg{std::min(e[0], e[1]), std::max(e[0], e[1])}, static_cast<int32_t>(k));
+      on_seg[e[0]] = on_seg[e[1]] = 1;
+    }
+    std::sort(keys.begin(), keys.end());
+    std::vector<char> found(plc.seg.size(), 0);
     for (int32_t t = 0; t < ntet; ++t) {
       const int32_t *v = &tets[4 * static_cast<size_t>(t)];
       for (int i = 0; i < 4; ++i)
-        for (int j = i + 1; j < 4; ++j)
-          edges.push_back(Seg{std::min(v[i], v[j]), std::max(v[i], v[j])});
+        for (int j = i + 1; j < 4; ++j) {
+          if (!on_seg[v[i]] || !on_seg[v[j]]) continue;
+          const Seg key{std::min(v[i], v[j]), std::max(v[i], v[j])};
+          auto it = std::lower_bound(keys.begin(), keys.end(), std::make_pair(key, INT32_MIN));
+          if (it != keys.end() && it->first == key) found[it->second] = 1;
+        }
     }
-    std::sort(edges.begin(), edges.end());
-    for (size_t k = 0; k < plc.seg.size(); ++k) {
-      const Seg &s = plc.seg[k];
-      if (!std::binary_search(edges.begin(), edges.end(),
-                              Seg{std::min(s[0], s[1]), std::max(s[0], s[1])}))
+    for (size_t k = 0; k < plc.seg.size(); ++k)
+      if (!found[k])
         return pm_error_setf(err, PM_ERR_BACKEND,
                              "tet: input segment %d (%d, %d) is not an edge of the output",
-                             plc.seg_in[k], s[0], s[1]);
-    }
+                             plc.seg_in[k], plc.seg[k][0], plc.seg[k][1]);
   }
 
   double *xyz = static_cast<double *>(malloc(3 * static_cast<size_t>(nout) * sizeof(double)));
