@@ -9,21 +9,35 @@
  *     gmshModelGetBoundary's flat list; loops that touch at a vertex are split there; the two
  *     uses of a seam get the pcurve (`side`) that joins its neighbours;
  *   - periodicity: from seam curves (a curve used twice in one face, whose two pcurves differ by
- *     the period), checked by evaluation S(u, v) = S(u + P, v);
+ *     the period), checked by evaluation along the seam, S(lo + P, v) = S(lo, v);
  *   - volume orientation: the sense of each bounding face from gmshModelGetNormal (outward on a
  *     solid) for faces of one volume, and from the edge directions of the neighbouring faces for
  *     faces shared by two volumes (gmsh's oriented boundary signs are all +1 there);
- *   - embedded cells (internal faces, dangling curves and points) from gmshModelMeshGetEmbedded.
+ *   - embedded cells (internal faces, dangling curves and points) from gmshModelMeshGetEmbedded;
+ *   - poles the file does not model: where a loop returns to one vertex at two (u, v) along a
+ *     singular side of the surface (IGES sewing drops degenerate edges: bearing.iges), a
+ *     degenerate curve is added whose only pcurve is that segment. Such curves follow gmsh's in
+ *     the curve list, with tags above gmsh's largest curve tag, and no gmsh entity behind them.
  *
  * Evaluation. Faces of type plane, cylinder, cone, sphere and torus and curves of type line,
  * circle and ellipse (and degenerate curves: a point) are evaluated in closed form: their
  * OpenCASCADE parametrization (origin, axes, radii) is fitted from a few gmsh evaluations and
  * then checked against gmsh at 20 random parameters (positions and first derivatives within
- * 1e-9 of the model diagonal); a cell that fails the check stays on gmsh. Other cells (B-splines,
- * surfaces of revolution, offsets) are evaluated by gmsh, batched in pm_face_eval_many. A failed
+ * 1e-9 of the model diagonal); a cell that fails the check stays on gmsh. Cells of other types
+ * (B-splines, surfaces of revolution, gmsh's "Unknown") are tried against every form, so that a
+ * revolved line or a bilinear planar patch gets the fast path too. The rest is evaluated by
+ * gmsh, batched in pm_face_eval_many; a gmsh curve's C'' is a central difference of gmsh's exact
+ * C' (gmsh's own is a one-sided difference with error ~5e-4 of the scale). A failed
  * gmsh evaluation (gmsh's ierr, or a non-finite value) never aborts: it returns the cell's
  * fallback point (the image of the centre of its parameter box) with zero derivatives, and is
  * counted (pm_cad_eval_failures).
+ *
+ * Projection (pm_cell_class.project, refined by geom.c's Newton iteration): closed forms project
+ * in closed form (atan2 for the angles); gmsh-evaluated cells start from the nearest point of a
+ * grid of 25 x 25 (faces) or 65 (curves) samples taken at load, or from the caller's guess when
+ * its point is nearer. gmshModelGetParametrization (180-240 us per point on the shared B-spline
+ * faces) is the fallback only; gmshModelGetClosestPoint is never used (its (u, v) is always
+ * (0, 0) in gmsh 4.8.4).
  *
  * gmsh state. Each pm_model owns one uniquely named gmsh model ("pm_cad_<n>"), created through a
  * gmsh_session scope and removed by pm_model_destroy(). The model does not need to stay gmsh's

@@ -460,15 +460,17 @@ static int split_walk(pm_cell *f, const seg *s, const raw_loop *w, double uvdiag
   return rc;
 }
 
-/* Period P along parameter k of face `tag`, if S(u + P e_k) = S(u) at a few points of the box. */
+/* Period P along parameter k of face `tag`: the surface closes on itself, S(lo + P) = S(lo) at a
+ * few points along the seam line u_k = lo_k. Checked at the seam rather than at interior points,
+ * because a closed B-spline surface that is not periodic in OCC's sense is defined on one period
+ * only (S(u + P) would extrapolate); evaluation wraps parameters into [lo, lo + P) before asking
+ * gmsh, so closure is what periodic evaluation needs. */
 static int check_period(int tag, const double lo[2], const double hi[2], int k, double P, double diag) {
   double uv[12];
   for (int i = 0; i < 3; ++i) {
-    double a = (i + 0.5) / 3.0, b = (2 * i + 1) / 7.0;
-    uv[4 * i] = lo[0] + a * (hi[0] - lo[0]);
-    uv[4 * i + 1] = lo[1] + b * (hi[1] - lo[1]);
-    uv[4 * i + 2] = uv[4 * i] + (k == 0 ? P : 0);
-    uv[4 * i + 3] = uv[4 * i + 1] + (k == 1 ? P : 0);
+    double w = lo[1 - k] + (hi[1 - k] - lo[1 - k]) * (2 * i + 1) / 6.0;
+    uv[4 * i + k] = lo[k], uv[4 * i + 1 - k] = w;
+    uv[4 * i + 2 + k] = lo[k] + P, uv[4 * i + 3 - k] = w;
   }
   pm_face_point fp[6];
   if (cad_gmsh_face(tag, 6, uv, 0, fp)) return 0;
