@@ -4,15 +4,20 @@
 //
 // What TetGen 1.5.0 (Debian's libtet1.5) does and what this file does about it, as measured:
 //   - -Y keeps the input triangles and segments as they are; without it TetGen puts Steiner
-//     points on the boundary even for a cube with one interior point. With -Y and -q,
-//     refinement only inserts interior points that do not encroach on the boundary, so the
-//     volume bound is reached only where the surface mesh is already fine enough.
+//     points on the boundary even for a cube with one interior point, and re-triangulates
+//     coplanar neighbours of the same facet marker (96 of 192 triangles of a 4 x 4-per-face
+//     cube changed with -p alone). -M (no merging of coplanar facets or of close vertices)
+//     made no difference with -Y in those runs and is kept so that nothing is merged.
+//   - With -Y and -q, refinement only inserts interior points that do not encroach on the
+//     boundary, so the volume bound is reached only where the surface mesh is already fine
+//     enough (cube, -a0.01: largest tet 1/6 with 2 triangles per face, 0.005 with 5 x 5 squares).
 //   - Nothing forbids Steiner points during boundary recovery: even with -Y and -S0 TetGen adds
 //     an interior point to a Schoenhardt prism. Point counts are therefore checked after the
 //     fact; in PM_TET_GIVEN_POINTS mode any added point is an error (PM_ERR_GEOM). In
 //     refinement -S is a hard cap (-S100 gives exactly 100 added points), used for max_points.
 //   - Interior points are plain input points of the PLC: they are in the initial Delaunay
-//     tetrahedralization and stay vertices. -J keeps unused input points in the output list,
+//     tetrahedralization and stay vertices. (Passing them through -i and an `addin` list gives
+//     the same tets for the cubes tried, numbered after the surface points.) -J keeps unused input points in the output list,
 //     so input indices are output indices; an input point no tet uses is reported as an error.
 //   - Dangling segments are two-vertex polygons, each its own facet (TetGen's .poly
 //     convention); with -Y they stay single tet edges.
