@@ -59,11 +59,14 @@ static void machine_info(int argc, char **argv) {
 
 static int is_cad_file(const char *name) {
   const char *dot = strrchr(name, '.');
-  return dot && (!strcasecmp(dot, ".step") || !strcasecmp(dot, ".stp") || !strcasecmp(dot, ".iges") ||
-                 !strcasecmp(dot, ".igs") || !strcasecmp(dot, ".brep"));
+  return dot &&
+         (!strcasecmp(dot, ".step") || !strcasecmp(dot, ".stp") || !strcasecmp(dot, ".iges") ||
+          !strcasecmp(dot, ".igs") || !strcasecmp(dot, ".brep"));
 }
 
-static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
+static int cmp_str(const void *a, const void *b) {
+  return strcmp(*(char *const *)a, *(char *const *)b);
+}
 
 static void load_table(const char *dir) {
   DIR *d = opendir(dir);
@@ -78,8 +81,10 @@ static void load_table(const char *dir) {
     if (is_cad_file(e->d_name)) names[n++] = strdup(e->d_name);
   closedir(d);
   qsort(names, (size_t)n, sizeof(char *), cmp_str);
-  printf("load times (pm_cad_load: gmsh import + cell complex + fits + loops + finish; best of 3)\n");
-  printf("%-24s %9s  %-20s %11s %13s\n", "model", "load [s]", "V/E/F/R", "fast faces", "fast curves");
+  printf(
+      "load times (pm_cad_load: gmsh import + cell complex + fits + loops + finish; best of 3)\n");
+  printf("%-24s %9s  %-20s %11s %13s\n", "model", "load [s]", "V/E/F/R", "fast faces",
+         "fast curves");
   double total = 0;
   for (int i = 0; i < n; ++i) {
     char path[1024];
@@ -101,11 +106,15 @@ static void load_table(const char *dir) {
     }
     if (m) {
       int ff = 0, fc = 0;
-      for (int32_t k = 0; k < m->count[PM_FACE]; ++k) ff += pm_cad_cell_is_fast(pm_model_cell(m, PM_FACE, k)) == 1;
-      for (int32_t k = 0; k < m->count[PM_CURVE]; ++k) fc += pm_cad_cell_is_fast(pm_model_cell(m, PM_CURVE, k)) == 1;
+      for (int32_t k = 0; k < m->count[PM_FACE]; ++k)
+        ff += pm_cad_cell_is_fast(pm_model_cell(m, PM_FACE, k)) == 1;
+      for (int32_t k = 0; k < m->count[PM_CURVE]; ++k)
+        fc += pm_cad_cell_is_fast(pm_model_cell(m, PM_CURVE, k)) == 1;
       char counts[64];
-      snprintf(counts, sizeof counts, "%d/%d/%d/%d", m->count[0], m->count[1], m->count[2], m->count[3]);
-      printf("%-24s %9.4f  %-20s %5d/%-5d %6d/%-6d\n", names[i], best, counts, ff, m->count[2], fc, m->count[1]);
+      snprintf(counts, sizeof counts, "%d/%d/%d/%d", m->count[0], m->count[1], m->count[2],
+               m->count[3]);
+      printf("%-24s %9.4f  %-20s %5d/%-5d %6d/%-6d\n", names[i], best, counts, ff, m->count[2], fc,
+             m->count[1]);
       total += best;
       pm_model_destroy(m);
     }
@@ -119,12 +128,12 @@ static void load_table(const char *dir) {
 enum { NPTS = 4096, BATCH = 256 };
 
 /* out = ns per point of `reps` passes of `body` over `npts` points. */
-#define TIME_NS(out, reps, npts, ...)                           \
-  do {                                                           \
-    double t0_ = now_s();                                        \
-    for (int r_ = 0; r_ < (reps); ++r_) {                        \
-      __VA_ARGS__;                                               \
-    }                                                            \
+#define TIME_NS(out, reps, npts, ...)                                \
+  do {                                                               \
+    double t0_ = now_s();                                            \
+    for (int r_ = 0; r_ < (reps); ++r_) {                            \
+      __VA_ARGS__;                                                   \
+    }                                                                \
     out = 1e9 * (now_s() - t0_) / ((double)(reps) * (double)(npts)); \
   } while (0)
 
@@ -168,17 +177,21 @@ static void bench_face(const char *label, const pm_model *m, const pm_cell *f) {
   pm_error e = {0};
   pm_gmsh_lock();
   pm_gmsh_scope_enter(&sc, pm_cad_gmsh_model(m), 0, &e);
-  for (int o = 0; o < 3; ++o) TIME_NS(t[o], 6, NPTS, for (int i = 0; i < NPTS; ++i) gmsh_eval(f->tag, uv + 2 * i, 1, o));
+  for (int o = 0; o < 3; ++o)
+    TIME_NS(t[o], 6, NPTS, for (int i = 0; i < NPTS; ++i) gmsh_eval(f->tag, uv + 2 * i, 1, o));
   printf("  %-44s %10.1f %10.1f %10.1f\n", "gmsh, one point per call", t[0], t[1], t[2]);
   for (int o = 0; o < 3; ++o)
-    TIME_NS(t[o], 8, NPTS, for (int i = 0; i < NPTS; i += BATCH) gmsh_eval(f->tag, uv + 2 * i, BATCH, o));
+    TIME_NS(t[o], 8, NPTS,
+            for (int i = 0; i < NPTS; i += BATCH) gmsh_eval(f->tag, uv + 2 * i, BATCH, o));
   printf("  %-44s %10.1f %10.1f %10.1f\n", "gmsh, batches of 256", t[0], t[1], t[2]);
   pm_gmsh_scope_leave(&sc, 0);
   pm_gmsh_unlock();
   int reps = pm_cad_cell_is_fast(f) == 1 ? 200 : 6;
   for (int o = 0; o < 3; ++o)
-    TIME_NS(t[o], reps, NPTS, for (int i = 0; i < NPTS; ++i) pm_face_eval(f, uv + 2 * i, o, out + i));
-  printf("  %-44s %10.1f %10.1f %10.1f\n", "pm_face_eval (backend, lock + model check)", t[0], t[1], t[2]);
+    TIME_NS(t[o], reps, NPTS,
+            for (int i = 0; i < NPTS; ++i) pm_face_eval(f, uv + 2 * i, o, out + i));
+  printf("  %-44s %10.1f %10.1f %10.1f\n", "pm_face_eval (backend, lock + model check)", t[0], t[1],
+         t[2]);
   for (int o = 0; o < 3; ++o) TIME_NS(t[o], reps * 4, NPTS, pm_face_eval_many(f, NPTS, uv, o, out));
   printf("  %-44s %10.1f %10.1f %10.1f\n", "pm_face_eval_many (4096 points)", t[0], t[1], t[2]);
   double ti;
@@ -189,7 +202,8 @@ static void bench_face(const char *label, const pm_model *m, const pm_cell *f) {
   pm_gmsh_scope_enter(&sc, pm_cad_gmsh_model(m), 0, &e);
   int ierr = 0;
   double tg;
-  TIME_NS(tg, 1, 256, for (int i = 0; i < 256; ++i) nin += gmshModelIsInside(2, f->tag, uv + 2 * i, 2, &ierr));
+  TIME_NS(tg, 1, 256,
+          for (int i = 0; i < 256; ++i) nin += gmshModelIsInside(2, f->tag, uv + 2 * i, 2, &ierr));
   pm_gmsh_scope_leave(&sc, 0);
   pm_gmsh_unlock();
   printf("  %-44s %10.1f   (gmshModelIsInside: %.0f)\n", "pm_face_inside", ti, tg);
@@ -203,23 +217,29 @@ static void bench_face(const char *label, const pm_model *m, const pm_cell *f) {
     double n[3] = {p.su[1] * p.sv[2] - p.su[2] * p.sv[1], p.su[2] * p.sv[0] - p.su[0] * p.sv[2],
                    p.su[0] * p.sv[1] - p.su[1] * p.sv[0]};
     double ln = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    for (int k = 0; k < 3; ++k) xyz[3 * i + k] = p.p[k] + (ln > 0 ? 1e-3 * m->diagonal * n[k] / ln : 0);
+    for (int k = 0; k < 3; ++k)
+      xyz[3 * i + k] = p.p[k] + (ln > 0 ? 1e-3 * m->diagonal * n[k] / ln : 0);
   }
   double par[2];
   int preps = pm_cad_cell_is_fast(f) == 1 ? 20 : 4;
   double tp;
-  TIME_NS(tp, preps, NPROJ, for (int i = 0; i < NPROJ; ++i) pm_cell_project(f, xyz + 3 * i, NULL, par, NULL, NULL, NULL));
+  TIME_NS(tp, preps, NPROJ,
+          for (int i = 0; i < NPROJ; ++i)
+              pm_cell_project(f, xyz + 3 * i, NULL, par, NULL, NULL, NULL));
   double tq;
-  TIME_NS(tq, preps, NPROJ, for (int i = 0; i < NPROJ; ++i) pm_cell_project(f, xyz + 3 * i, uv + 2 * i, par, NULL, NULL, NULL));
+  TIME_NS(tq, preps, NPROJ,
+          for (int i = 0; i < NPROJ; ++i)
+              pm_cell_project(f, xyz + 3 * i, uv + 2 * i, par, NULL, NULL, NULL));
   pm_gmsh_lock();
   pm_gmsh_scope_enter(&sc, pm_cad_gmsh_model(m), 0, &e);
   double tr;
-  TIME_NS(tr, 1, NPROJ, for (int i = 0; i < NPROJ; ++i) {
-    double *r = NULL;
-    size_t nr = 0;
-    gmshModelGetParametrization(2, f->tag, xyz + 3 * i, 3, &r, &nr, &ierr);
-    if (r) gmshFree(r);
-  });
+  TIME_NS(
+      tr, 1, NPROJ, for (int i = 0; i < NPROJ; ++i) {
+        double *r = NULL;
+        size_t nr = 0;
+        gmshModelGetParametrization(2, f->tag, xyz + 3 * i, 3, &r, &nr, &ierr);
+        if (r) gmshFree(r);
+      });
   pm_gmsh_scope_leave(&sc, 0);
   pm_gmsh_unlock();
   printf("  %-44s %10.1f   (with a guess: %.1f; gmshModelGetParametrization: %.1f)\n\n",
@@ -234,9 +254,11 @@ static void bench_curve(const char *label, const pm_model *m, const pm_cell *c) 
   pm_curve_point p;
   int reps = pm_cad_cell_is_fast(c) == 1 ? 200 : 2;
   double o[3];
-  for (int k = 0; k < 3; ++k) TIME_NS(o[k], reps, NPTS, for (int i = 0; i < NPTS; ++i) pm_curve_eval(c, t[i], k, &p));
-  printf("%s: %s curve %d of %s (%s): pm_curve_eval %.1f / %.1f / %.1f ns (order 0 / 1 / 2)\n", label,
-         c->cls->name, c->tag, m->name, pm_cad_cell_is_fast(c) == 1 ? "closed form" : "gmsh", o[0], o[1], o[2]);
+  for (int k = 0; k < 3; ++k)
+    TIME_NS(o[k], reps, NPTS, for (int i = 0; i < NPTS; ++i) pm_curve_eval(c, t[i], k, &p));
+  printf("%s: %s curve %d of %s (%s): pm_curve_eval %.1f / %.1f / %.1f ns (order 0 / 1 / 2)\n",
+         label, c->cls->name, c->tag, m->name, pm_cad_cell_is_fast(c) == 1 ? "closed form" : "gmsh",
+         o[0], o[1], o[2]);
   sink += p.p[0];
 }
 
@@ -281,7 +303,8 @@ int main(int argc, char **argv) {
   struct {
     const char *label, *file;
     int tag;
-  } curves[] = {{"line", "synth_box_hole.brep", 1}, {"circle", "synth_box_hole.brep", 10},
+  } curves[] = {{"line", "synth_box_hole.brep", 1},
+                {"circle", "synth_box_hole.brep", 10},
                 {"B-spline", "t20_component8.step", 7}};
   for (size_t i = 0; i < sizeof curves / sizeof curves[0]; ++i) {
     char path[1024];

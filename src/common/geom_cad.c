@@ -97,7 +97,9 @@ pm_status cad_attach(pm_model *m, const char *gname, pm_error *err) {
   return PM_OK;
 }
 
-static int is_cad_model(const pm_model *m) { return m && m->destroy_impl == cad_destroy_impl && m->impl; }
+static int is_cad_model(const pm_model *m) {
+  return m && m->destroy_impl == cad_destroy_impl && m->impl;
+}
 
 long pm_cad_eval_failures(const pm_model *m) {
   if (!is_cad_model(m)) return -1;
@@ -271,11 +273,13 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
   if (dt) gmshFree(dt);
   if (nent == 0) {
     if (logged[0] || !has_signature(path, fmt))
-      s = pm_error_setf(err, PM_ERR_PARSE, "%s: cannot parse the file (corrupt, truncated or not %s)%s%s",
-                        path, fmt == FMT_STEP ? "STEP" : (fmt == FMT_IGES ? "IGES" : "an OCCT BREP file"),
+      s = pm_error_setf(err, PM_ERR_PARSE,
+                        "%s: cannot parse the file (corrupt, truncated or not %s)%s%s", path,
+                        fmt == FMT_STEP ? "STEP" : (fmt == FMT_IGES ? "IGES" : "an OCCT BREP file"),
                         logged[0] ? ": " : "", logged);
     else
-      s = pm_error_setf(err, PM_ERR_GEOM, "%s: the file imports to an empty model (no shapes)", path);
+      s = pm_error_setf(err, PM_ERR_GEOM, "%s: the file imports to an empty model (no shapes)",
+                        path);
     pm_gmsh_scope_leave(&scope, 1);
     pm_gmsh_unlock();
     return s;

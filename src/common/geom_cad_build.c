@@ -149,7 +149,8 @@ static pm_status add_embedded(pm_cell *c, int dim, int tag, const tag_list tl[4]
     int32_t idx = index_of(&tl[ed], dt[2 * i + 1]);
     if (idx < 0) continue;
     int dup = 0;
-    for (int32_t k = 0; k < c->nembed; ++k) dup |= c->embed[k].dim == ed && c->embed[k].index == idx;
+    for (int32_t k = 0; k < c->nembed; ++k)
+      dup |= c->embed[k].dim == ed && c->embed[k].index == idx;
     if (!dup) c->embed[c->nembed++] = (pm_cellref){ed, idx};
   }
   gmshFree(dt);
@@ -177,7 +178,8 @@ static pm_status build_curve(pm_cell *c, int tag, const tag_list tl[4], const do
   entity_type(1, tag, gtype, sizeof gtype);
 
   double ts[DEGEN_SAMPLES];
-  for (int k = 0; k < DEGEN_SAMPLES; ++k) ts[k] = c->lo[0] + (c->hi[0] - c->lo[0]) * k / (DEGEN_SAMPLES - 1);
+  for (int k = 0; k < DEGEN_SAMPLES; ++k)
+    ts[k] = c->lo[0] + (c->hi[0] - c->lo[0]) * k / (DEGEN_SAMPLES - 1);
   pm_curve_point cp[DEGEN_SAMPLES];
   if (cad_gmsh_curve(tag, DEGEN_SAMPLES, ts, 0, 1, cp))
     return pm_gmsh_error(err, PM_ERR_GEOM, "evaluating a curve");
@@ -267,15 +269,17 @@ static void seg_start(const seg *s, int sense, int32_t *v, const double **uv) {
   *uv = s->uv[sense > 0 ? 0 : 1];
 }
 
-static double dist2d(const double a[2], const double b[2]) { return hypot(a[0] - b[0], a[1] - b[1]); }
+static double dist2d(const double a[2], const double b[2]) {
+  return hypot(a[0] - b[0], a[1] - b[1]);
+}
 
 /* A pole the file does not model: some B-rep writers and IGES sewing drop degenerate edges,
  * leaving a loop that returns to one vertex at two different (u, v) along a singular side of
  * the surface (bearing.iges). Such a gap gets a degenerate curve of our own: a point in 3D
  * whose pcurve on this face is the segment between the two (u, v). */
 typedef struct synth {
-  int32_t vertex;  /* the vertex the gap is at */
-  int32_t face;    /* index of the only face that uses it */
+  int32_t vertex;    /* the vertex the gap is at */
+  int32_t face;      /* index of the only face that uses it */
   double a[2], b[2]; /* the pcurve: from a at t = 0 to b at t = 1 */
 } synth;
 
@@ -285,7 +289,7 @@ typedef struct face_ctx {
   double diag;
   const pm_cell *curves; /* [nc] the curves, built already */
   int32_t nc;
-  synth *syn;            /* synthetic degenerate curves, curve index nc + k */
+  synth *syn; /* synthetic degenerate curves, curve index nc + k */
   int32_t nsyn, capsyn;
 } face_ctx;
 
@@ -465,7 +469,8 @@ static int split_walk(pm_cell *f, const seg *s, const raw_loop *w, double uvdiag
  * because a closed B-spline surface that is not periodic in OCC's sense is defined on one period
  * only (S(u + P) would extrapolate); evaluation wraps parameters into [lo, lo + P) before asking
  * gmsh, so closure is what periodic evaluation needs. */
-static int check_period(int tag, const double lo[2], const double hi[2], int k, double P, double diag) {
+static int check_period(int tag, const double lo[2], const double hi[2], int k, double P,
+                        double diag) {
   double uv[12];
   for (int i = 0; i < 3; ++i) {
     double w = lo[1 - k] + (hi[1 - k] - lo[1 - k]) * (2 * i + 1) / 6.0;
@@ -493,7 +498,8 @@ static pm_status build_face(face_ctx *fc, int32_t index, pm_cell *f, int tag, pm
   {
     double c[2] = {0.5 * (f->lo[0] + f->hi[0]), 0.5 * (f->lo[1] + f->hi[1])};
     pm_face_point fp;
-    if (cad_gmsh_face(tag, 1, c, 0, &fp)) return pm_gmsh_error(err, PM_ERR_GEOM, "evaluating a surface");
+    if (cad_gmsh_face(tag, 1, c, 0, &fp))
+      return pm_gmsh_error(err, PM_ERR_GEOM, "evaluating a surface");
     pm_v3_copy(cc->fallback, fp.p);
   }
 
@@ -563,7 +569,8 @@ static pm_status build_face(face_ctx *fc, int32_t index, pm_cell *f, int tag, pm
     if (chain_walks(fc, index, tag, s, &ns, uvdiag, &walks, &nw))
       st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     for (int32_t w = 0; w < nw && !st; ++w)
-      if (split_walk(f, s, &walks[w], uvdiag)) st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+      if (split_walk(f, s, &walks[w], uvdiag))
+        st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     if (walks && nw > 0) free(walks[0].seg), free(walks[0].sense); /* the walks share them */
     free(walks);
   }
@@ -603,8 +610,7 @@ static pm_status build_volume(pm_cell *v, int tag, const tag_list tl[4], pm_erro
     for (int32_t j = 0; j < nf; ++j) mult += ft[j] == ft[i];
     for (int32_t j = 0; j < i; ++j) seen |= ft[j] == ft[i];
     if (seen) continue;
-    if (mult >= 2)
-      /* Listed twice in one shell: material on both sides, an internal face. */
+    if (mult >= 2) /* Listed twice in one shell: material on both sides, an internal face. */
       v->embed[v->nembed++] = (pm_cellref){PM_FACE, fi};
     else
       v->bound[v->nbound++] = (pm_use){fi, +1, 0}; /* sense fixed after pm_model_finish */
@@ -628,7 +634,8 @@ static pm_status embed_by_adjacency(pm_model *m, const tag_list tl[4], pm_error 
       pm_cell *v = &m->cells[PM_VOLUME][vi];
       int listed = 0;
       for (int32_t q = 0; q < v->nbound; ++q) listed |= v->bound[q].cell == i;
-      for (int32_t q = 0; q < v->nembed; ++q) listed |= v->embed[q].dim == PM_FACE && v->embed[q].index == i;
+      for (int32_t q = 0; q < v->nembed; ++q)
+        listed |= v->embed[q].dim == PM_FACE && v->embed[q].index == i;
       if (listed) continue;
       pm_cellref *e = realloc(v->embed, sizeof(pm_cellref) * ((size_t)v->nembed + 1));
       if (!e) {

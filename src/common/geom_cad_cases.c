@@ -23,7 +23,8 @@ static const pm_cad_case_info cad_cases[] = {
     /* diagonal sqrt(1 + 1 + 4) = 2.45: diagonal / 16.3 */
     {"cylinder", "solid cylinder of radius 0.5, z from -1 to 1 (seam, two disks)", 0.15},
     /* diagonal sqrt(4 + 1 + 0.36) = 2.32: diagonal / 18.5 */
-    {"boxhole", "box 2 x 1 x 0.6 centred at the origin with a hole of radius 0.25 through its thickness",
+    {"boxhole",
+     "box 2 x 1 x 0.6 centred at the origin with a hole of radius 0.25 through its thickness",
      0.125},
     /* diagonal sqrt(3) = 1.73: diagonal / 17.3 */
     {"nonmanifold",
@@ -33,8 +34,8 @@ static const pm_cad_case_info cad_cases[] = {
 };
 #define NCASES ((int)(sizeof cad_cases / sizeof cad_cases[0]))
 
-static const char *const case_names[NCASES + 1] = {"sphere", "torus", "cylinder", "boxhole",
-                                                   "nonmanifold", NULL};
+static const char *const case_names[NCASES + 1] = {"sphere",  "torus",       "cylinder",
+                                                   "boxhole", "nonmanifold", NULL};
 
 const pm_cad_case_info *pm_cad_cases(int *n) {
   if (n) *n = NCASES;

@@ -50,7 +50,8 @@ static int call(gmsh_eval_fn fn, int dim, int tag, const double *par, size_t npa
 #define CURVE_D2_STEP 1e-5
 #define CHUNK 128
 
-int cad_gmsh_curve(int tag, int32_t n, const double *t, int order, double span, pm_curve_point *out) {
+int cad_gmsh_curve(int tag, int32_t n, const double *t, int order, double span,
+                   pm_curve_point *out) {
   double *r;
   const size_t nn = (size_t)n;
   if (call(gmshModelGetValue, 1, tag, t, nn, 3 * nn, &r)) return -1;
@@ -66,11 +67,13 @@ int cad_gmsh_curve(int tag, int32_t n, const double *t, int order, double span, 
     double q[3 * CHUNK];
     for (size_t i0 = 0; i0 < nn; i0 += CHUNK) {
       size_t m = nn - i0 < CHUNK ? nn - i0 : CHUNK;
-      for (size_t i = 0; i < m; ++i) q[3 * i] = t[i0 + i], q[3 * i + 1] = t[i0 + i] - h, q[3 * i + 2] = t[i0 + i] + h;
+      for (size_t i = 0; i < m; ++i)
+        q[3 * i] = t[i0 + i], q[3 * i + 1] = t[i0 + i] - h, q[3 * i + 2] = t[i0 + i] + h;
       if (call(gmshModelGetDerivative, 1, tag, q, 3 * m, 9 * m, &r)) return -1;
       for (size_t i = 0; i < m; ++i) {
         pm_v3_copy(out[i0 + i].d1, r + 9 * i);
-        for (int k = 0; k < 3; ++k) out[i0 + i].d2[k] = (r[9 * i + 6 + k] - r[9 * i + 3 + k]) / (2 * h);
+        for (int k = 0; k < 3; ++k)
+          out[i0 + i].d2[k] = (r[9 * i + 6 + k] - r[9 * i + 3 + k]) / (2 * h);
       }
       gmshFree(r);
     }
@@ -86,7 +89,8 @@ int cad_gmsh_face(int tag, int32_t n, const double *uv, int order, pm_face_point
   gmshFree(r);
   if (order >= 1) {
     if (call(gmshModelGetDerivative, 2, tag, uv, 2 * nn, 6 * nn, &r)) return -1;
-    for (size_t i = 0; i < nn; ++i) pm_v3_copy(out[i].su, r + 6 * i), pm_v3_copy(out[i].sv, r + 6 * i + 3);
+    for (size_t i = 0; i < nn; ++i)
+      pm_v3_copy(out[i].su, r + 6 * i), pm_v3_copy(out[i].sv, r + 6 * i + 3);
     gmshFree(r);
   }
   if (order >= 2) {
@@ -129,7 +133,8 @@ static void curve_eval(const pm_cell *self, double t, int order, pm_curve_point 
   /* gmsh extrapolates outside [lo, hi]; a closed curve must wrap instead. */
   if (self->periodic[0] && (t < self->lo[0] || t > self->hi[0])) pm_cell_wrap(self, &t);
   cad_guard g;
-  int bad = cad_enter(cc->cm, &g) || cad_gmsh_curve(self->tag, 1, &t, order, self->hi[0] - self->lo[0], out);
+  int bad = cad_enter(cc->cm, &g) ||
+            cad_gmsh_curve(self->tag, 1, &t, order, self->hi[0] - self->lo[0], out);
   cad_leave(&g);
   if (bad) curve_fallback(cc, order, out);
 }
@@ -276,7 +281,8 @@ pm_status cad_build_grids(pm_model *m, pm_error *err) {
       const int32_t nu = d == PM_FACE ? GRID_FACE : GRID_CURVE, nv = d == PM_FACE ? GRID_FACE : 1;
       double *par = malloc(sizeof(double) * 2 * (size_t)(nu * nv));
       cc->grid = malloc(sizeof(double) * 3 * (size_t)(nu * nv));
-      void *pts = malloc((d == PM_FACE ? sizeof(pm_face_point) : sizeof(pm_curve_point)) * (size_t)(nu * nv));
+      void *pts = malloc((d == PM_FACE ? sizeof(pm_face_point) : sizeof(pm_curve_point)) *
+                         (size_t)(nu * nv));
       if (!par || !cc->grid || !pts) {
         free(par), free(pts);
         return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
@@ -343,19 +349,20 @@ static void face_curve_uv(const pm_cell *self, const pm_use *use, double t, doub
 
 /* ---- classes ----------------------------------------------------------------------------- */
 
-#define FACE_CLASS(nm) {nm, NULL, face_eval, face_eval_many, face_curve_uv, face_project, NULL}
-#define CURVE_CLASS(nm) {nm, curve_eval, NULL, NULL, NULL, curve_project, NULL}
+#define FACE_CLASS(nm) \
+  { nm, NULL, face_eval, face_eval_many, face_curve_uv, face_project, NULL }
+#define CURVE_CLASS(nm) \
+  { nm, curve_eval, NULL, NULL, NULL, curve_project, NULL }
 
 static const pm_cell_class face_classes[] = {
-    FACE_CLASS("plane"),   FACE_CLASS("cylinder"),   FACE_CLASS("cone"),
-    FACE_CLASS("sphere"),  FACE_CLASS("torus"),      FACE_CLASS("bspline"),
-    FACE_CLASS("bezier"),  FACE_CLASS("revolution"), FACE_CLASS("extrusion"),
-    FACE_CLASS("offset"),  FACE_CLASS("other"),
+    FACE_CLASS("plane"),     FACE_CLASS("cylinder"), FACE_CLASS("cone"),   FACE_CLASS("sphere"),
+    FACE_CLASS("torus"),     FACE_CLASS("bspline"),  FACE_CLASS("bezier"), FACE_CLASS("revolution"),
+    FACE_CLASS("extrusion"), FACE_CLASS("offset"),   FACE_CLASS("other"),
 };
 static const pm_cell_class curve_classes[] = {
-    CURVE_CLASS("line"),   CURVE_CLASS("circle"),  CURVE_CLASS("ellipse"),
-    CURVE_CLASS("bspline"), CURVE_CLASS("bezier"), CURVE_CLASS("trimmed"),
-    CURVE_CLASS("offset"), CURVE_CLASS("degenerate"), CURVE_CLASS("other"),
+    CURVE_CLASS("line"),    CURVE_CLASS("circle"),     CURVE_CLASS("ellipse"),
+    CURVE_CLASS("bspline"), CURVE_CLASS("bezier"),     CURVE_CLASS("trimmed"),
+    CURVE_CLASS("offset"),  CURVE_CLASS("degenerate"), CURVE_CLASS("other"),
 };
 static const pm_cell_class point_class = {"point", NULL, NULL, NULL, NULL, NULL, NULL};
 static const pm_cell_class volume_class = {"volume", NULL, NULL, NULL, NULL, NULL, NULL};

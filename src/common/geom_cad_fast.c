@@ -59,7 +59,8 @@ void cad_form_face(const cad_form *f, const double uv[2], int order, pm_face_poi
   /* The surfaces of revolution share e(u) = cos u X + sin u Y and e'(u) = -sin u X + cos u Y. */
   const double cu = cos(u), su = sin(u);
   double e[3], ep[3];
-  for (int k = 0; k < 3; ++k) e[k] = cu * f->x[k] + su * f->y[k], ep[k] = -su * f->x[k] + cu * f->y[k];
+  for (int k = 0; k < 3; ++k)
+    e[k] = cu * f->x[k] + su * f->y[k], ep[k] = -su * f->x[k] + cu * f->y[k];
   switch (f->kind) {
     case CAD_CYLINDER:
       for (int k = 0; k < 3; ++k) {
@@ -170,9 +171,7 @@ int cad_form_project(const cad_form *f, const double xyz[3], const double *ref, 
       par[0] = pm_v3_dot(d, f->x) / xx;
       return 0;
     }
-    case CAD_CIRCLE:
-      par[0] = near_angle(ang, ref[0]);
-      return 0;
+    case CAD_CIRCLE: par[0] = near_angle(ang, ref[0]); return 0;
     case CAD_ELLIPSE:
       /* The eccentric anomaly of the point scaled onto the circle: exact on the ellipse, a
        * start for geom.c's Newton refinement elsewhere. */
@@ -302,7 +301,9 @@ static int fit_curve(cad_kind kind, int tag, double diag, cad_form *F) {
 #define FIT_TOL_D1 1e-9
 #define FIT_TOL_D2 1e-6
 
-static int near3(const double a[3], const double b[3], double tol) { return pm_v3_dist(a, b) <= tol; }
+static int near3(const double a[3], const double b[3], double tol) {
+  return pm_v3_dist(a, b) <= tol;
+}
 
 static int check_face(const cad_form *F, int tag, const double lo[2], const double hi[2],
                       double diag, pm_rng *rng) {

@@ -44,9 +44,9 @@ typedef struct cad_form {
 typedef struct cad_model cad_model;
 
 typedef struct cad_cell {
-  cad_model *cm;       /* borrowed: the model's backend data */
-  cad_form form;       /* the closed form, or kind CAD_GMSH */
-  double fallback[3];  /* the point a failed evaluation returns */
+  cad_model *cm;      /* borrowed: the model's backend data */
+  cad_form form;      /* the closed form, or kind CAD_GMSH */
+  double fallback[3]; /* the point a failed evaluation returns */
   /* A degenerate curve added where the file has none (geom_cad_build.c, synth): no gmsh
    * entity; its only pcurve, on face synth_face, runs from synth_uv[0..1] at t = 0 to
    * synth_uv[2..3] at t = 1. */
@@ -61,9 +61,9 @@ typedef struct cad_cell {
 } cad_cell;
 
 struct cad_model {
-  char gname[64];        /* the gmsh model that holds the shapes */
-  cad_cell *cells[4];    /* [count[d]] owned, parallel to the pm_model's cells */
-  atomic_long failures;  /* gmsh evaluations replaced by the fallback output */
+  char gname[64];       /* the gmsh model that holds the shapes */
+  cad_cell *cells[4];   /* [count[d]] owned, parallel to the pm_model's cells */
+  atomic_long failures; /* gmsh evaluations replaced by the fallback output */
 };
 
 /* Lock gmsh and make cm's gmsh model current, remembering the previous current model. Returns 0,
@@ -83,7 +83,8 @@ const pm_cell_class *cad_class(int dim, const char *name);
  * current by the caller (inside cad_enter/cad_leave). Return 0 on success, -1 when gmsh failed or
  * gave a non-finite value (the outputs are then unspecified). A curve's second derivative is a
  * central difference of first derivatives with a step relative to `span` (its parameter range). */
-int cad_gmsh_curve(int tag, int32_t n, const double *t, int order, double span, pm_curve_point *out);
+int cad_gmsh_curve(int tag, int32_t n, const double *t, int order, double span,
+                   pm_curve_point *out);
 int cad_gmsh_face(int tag, int32_t n, const double *uv, int order, pm_face_point *out);
 
 /* Closed forms (geom_cad_fast.c). */

@@ -79,7 +79,8 @@ static void check_structure(const pm_model *m) {
       if (f->periodic[k]) {
         /* Every shared model's periodic faces are OCC elementary surfaces or revolutions. */
         PM_ASSERT_NEAR(f->period[k], 2 * M_PI, 1e-9);
-        double uv[2] = {0.5 * (f->lo[0] + f->hi[0]), 0.5 * (f->lo[1] + f->hi[1])}, uv2[2] = {uv[0], uv[1]};
+        double uv[2] = {0.5 * (f->lo[0] + f->hi[0]), 0.5 * (f->lo[1] + f->hi[1])},
+               uv2[2] = {uv[0], uv[1]};
         uv2[k] += f->period[k];
         pm_face_point p, q;
         pm_face_eval(f, uv, 0, &p);
@@ -90,7 +91,8 @@ static void check_structure(const pm_model *m) {
   for (int32_t i = 0; i < m->count[PM_VOLUME]; ++i) {
     const pm_cell *v = pm_model_cell(m, PM_VOLUME, i);
     assert_true(v->nbound > 0);
-    for (int32_t k = 0; k < v->nbound; ++k) assert_true(v->bound[k].sense == 1 || v->bound[k].sense == -1);
+    for (int32_t k = 0; k < v->nbound; ++k)
+      assert_true(v->bound[k].sense == 1 || v->bound[k].sense == -1);
   }
   assert_int_equal(pm_cad_eval_failures(m), 0);
 }
@@ -153,10 +155,10 @@ static void every_model_loads_with_gmsh_counts(void **state) {
 static void volume_orientation_matches_gmsh_mass(void **state) {
   (void)state;
   CAD_REQUIRE();
-  const char *files[] = {"synth_box_hole.brep", "synth_sphere.brep", "synth_torus.brep",
-                         "synth_cone.brep",     "planar_step.brep",  "crack.brep",
-                         "table.brep",          "screw.step",        "bottle.brep",
-                         "box_sides.step",      "wrench.stp",        "t20_component8.step",
+  const char *files[] = {"synth_box_hole.brep", "synth_sphere.brep",   "synth_torus.brep",
+                         "synth_cone.brep",     "planar_step.brep",    "crack.brep",
+                         "table.brep",          "screw.step",          "bottle.brep",
+                         "box_sides.step",      "wrench.stp",          "t20_component8.step",
                          "solid56.step",        "bspline_sphere.brep", "featuretype.step"};
   for (size_t i = 0; i < sizeof files / sizeof files[0]; ++i) {
     pm_model *m = cad_load_file(files[i]);
@@ -172,7 +174,8 @@ static void volume_orientation_matches_gmsh_mass(void **state) {
       double vol = cad_divergence_volume(m, v, 128);
       print_message("  %-22s volume %d: divergence %.6g, OCC %.6g\n", files[i], v->tag, vol, mass);
       if (!(fabs(vol - mass) <= 0.02 * mass))
-        fail_msg("%s volume %d: divergence-theorem volume %g, OCC mass %g", files[i], v->tag, vol, mass);
+        fail_msg("%s volume %d: divergence-theorem volume %g, OCC mass %g", files[i], v->tag, vol,
+                 mass);
     }
     pm_model_destroy(m);
   }
@@ -333,11 +336,12 @@ static void cases_counts_and_volumes(void **state) {
     assert_int_equal(m->count[3], want[i].r);
     check_structure(m);
     double vol = cad_divergence_volume(m, pm_model_cell(m, PM_VOLUME, 0), 200);
-    print_message("  case %-12s volume %.6f (exact %.6f), diagonal / size = %.1f\n", want[i].name, vol,
-                  want[i].volume, m->diagonal / t[i].size);
+    print_message("  case %-12s volume %.6f (exact %.6f), diagonal / size = %.1f\n", want[i].name,
+                  vol, want[i].volume, m->diagonal / t[i].size);
     PM_ASSERT_NEAR(vol, want[i].volume, 0.01 * want[i].volume);
     assert_true(m->diagonal / t[i].size >= 15 && m->diagonal / t[i].size <= 20);
-    for (int32_t k = 0; k < m->count[PM_FACE]; ++k) assert_int_equal(pm_cad_cell_is_fast(pm_model_cell(m, PM_FACE, k)), 1);
+    for (int32_t k = 0; k < m->count[PM_FACE]; ++k)
+      assert_int_equal(pm_cad_cell_is_fast(pm_model_cell(m, PM_FACE, k)), 1);
     pm_model_destroy(m);
   }
 }
@@ -371,7 +375,8 @@ static void nonmanifold_embedding(void **state) {
                             pm_model_cell(m, 0, seg->bound[1].cell)->xyz),
                  sqrt(0.3 * 0.3 + 0.1 * 0.1), 1e-12);
   int shared3 = 0;
-  for (int32_t k = 0; k < tri->nbound; ++k) shared3 += pm_model_cell(m, PM_CURVE, tri->bound[k].cell)->nup == 3;
+  for (int32_t k = 0; k < tri->nbound; ++k)
+    shared3 += pm_model_cell(m, PM_CURVE, tri->bound[k].cell)->nup == 3;
   assert_int_equal(shared3, 1);
   /* The triangle's inside test: its centroid in, a point beyond an edge out. */
   double x[3] = {0.5 / 3, 0.5 / 3, 1.5 / 3}, uv[2], dist;
@@ -415,7 +420,8 @@ static void cases_curvatures(void **state) {
   const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
   for (int a = 0; a <= 8; ++a)
     for (int b = 0; b <= 8; ++b) {
-      double uv[2] = {f->lo[0] + (f->hi[0] - f->lo[0]) * a / 8, f->lo[1] + (f->hi[1] - f->lo[1]) * b / 8};
+      double uv[2] = {f->lo[0] + (f->hi[0] - f->lo[0]) * a / 8,
+                      f->lo[1] + (f->hi[1] - f->lo[1]) * b / 8};
       double k1, k2, nrm[3];
       pm_face_curvatures(f, uv, &k1, &k2, nrm);
       PM_ASSERT_NEAR(k1, -1, 1e-6);
@@ -427,7 +433,8 @@ static void cases_curvatures(void **state) {
   const double R = 1, r = 0.35;
   for (int a = 0; a < 7; ++a)
     for (int b = 0; b < 7; ++b) {
-      double uv[2] = {f->lo[0] + (f->hi[0] - f->lo[0]) * (a + 0.3) / 7, f->lo[1] + (f->hi[1] - f->lo[1]) * (b + 0.3) / 7};
+      double uv[2] = {f->lo[0] + (f->hi[0] - f->lo[0]) * (a + 0.3) / 7,
+                      f->lo[1] + (f->hi[1] - f->lo[1]) * (b + 0.3) / 7};
       double k1, k2, nrm[3];
       pm_face_curvatures(f, uv, &k1, &k2, nrm);
       PM_ASSERT_NEAR(k1, -1 / r, 1e-9);

@@ -64,7 +64,8 @@ static void curve_fd(const pm_model *m, const pm_cell *c, int npts, pm_rng *rng)
     pm_curve_eval(c, t + h, 2, &a);
     pm_curve_eval(c, t - h, 2, &b);
     double f1[3], f2[3];
-    for (int k = 0; k < 3; ++k) f1[k] = (a.p[k] - b.p[k]) / (2 * h), f2[k] = (a.d1[k] - b.d1[k]) / (2 * h);
+    for (int k = 0; k < 3; ++k)
+      f1[k] = (a.p[k] - b.p[k]) / (2 * h), f2[k] = (a.d1[k] - b.d1[k]) / (2 * h);
     expect_close3("C'", c->tag, p.d1, f1, 1e-6 * (pm_v3_norm(p.d1) + D / s));
     expect_close3("C''", c->tag, p.d2, f2, 1e-5 * (pm_v3_norm(p.d2) + D / (s * s)));
   }
@@ -107,8 +108,8 @@ static void derivatives_match_finite_differences(void **state) {
     pm_model *m = cad_load_file(cells[i].file);
     const pm_cell *c = cad_face_by_tag(m, cells[i].dim, cells[i].tag);
     if (strcmp(c->cls->name, cells[i].cls) != 0)
-      fail_msg("%s %d:%d is a %s, expected %s", cells[i].file, cells[i].dim, cells[i].tag, c->cls->name,
-               cells[i].cls);
+      fail_msg("%s %d:%d is a %s, expected %s", cells[i].file, cells[i].dim, cells[i].tag,
+               c->cls->name, cells[i].cls);
     assert_int_equal(pm_cad_cell_is_fast(c), cells[i].fast);
     if (c->dim == PM_FACE)
       face_fd(m, c, 25, &rng);
@@ -172,8 +173,9 @@ static void fast_paths_agree_with_gmsh(void **state) {
   const struct {
     const char *file;
     int min_fast_faces, min_fast_curves; /* percent */
-  } files[] = {{"screw.step", 100, 60},     {"table.brep", 100, 100},     {"bottle.brep", 95, 95},
-               {"solid56.step", 70, 60},    {"cube_fillet.stp", 100, 100}, {"engine_block.stp", 99, 80},
+  } files[] = {{"screw.step", 100, 60},       {"table.brep", 100, 100},
+               {"bottle.brep", 95, 95},       {"solid56.step", 70, 60},
+               {"cube_fillet.stp", 100, 100}, {"engine_block.stp", 99, 80},
                {"synth_cone.brep", 100, 100}};
   pm_rng rng;
   pm_rng_init(&rng, 7, 0);
@@ -189,7 +191,8 @@ static void fast_paths_agree_with_gmsh(void **state) {
         if (c->degenerate) continue;
         for (int s = 0; s < 3; ++s) {
           if (dim == PM_FACE) {
-            double uv[2] = {pm_rng_range(&rng, c->lo[0], c->hi[0]), pm_rng_range(&rng, c->lo[1], c->hi[1])};
+            double uv[2] = {pm_rng_range(&rng, c->lo[0], c->hi[0]),
+                            pm_rng_range(&rng, c->lo[1], c->hi[1])};
             pm_face_point a, g;
             pm_face_eval(c, uv, 2, &a);
             gmsh_face(m, c->tag, uv, &g);
@@ -206,12 +209,13 @@ static void fast_paths_agree_with_gmsh(void **state) {
             pm_curve_eval(c, t, 1, &a);
             gmsh_curve(m, c->tag, t, &g);
             expect_close3("C", c->tag, a.p, g.p, 1e-9 * D);
-            expect_close3("C'", c->tag, a.d1, g.d1, 1e-9 * (pm_v3_norm(g.d1) + D / (c->hi[0] - c->lo[0])));
+            expect_close3("C'", c->tag, a.d1, g.d1,
+                          1e-9 * (pm_v3_norm(g.d1) + D / (c->hi[0] - c->lo[0])));
           }
         }
       }
-    print_message("  %-18s fast faces %d/%d, curves %d/%d\n", files[i].file, nfast[1], m->count[2], nfast[0],
-                  m->count[1]);
+    print_message("  %-18s fast faces %d/%d, curves %d/%d\n", files[i].file, nfast[1], m->count[2],
+                  nfast[0], m->count[1]);
     assert_true(100 * nfast[1] >= files[i].min_fast_faces * m->count[2]);
     assert_true(100 * nfast[0] >= files[i].min_fast_curves * m->count[1]);
     pm_model_destroy(m);
@@ -244,8 +248,11 @@ static void batched_equals_single(void **state) {
         pm_face_point one;
         pm_face_eval(f, uv + 2 * i, order, &one);
         expect_close3("batched S", f->tag, many[i].p, one.p, 1e-12 * m->diagonal);
-        if (order >= 1) expect_close3("batched Su", f->tag, many[i].su, one.su, 1e-12 * (1 + pm_v3_norm(one.su)));
-        if (order >= 2) expect_close3("batched Svv", f->tag, many[i].svv, one.svv, 1e-12 * (1 + pm_v3_norm(one.svv)));
+        if (order >= 1)
+          expect_close3("batched Su", f->tag, many[i].su, one.su, 1e-12 * (1 + pm_v3_norm(one.su)));
+        if (order >= 2)
+          expect_close3("batched Svv", f->tag, many[i].svv, one.svv,
+                        1e-12 * (1 + pm_v3_norm(one.svv)));
       }
     }
   }
@@ -305,7 +312,8 @@ static void evaluation_failure_is_finite(void **state) {
   CAD_REQUIRE();
   pm_model *m = cad_load_file("t20_component8.step");
   pm_model *other = cad_load_file("synth_torus.brep");
-  const pm_cell *bs = cad_face_by_tag(m, 2, 2), *pl = cad_face_by_tag(m, 2, 3), *cv = cad_face_by_tag(m, 1, 7);
+  const pm_cell *bs = cad_face_by_tag(m, 2, 2), *pl = cad_face_by_tag(m, 2, 3),
+                *cv = cad_face_by_tag(m, 1, 7);
   double uv[2] = {0.5 * (bs->lo[0] + bs->hi[0]), 0.3 * bs->lo[1] + 0.7 * bs->hi[1]};
   double uvp[2] = {0.5 * (pl->lo[0] + pl->hi[0]), 0.5 * (pl->lo[1] + pl->hi[1])};
   pm_face_point before, after, plane_before, plane_after;
@@ -334,7 +342,8 @@ static void evaluation_failure_is_finite(void **state) {
   pm_curve_eval(cv, cv->lo[0], 2, &cp);
   assert_true(isfinite(cp.p[0]) && isfinite(cp.d2[2]));
   double fuv[2];
-  pm_face_curve_uv(bs, &bs->loop[0].use[0], pm_model_cell(m, 1, bs->loop[0].use[0].cell)->lo[0], fuv);
+  pm_face_curve_uv(bs, &bs->loop[0].use[0], pm_model_cell(m, 1, bs->loop[0].use[0].cell)->lo[0],
+                   fuv);
   assert_true(isfinite(fuv[0]) && isfinite(fuv[1]));
   /* Projection still returns (a finite answer from the fallback values). */
   double par[2], dist;
@@ -385,11 +394,14 @@ static void concurrent_evaluation(void **state) {
   static pm_face_point serial[N], par[2][N];
   pm_rng rng;
   pm_rng_init(&rng, 11, 0);
-  for (int i = 0; i < N; ++i) uv[2 * i] = pm_rng_range(&rng, f->lo[0], f->hi[0]), uv[2 * i + 1] = pm_rng_range(&rng, f->lo[1], f->hi[1]);
+  for (int i = 0; i < N; ++i)
+    uv[2 * i] = pm_rng_range(&rng, f->lo[0], f->hi[0]),
+           uv[2 * i + 1] = pm_rng_range(&rng, f->lo[1], f->hi[1]);
   for (int i = 0; i < N; ++i) pm_face_eval(f, uv + 2 * i, 2, serial + i);
   pthread_t th[2];
   thread_arg args[2] = {{f, N, uv, par[0]}, {f, N, uv, par[1]}};
-  for (int k = 0; k < 2; ++k) assert_int_equal(pthread_create(&th[k], NULL, eval_thread, &args[k]), 0);
+  for (int k = 0; k < 2; ++k)
+    assert_int_equal(pthread_create(&th[k], NULL, eval_thread, &args[k]), 0);
   for (int k = 0; k < 2; ++k) pthread_join(th[k], NULL);
   assert_memory_equal(par[0], serial, sizeof serial);
   assert_memory_equal(par[1], serial, sizeof serial);
@@ -409,9 +421,11 @@ static void projection_round_trips(void **state) {
   } faces[] = {
       {"synth_box_hole.brep", 3, 0}, /* plane with a hole */
       {"synth_box_hole.brep", 7, 1}, /* cylinder, near its seam */
-      {"synth_torus.brep", 1, 1},    {"synth_sphere.brep", 1, 1}, {"synth_cone.brep", 1, 0},
-      {"synth_bspline_patch.brep", 1, 0}, {"t20_component8.step", 4, 0}, {"fusee.stp", 153, 0}, /* B-spline with a hole */
-      {"bspline_sphere.brep", 2, 0}, {"cyl_loop_seam.brep", 1, 1},     {"screw.step", 7, 0},
+      {"synth_torus.brep", 1, 1},    {"synth_sphere.brep", 1, 1},
+      {"synth_cone.brep", 1, 0},     {"synth_bspline_patch.brep", 1, 0},
+      {"t20_component8.step", 4, 0}, {"fusee.stp", 153, 0}, /* B-spline with a hole */
+      {"bspline_sphere.brep", 2, 0}, {"cyl_loop_seam.brep", 1, 1},
+      {"screw.step", 7, 0},
   };
   pm_rng rng;
   pm_rng_init(&rng, 5, 0);
@@ -421,7 +435,8 @@ static void projection_round_trips(void **state) {
     const double tol = 1e-7 * m->diagonal;
     int done = 0;
     for (int tries = 0; tries < 4000 && done < 30; ++tries) {
-      double uv[2] = {pm_rng_range(&rng, f->lo[0], f->hi[0]), pm_rng_range(&rng, f->lo[1], f->hi[1])};
+      double uv[2] = {pm_rng_range(&rng, f->lo[0], f->hi[0]),
+                      pm_rng_range(&rng, f->lo[1], f->hi[1])};
       if (faces[i].near_seam && f->periodic[0]) {
         double w = 0.01 * f->period[0] * pm_rng_uniform(&rng);
         uv[0] = (tries & 1) ? f->lo[0] + w : f->lo[0] + f->period[0] - w;
@@ -432,7 +447,9 @@ static void projection_round_trips(void **state) {
       double par[2], closest[3], dist;
       pm_error e = {0};
       PM_ASSERT_OK(pm_cell_project(f, p.p, NULL, par, closest, &dist, &e), e);
-      if (!(dist <= tol)) fail_msg("%s face %d: S(%g, %g) projects at distance %g", faces[i].file, f->tag, uv[0], uv[1], dist);
+      if (!(dist <= tol))
+        fail_msg("%s face %d: S(%g, %g) projects at distance %g", faces[i].file, f->tag, uv[0],
+                 uv[1], dist);
       pm_face_point q;
       pm_face_eval(f, par, 0, &q);
       assert_true(pm_v3_dist(q.p, p.p) <= tol);
@@ -444,9 +461,10 @@ static void projection_round_trips(void **state) {
         double x[3];
         pm_v3_axpy(x, p.p, 1e-3 * m->diagonal, n);
         PM_ASSERT_OK(pm_cell_project(f, x, (done & 1) ? uv : NULL, par, closest, &dist, &e), e);
-        if (!(fabs(dist - 1e-3 * m->diagonal) <= 1e-6 * m->diagonal && pm_v3_dist(closest, p.p) <= 1e-6 * m->diagonal))
-          fail_msg("%s face %d: S(%g, %g) + 1e-3 diag n projects at distance %g to (%g, %g)", faces[i].file, f->tag,
-                   uv[0], uv[1], dist / m->diagonal, par[0], par[1]);
+        if (!(fabs(dist - 1e-3 * m->diagonal) <= 1e-6 * m->diagonal &&
+              pm_v3_dist(closest, p.p) <= 1e-6 * m->diagonal))
+          fail_msg("%s face %d: S(%g, %g) + 1e-3 diag n projects at distance %g to (%g, %g)",
+                   faces[i].file, f->tag, uv[0], uv[1], dist / m->diagonal, par[0], par[1]);
       }
       ++done;
     }
@@ -471,7 +489,8 @@ static void bspline_projection_matches_gmsh(void **state) {
     ++faces;
     int done = 0;
     for (int tries = 0; tries < 2000 && done < 8; ++tries) {
-      double uv[2] = {pm_rng_range(&rng, f->lo[0], f->hi[0]), pm_rng_range(&rng, f->lo[1], f->hi[1])};
+      double uv[2] = {pm_rng_range(&rng, f->lo[0], f->hi[0]),
+                      pm_rng_range(&rng, f->lo[1], f->hi[1])};
       if (!pm_face_inside(f, uv)) continue;
       ++done;
       pm_face_point p;
@@ -512,7 +531,7 @@ static void curve_projection_round_trips(void **state) {
     const char *file;
     int tag;
   } curves[] = {{"synth_box_hole.brep", 1}, {"synth_box_hole.brep", 10}, {"crack.brep", 14},
-                {"t20_component8.step", 7}, {"cyl_loop_seam.brep", 5},  {"screw.step", 1},
+                {"t20_component8.step", 7}, {"cyl_loop_seam.brep", 5},   {"screw.step", 1},
                 {"table.brep", 31}};
   pm_rng rng;
   pm_rng_init(&rng, 9, 0);
@@ -520,13 +539,15 @@ static void curve_projection_round_trips(void **state) {
     pm_model *m = cad_load_file(curves[i].file);
     const pm_cell *c = cad_face_by_tag(m, 1, curves[i].tag);
     for (int k = 0; k < 20; ++k) {
-      double t = k < 3 ? (k == 0 ? c->lo[0] : (k == 1 ? c->hi[0] : c->lo[0] + 1e-9)) : pm_rng_range(&rng, c->lo[0], c->hi[0]);
+      double t = k < 3 ? (k == 0 ? c->lo[0] : (k == 1 ? c->hi[0] : c->lo[0] + 1e-9))
+                       : pm_rng_range(&rng, c->lo[0], c->hi[0]);
       pm_curve_point p;
       pm_curve_eval(c, t, 0, &p);
       double par, dist, closest[3];
       pm_error e = {0};
       PM_ASSERT_OK(pm_cell_project(c, p.p, NULL, &par, closest, &dist, &e), e);
-      if (!(dist <= 1e-7 * m->diagonal)) fail_msg("%s curve %d: C(%g) projects at distance %g", curves[i].file, c->tag, t, dist);
+      if (!(dist <= 1e-7 * m->diagonal))
+        fail_msg("%s curve %d: C(%g) projects at distance %g", curves[i].file, c->tag, t, dist);
       assert_true(par >= c->lo[0] - 1e-12 && par <= c->hi[0] + 1e-12);
     }
     pm_model_destroy(m);

@@ -43,7 +43,9 @@ static void check_loops(const pm_model *m) {
       const pm_cell *c = pm_model_cell(m, PM_CURVE, f->bound[k].cell);
       int mult = 0, listed = 0, side1 = 0;
       for (size_t q = 0; q < n / 2; ++q) listed += abs(dt[2 * q + 1]) == c->tag;
-      for (int32_t r = 0; r < f->nbound; ++r) mult += f->bound[r].cell == c->index, side1 += f->bound[r].cell == c->index && f->bound[r].side == 1;
+      for (int32_t r = 0; r < f->nbound; ++r)
+        mult += f->bound[r].cell == c->index,
+            side1 += f->bound[r].cell == c->index && f->bound[r].side == 1;
       if (listed == 0) {
         assert_true(c->degenerate); /* ours: a pole the file lacks */
         ++synth;
@@ -61,15 +63,16 @@ static void check_loops(const pm_model *m) {
       /* Consecutive uses join: the end of one pcurve is the start of the next. */
       for (int32_t k = 0; k < lp->nuse; ++k) {
         const pm_use *u = &lp->use[k], *w = &lp->use[(k + 1) % lp->nuse];
-        const pm_cell *cu = pm_model_cell(m, PM_CURVE, u->cell), *cw = pm_model_cell(m, PM_CURVE, w->cell);
+        const pm_cell *cu = pm_model_cell(m, PM_CURVE, u->cell),
+                      *cw = pm_model_cell(m, PM_CURVE, w->cell);
         double e[2], s[2];
         pm_face_curve_uv(f, u, u->sense > 0 ? cu->hi[0] : cu->lo[0], e);
         pm_face_curve_uv(f, w, w->sense > 0 ? cw->lo[0] : cw->hi[0], s);
         double gap = hypot(e[0] - s[0], e[1] - s[1]);
         double box = hypot(f->hi[0] - f->lo[0], f->hi[1] - f->lo[1]);
         if (gap > 2e-3 * box)
-          fail_msg("%s face %d loop %d: gap %.3g between curves %d and %d (box %.3g)", m->name, f->tag, (int)l,
-                   gap, cu->tag, cw->tag, box);
+          fail_msg("%s face %d loop %d: gap %.3g between curves %d and %d (box %.3g)", m->name,
+                   f->tag, (int)l, gap, cu->tag, cw->tag, box);
       }
     }
   }
@@ -81,11 +84,13 @@ static void check_loops(const pm_model *m) {
 static void loops_and_inside_agree_with_gmsh(void **state) {
   (void)state;
   CAD_REQUIRE();
-  const char *files[] = {"synth_box_hole.brep", "synth_box_hole.step", "synth_sphere.brep", "synth_torus.brep",
-                         "synth_cone.brep", "synth_bspline_patch.brep", "planar_step.brep", "crack.brep",
-                         "cyl_loop_seam.brep", "slender_face.brep", "table.brep", "screw.step",
-                         "cube_fillet.stp", "bspline_sphere.brep", "t20_component8.step", "bottle.brep",
-                         "base_interface.step", "solid56.step", "bearing.iges"};
+  const char *files[] = {"synth_box_hole.brep", "synth_box_hole.step", "synth_sphere.brep",
+                         "synth_torus.brep",    "synth_cone.brep",     "synth_bspline_patch.brep",
+                         "planar_step.brep",    "crack.brep",          "cyl_loop_seam.brep",
+                         "slender_face.brep",   "table.brep",          "screw.step",
+                         "cube_fillet.stp",     "bspline_sphere.brep", "t20_component8.step",
+                         "bottle.brep",         "base_interface.step", "solid56.step",
+                         "bearing.iges"};
   pm_rng rng;
   pm_rng_init(&rng, 17, 0);
   for (size_t i = 0; i < sizeof files / sizeof files[0]; ++i) {
@@ -97,7 +102,8 @@ static void loops_and_inside_agree_with_gmsh(void **state) {
       const pm_cell *f = pm_model_cell(m, PM_FACE, k);
       const double box = hypot(f->hi[0] - f->lo[0], f->hi[1] - f->lo[1]);
       for (int s = 0; s < npts; ++s) {
-        double uv[2] = {pm_rng_range(&rng, f->lo[0], f->hi[0]), pm_rng_range(&rng, f->lo[1], f->hi[1])};
+        double uv[2] = {pm_rng_range(&rng, f->lo[0], f->hi[0]),
+                        pm_rng_range(&rng, f->lo[1], f->hi[1])};
         pm_gmsh_scope sc;
         cad_gmsh_begin(m, &sc);
         int ierr = 0;
@@ -112,12 +118,15 @@ static void loops_and_inside_agree_with_gmsh(void **state) {
         }
         double d = dist_to_loops(f, uv);
         if (d > 1e-3 * box)
-          fail_msg("%s face %d: (%.9g, %.9g) inside %d for gmsh, %d for us, %.3g from the loops (box %.3g)",
-                   files[i], f->tag, uv[0], uv[1], g > 0, ours, d, box);
+          fail_msg(
+              "%s face %d: (%.9g, %.9g) inside %d for gmsh, %d for us, %.3g from the loops (box "
+              "%.3g)",
+              files[i], f->tag, uv[0], uv[1], g > 0, ours, d, box);
         ++near;
       }
     }
-    print_message("  %-26s %ld points: %ld agree, %ld differ next to a loop\n", files[i], checked, agree, near);
+    print_message("  %-26s %ld points: %ld agree, %ld differ next to a loop\n", files[i], checked,
+                  agree, near);
     pm_model_destroy(m);
   }
 }
@@ -153,7 +162,8 @@ static void hole_across_the_seam(void **state) {
   int in = 0, out = 0;
   for (int a = 0; a < 64; ++a)
     for (int b = 0; b < 32; ++b) {
-      double uv[2] = {f->lo[0] + (f->hi[0] - f->lo[0]) * (a + 0.5) / 64, f->lo[1] + (f->hi[1] - f->lo[1]) * (b + 0.5) / 32};
+      double uv[2] = {f->lo[0] + (f->hi[0] - f->lo[0]) * (a + 0.5) / 64,
+                      f->lo[1] + (f->hi[1] - f->lo[1]) * (b + 0.5) / 32};
       int r = pm_face_inside(f, uv);
       double w[2] = {uv[0] + f->period[0], uv[1]}, z[2] = {uv[0] - 3 * f->period[0], uv[1]};
       assert_int_equal(pm_face_inside(f, w), r);
@@ -199,7 +209,8 @@ static void seams_and_poles(void **state) {
     const pm_cell *f = cad_face_by_tag(m, 2, tag);
     assert_int_equal(f->nloop, 2);
     assert_int_equal(f->loop[1].outer, 0);
-    PM_ASSERT_NEAR(pm_polyline_area(f->loop[1].uv, f->loop[1].npts), -M_PI * 0.25 * 0.25, 2e-3 * M_PI * 0.0625);
+    PM_ASSERT_NEAR(pm_polyline_area(f->loop[1].uv, f->loop[1].npts), -M_PI * 0.25 * 0.25,
+                   2e-3 * M_PI * 0.0625);
   }
   pm_model_destroy(m);
 
@@ -208,7 +219,8 @@ static void seams_and_poles(void **state) {
   assert_int_equal(s->nloop, 1);
   assert_int_equal(s->loop[0].nuse, 4);
   int poles = 0;
-  for (int32_t k = 0; k < s->loop[0].nuse; ++k) poles += pm_model_cell(m, PM_CURVE, s->loop[0].use[k].cell)->degenerate;
+  for (int32_t k = 0; k < s->loop[0].nuse; ++k)
+    poles += pm_model_cell(m, PM_CURVE, s->loop[0].use[k].cell)->degenerate;
   assert_int_equal(poles, 2);
   PM_ASSERT_NEAR(pm_polyline_area(s->loop[0].uv, s->loop[0].npts), 2 * M_PI * M_PI, 1e-9);
   pm_model_destroy(m);
@@ -270,7 +282,8 @@ static void shared_faces_orientation(void **state) {
     double want = v->box[3] - v->box[0] < 0.7 ? cyl : (v->box[0] > 0.5 ? 1.0 : 1.0 - cyl);
     print_message("  volume %d: divergence %.6f, exact %.6f\n", v->tag, vol, want);
     PM_ASSERT_NEAR(vol, want, 0.005);
-    for (int32_t q = 0; q < v->nbound; ++q) shared += pm_model_cell(m, PM_FACE, v->bound[q].cell)->nup == 2;
+    for (int32_t q = 0; q < v->nbound; ++q)
+      shared += pm_model_cell(m, PM_FACE, v->bound[q].cell)->nup == 2;
   }
   /* x = 1 and the cylinder's three faces, each counted from both sides. */
   assert_int_equal(shared, 8);

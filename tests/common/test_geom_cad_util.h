@@ -16,12 +16,12 @@
 #include "common/vec3.h"
 
 /* Skip the calling test when the shared CAD folder is missing. */
-#define CAD_REQUIRE()                                                                  \
-  do {                                                                                 \
-    if (!pm_test_have_cad()) {                                                         \
-      print_message("skipped: no CAD models in %s (set PM_CAD_DIR)\n", PM_CAD_DIR);   \
-      skip();                                                                          \
-    }                                                                                  \
+#define CAD_REQUIRE()                                                               \
+  do {                                                                              \
+    if (!pm_test_have_cad()) {                                                      \
+      print_message("skipped: no CAD models in %s (set PM_CAD_DIR)\n", PM_CAD_DIR); \
+      skip();                                                                       \
+    }                                                                               \
   } while (0)
 
 static inline pm_model *cad_load_file(const char *file) {
@@ -44,12 +44,12 @@ static inline pm_model *cad_load_case(const char *name) {
 /* A check inside a pm_gmsh_lock()ed region: on failure the lock is released first (a failing
  * assertion leaves the test by longjmp, and a lock left held would block every later gmsh user,
  * the threads of later tests included). */
-#define CAD_LOCKED_CHECK(cond)                                           \
-  do {                                                                   \
-    if (!(cond)) {                                                       \
-      pm_gmsh_unlock();                                                  \
-      fail_msg("%s:%d: %s failed", __FILE__, __LINE__, #cond);          \
-    }                                                                    \
+#define CAD_LOCKED_CHECK(cond)                                 \
+  do {                                                         \
+    if (!(cond)) {                                             \
+      pm_gmsh_unlock();                                        \
+      fail_msg("%s:%d: %s failed", __FILE__, __LINE__, #cond); \
+    }                                                          \
   } while (0)
 
 /* Make m's gmsh model current (gmsh locked) for direct gmsh calls; cad_gmsh_end restores. */
