@@ -1081,8 +1081,16 @@ static int check_face_normals(ctx *c) {
   if (md->diagonal > diag) diag = md->diagonal;
   /* A node's parameters are trusted when they evaluate back to the node. */
   double ptol = 1e-6 * diag;
-  uint8_t *bad = calloc((size_t)m->ntri, 1);
-  if (!bad) return 0;
+  /* Per triangle: +1 when the majority of its judged nodes agree, -1 when they disagree, 0 when
+   * none could be judged; 2 marks a triangle every judged node of which (two at least)
+   * disagrees. */
+  int8_t *vote = calloc((size_t)m->ntri, 1);
+  double *area = calloc((size_t)m->ntri, sizeof *area);
+  if (!vote || !area) {
+    free(vote);
+    free(area);
+    return 0;
+  }
 #pragma omp parallel for schedule(dynamic, 1024)
   for (int32_t t = 0; t < m->ntri; ++t) {
     int32_t f = c->tri_c[t];
@@ -1090,35 +1098,69 @@ static int check_face_normals(ctx *c) {
     const pm_cell *fc = &md->cells[2][f];
     if (!fc->cls || !fc->cls->face_eval) continue;
     const int32_t *v = m->tri + 3 * (size_t)t;
-    int j = 0;
-    while (j < 3 && !(m->node_dim[v[j]] == PM_FACE && m->node_cell[v[j]] == f)) ++j;
-    if (j == 3) continue;
-    const double *x = m->xyz + 3 * (size_t)v[j];
-    pm_face_point fp;
-    pm_face_eval(fc, m->node_par + 2 * (size_t)v[j], 1, &fp);
-    double dx = fp.p[0] - x[0], dy = fp.p[1] - x[1], dz = fp.p[2] - x[2];
-    if (!(dx * dx + dy * dy + dz * dz <= ptol * ptol)) continue;
-    double n[3] = {fp.su[1] * fp.sv[2] - fp.su[2] * fp.sv[1],
-                   fp.su[2] * fp.sv[0] - fp.su[0] * fp.sv[2],
-                   fp.su[0] * fp.sv[1] - fp.su[1] * fp.sv[0]};
-    double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    double su = sqrt(fp.su[0] * fp.su[0] + fp.su[1] * fp.su[1] + fp.su[2] * fp.su[2]);
-    double sv = sqrt(fp.sv[0] * fp.sv[0] + fp.sv[1] * fp.sv[1] + fp.sv[2] * fp.sv[2]);
-    if (!(nn > 1e-12 * su * sv)) continue; /* a pole: no normal to compare with */
     const double *a = m->xyz + 3 * (size_t)v[0], *b = m->xyz + 3 * (size_t)v[1],
                  *cc = m->xyz + 3 * (size_t)v[2];
     double u1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     double u2[3] = {cc[0] - a[0], cc[1] - a[1], cc[2] - a[2]};
     double tn[3] = {u1[1] * u2[2] - u1[2] * u2[1], u1[2] * u2[0] - u1[0] * u2[2],
                     u1[0] * u2[1] - u1[1] * u2[0]};
-    if (c->face_sign[f] * (tn[0] * n[0] + tn[1] * n[1] + tn[2] * n[2]) < 0) bad[t] = 1;
+    int judged = 0, against = 0;
+    for (int j = 0; j < 3; ++j) {
+      if (!(m->node_dim[v[j]] == PM_FACE && m->node_cell[v[j]] == f)) continue;
+      const double *x = m->xyz + 3 * (size_t)v[j];
+      pm_face_point fp;
+      pm_face_eval(fc, m->node_par + 2 * (size_t)v[j], 1, &fp);
+      double dx = fp.p[0] - x[0], dy = fp.p[1] - x[1], dz = fp.p[2] - x[2];
+      if (!(dx * dx + dy * dy + dz * dz <= ptol * ptol)) continue;
+      double n[3] = {fp.su[1] * fp.sv[2] - fp.su[2] * fp.sv[1],
+                     fp.su[2] * fp.sv[0] - fp.su[0] * fp.sv[2],
+                     fp.su[0] * fp.sv[1] - fp.su[1] * fp.sv[0]};
+      double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      double su = sqrt(fp.su[0] * fp.su[0] + fp.su[1] * fp.su[1] + fp.su[2] * fp.su[2]);
+      double sv = sqrt(fp.sv[0] * fp.sv[0] + fp.sv[1] * fp.sv[1] + fp.sv[2] * fp.sv[2]);
+      if (!(nn > 1e-12 * su * sv)) continue; /* a pole: no normal to compare with */
+      ++judged;
+      if (c->face_sign[f] * (tn[0] * n[0] + tn[1] * n[1] + tn[2] * n[2]) < 0) ++against;
+    }
+    if (!judged) continue;
+    area[t] = 0.5 * sqrt(tn[0] * tn[0] + tn[1] * tn[1] + tn[2] * tn[2]);
+    vote[t] = (int8_t)(2 * against > judged ? -1 : 1);
+    if (judged >= 2 && against == judged) vote[t] = 2;
   }
-  for (int32_t t = 0; t < m->ntri; ++t)
-    if (bad[t])
+  /* A face whose judged triangle area mostly runs against its orientation is reversed. */
+  double *agree = calloc((size_t)(c->nf ? c->nf : 1), sizeof *agree);
+  double *oppose = calloc((size_t)(c->nf ? c->nf : 1), sizeof *oppose);
+  if (!agree || !oppose) {
+    free(vote);
+    free(area);
+    free(agree);
+    free(oppose);
+    return 0;
+  }
+  for (int32_t t = 0; t < m->ntri; ++t) {
+    if (!vote[t]) continue;
+    if (vote[t] > 0 && vote[t] != 2)
+      agree[c->tri_c[t]] += area[t];
+    else
+      oppose[c->tri_c[t]] += area[t];
+  }
+  for (int32_t f = 0; f < c->nf; ++f)
+    if (oppose[f] > agree[f])
       note(c, PM_CHECK_FACE_NORMAL,
-           "triangle %ld of face %ld runs against the face's %s", (long)t, (long)c->tri_c[t],
+           "face %ld: %.0f%% of its triangles' area runs against the face's %s", (long)f,
+           100.0 * oppose[f] / (oppose[f] + agree[f]),
+           c->face_sign[f] > 0 ? "natural normal Su x Sv" : "reversed normal -Su x Sv");
+  for (int32_t t = 0; t < m->ntri; ++t)
+    if (vote[t] == 2 && !(oppose[c->tri_c[t]] > agree[c->tri_c[t]]))
+      note(c, PM_CHECK_FACE_NORMAL,
+           "triangle %ld of face %ld is folded over: it runs against the face's %s at each of "
+           "its face nodes",
+           (long)t, (long)c->tri_c[t],
            c->face_sign[c->tri_c[t]] > 0 ? "natural normal Su x Sv" : "reversed normal -Su x Sv");
-  free(bad);
+  free(vote);
+  free(area);
+  free(agree);
+  free(oppose);
   return 1;
 }
 

@@ -28,11 +28,14 @@
  *     edges counted per shell); with the signs above, neighbouring triangles are consistently
  *     oriented and the shell encloses a positive volume; each shell's Euler characteristic
  *     V - E + F is reported (pm_check_shell);
- *   - triangles follow their face's orientation: at a node of the triangle classified on the
- *     face (whose parameters evaluate back to the node, within 1e-6 of the diagonal, so that
- *     files without parameters are not misjudged),
- *     pm_face_mesh_sign(f) ((b - a) x (c - a)) . (Su x Sv) >= 0; skipped where Su x Sv vanishes
- *     (a pole) and for faces without an evaluator;
+ *   - triangles follow their face's orientation: a triangle is judged at its nodes classified on
+ *     the face (whose parameters evaluate back to the node, within 1e-6 of the diagonal, so that
+ *     files without parameters are not misjudged; not where Su x Sv vanishes; not for faces
+ *     without an evaluator) by the sign of pm_face_mesh_sign(f) ((b - a) x (c - a)) . (Su x Sv).
+ *     A face is reported when most of its judged triangle area disagrees (a reversed face), a
+ *     triangle when it disagrees at every one of its face nodes, two at least (a fold). One node
+ *     is not enough to judge a triangle: near an apex or a pole the surface normal turns by more
+ *     than 90 degrees across one good, coarse triangle;
  *   - tets of a volume: their boundary faces are exactly the triangles of the volume's shell,
  *     oriented outward, and the triangles of faces embedded in the volume have tets of that
  *     volume on both sides; segments of curves embedded in a volume are tet edges.
@@ -77,7 +80,7 @@ typedef enum pm_check_kind {
   PM_CHECK_SHELL_INWARD,     /* a closed shell whose triangles point inwards */
   PM_CHECK_TET_FACE,         /* face of more than two tets, or two tets on one side of it */
   PM_CHECK_TET_BOUNDARY,     /* tet boundary faces differ from the shell triangles */
-  PM_CHECK_FACE_NORMAL,      /* triangle against its face's orientation (pm_face_mesh_sign) */
+  PM_CHECK_FACE_NORMAL,      /* reversed face or folded triangle (pm_face_mesh_sign) */
   PM_CHECK_NKIND
 } pm_check_kind;
 

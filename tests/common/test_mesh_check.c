@@ -573,9 +573,9 @@ static void plane_eval(const pm_cell *self, const double uv[2], int order, pm_fa
 static const pm_cell_class plane_class = {"plane", NULL, plane_eval, NULL, NULL, NULL, NULL};
 
 /* The unit square: vertices 0..3 counter-clockwise from the origin, curve k from vertex k to
- * k + 1, one face S(u, v) = (u, v, 0). Mesh: a 3 x 3 grid of nodes, classified, with parameters;
- * triangles counter-clockwise (along +z = Su x Sv). */
-static void square(pm_model **mdp, pm_mesh **mp) {
+ * k + 1, one face S(u, v) = (u, v, 0). Mesh: an n x n grid of nodes (i, j) = i + n j, classified,
+ * with parameters; triangles counter-clockwise (along +z = Su x Sv). */
+static void square_n(int n, pm_model **mdp, pm_mesh **mp) {
   pm_model *md = model_new(4, 4, 1, 0);
   for (int k = 0; k < 4; ++k) {
     int32_t v[2] = {k, (k + 1) % 4};
@@ -588,34 +588,39 @@ static void square(pm_model **mdp, pm_mesh **mp) {
   md->diagonal = sqrt(2.0);
   pm_mesh *m = pm_mesh_create();
   pm_error e = {0};
-  /* node (i, j) = i + 3 j */
-  static const int corner_vertex[9] = {0, -1, 1, -1, -1, -1, 3, -1, 2};
-  for (int j = 0; j < 3; ++j)
-    for (int i = 0; i < 3; ++i) {
-      double p[3] = {0.5 * i, 0.5 * j, 0}, par[2] = {0.5 * i, 0.5 * j};
-      int id = i + 3 * j;
-      if (corner_vertex[id] >= 0) {
-        pm_mesh_add_node(m, p, 0, corner_vertex[id], NULL, NULL, &e);
-      } else if (id == 4) {
-        pm_mesh_add_node(m, p, 2, 0, par, NULL, &e);
-      } else {
-        int curve = id == 1 ? 0 : id == 5 ? 1 : id == 7 ? 2 : 3;
-        double t = 0.5;
+  double h = 1.0 / (n - 1);
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      double p[3] = {h * i, h * j, 0}, par[2] = {h * i, h * j};
+      int bi = i == 0 || i == n - 1, bj = j == 0 || j == n - 1;
+      if (bi && bj) {
+        int vtx = i == 0 ? (j == 0 ? 0 : 3) : (j == 0 ? 1 : 2);
+        pm_mesh_add_node(m, p, 0, vtx, NULL, NULL, &e);
+      } else if (bi || bj) {
+        int curve = j == 0 ? 0 : i == n - 1 ? 1 : j == n - 1 ? 2 : 3;
+        double t = curve == 0 || curve == 2 ? h * i : h * j;
         pm_mesh_add_node(m, p, 1, curve, &t, NULL, &e);
+      } else {
+        pm_mesh_add_node(m, p, 2, 0, par, NULL, &e);
       }
     }
-  static const int segs[8][3] = {{0, 1, 0}, {1, 2, 0}, {2, 5, 1}, {5, 8, 1},
-                                 {8, 7, 2}, {7, 6, 2}, {6, 3, 3}, {3, 0, 3}};
-  for (int k = 0; k < 8; ++k) pm_mesh_add_seg(m, segs[k][0], segs[k][1], segs[k][2], &e);
-  for (int j = 0; j < 2; ++j)
-    for (int i = 0; i < 2; ++i) {
-      int32_t a = i + 3 * j, b = a + 1, c = a + 4, d = a + 3;
+  for (int i = 0; i + 1 < n; ++i) {
+    pm_mesh_add_seg(m, i, i + 1, 0, &e);                                 /* bottom */
+    pm_mesh_add_seg(m, n - 1 + n * i, n - 1 + n * (i + 1), 1, &e);       /* right */
+    pm_mesh_add_seg(m, i + n * (n - 1), i + 1 + n * (n - 1), 2, &e);     /* top */
+    pm_mesh_add_seg(m, n * i, n * (i + 1), 3, &e);                       /* left */
+  }
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      int32_t a = i + n * j, b = a + 1, c = a + n + 1, d = a + n;
       pm_mesh_add_tri(m, a, b, c, 0, &e);
       pm_mesh_add_tri(m, a, c, d, 0, &e);
     }
   *mdp = md;
   *mp = m;
 }
+
+static void square(pm_model **mdp, pm_mesh **mp) { square_n(3, mdp, mp); }
 
 static void face_normal(void **state) {
   (void)state;
@@ -636,10 +641,11 @@ static void face_normal(void **state) {
   check(m, md, &r);
   assert_false(r.valid);
   assert_int_equal(r.count[PM_CHECK_ORIENTATION], 0);
-  /* 6: the two triangles (1, 2, 5) and (3, 7, 6) have no node on the face itself (only
-   * boundary nodes, without face parameters) and are not judged. */
-  assert_int_equal(r.count[PM_CHECK_FACE_NORMAL], 6);
-  assert_non_null(strstr(r.problem[0], "natural normal"));
+  /* The face as a whole: six triangles are judged (at the centre node; (1, 2, 5) and (3, 7, 6)
+   * touch no node of the face itself), all against. No single triangle is called folded: one
+   * node is not enough to tell. */
+  assert_int_equal(r.count[PM_CHECK_FACE_NORMAL], 1);
+  assert_non_null(strstr(r.problem[0], "face 0: 100% of its triangles' area runs against the face's natural normal"));
   pm_check_report_clear(&r);
   /* Parameters that do not evaluate back to the node (a file without them): not judged. */
   m->node_par[2 * 4] = 0;
@@ -660,6 +666,23 @@ static void face_normal(void **state) {
   assert_false(r.valid);
   assert_int_equal(r.count[PM_CHECK_PATCH_BOUNDARY], 1);
   assert_int_equal(r.count[PM_CHECK_FACE_NORMAL], 0);
+  pm_check_report_clear(&r);
+  pm_mesh_destroy(m);
+  model_free(md);
+
+  /* A fold: on a 4 x 4 grid the interior node (1, 1) is dragged past (2, 2), with its
+   * parameters; the triangles around it turn over while staying combinatorially consistent. */
+  square_n(4, &md, &m);
+  check(m, md, &r);
+  if (!r.valid) fail_msg("%s", r.problem[0]);
+  pm_check_report_clear(&r);
+  m->xyz[3 * 5] = m->xyz[3 * 5 + 1] = 0.8;
+  m->node_par[2 * 5] = m->node_par[2 * 5 + 1] = 0.8;
+  check(m, md, &r);
+  assert_false(r.valid);
+  assert_int_equal(r.count[PM_CHECK_ORIENTATION], 0);
+  assert_true(r.count[PM_CHECK_FACE_NORMAL] >= 1);
+  assert_non_null(strstr(r.problem[0], "is folded over"));
   pm_check_report_clear(&r);
   pm_mesh_destroy(m);
   model_free(md);
