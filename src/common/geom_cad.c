@@ -236,8 +236,8 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
   /* IGES faces arrive unsewn (every edge an open border); sewing restores the shared edges
    * (GMSH_API.md: bearing.iges, 450 of 475 edges shared after sewing). */
   gmshOptionSetNumber("Geometry.OCCSewFaces", fmt == FMT_IGES ? 1 : 0, &ierr);
-  /* gmsh records errors only at verbosity >= 1 (gmsh_session sets 0); with General.Terminal = 0
-   * nothing is printed either way. */
+  /* gmsh's logger records messages only at verbosity >= 1 (gmsh_session sets 0); with
+   * General.Terminal = 0 nothing is printed either way. */
   double verbosity = 0;
   gmshOptionGetNumber("General.Verbosity", &verbosity, &ierr);
   if (verbosity < 1) gmshOptionSetNumber("General.Verbosity", 1, &ierr);

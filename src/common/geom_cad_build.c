@@ -908,7 +908,13 @@ done:
   free_cells(tf, tl[2].n);
   free(tcc), free(tfc), free(fc.syn);
   if (s) {
-    pm_model_destroy(m);
+    if (m) {
+      pm_model_destroy(m); /* removes the gmsh model (cad_attach) */
+    } else {
+      /* Failed before the model existed: the gmsh model is still the current one. */
+      int rerr = 0;
+      gmshModelRemove(&rerr);
+    }
     return s;
   }
   *out = m;
