@@ -1,0 +1,2 @@
+# Sizing fields and the neighbour grid (src/common/sizing*.c, src/common/grid.c).
+pm_add_test(test_grid LABELS unit SOURCES test_grid.c)
