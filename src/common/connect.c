@@ -1,0 +1,1400 @@
+/* Connecting nodes on cells into a conforming mesh (see connect.h). */
+#include "common/connect.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/cdt_cgal.h"
+#include "common/clock.h"
+#include "common/mesh_topo.h"
+#include "common/predicates.h"
+#include "common/quality.h"
+#include "common/self_intersect.h"
+#include "common/tet_flip.h"
+#include "common/tet_tetgen.h"
+#include "common/vec3.h"
+
+void pm_connect_params_init(pm_connect_params *p) {
+  memset(p, 0, sizeof *p);
+  p->affine = 1;
+  p->flips = PM_FLIP_DIAMETRIC;
+  p->max_flips_per_tri = 20;
+  p->volume = PM_VOLUME_NONE;
+  p->radius_edge = 1.5;
+  p->max_volume = 0;
+  p->max_nodes = 0;
+  p->check_surface = 1;
+}
+
+/* ---- nodes grouped by cell --------------------------------------------------------------- */
+
+/* For one dimension: the nodes of cell c are ids[off[c] .. off[c+1]). */
+typedef struct buckets {
+  int32_t *off, *ids;
+} buckets;
+
+static void buckets_free(buckets *b) {
+  free(b->off), free(b->ids);
+  b->off = b->ids = NULL;
+}
+
+static pm_status buckets_build(const pm_mesh *mesh, int dim, int32_t ncell, buckets *b,
+                               pm_error *err) {
+  b->off = calloc((size_t)ncell + 1, sizeof(int32_t));
+  int32_t n = 0;
+  for (int32_t i = 0; i < mesh->nnode; ++i) n += mesh->node_dim[i] == dim;
+  b->ids = malloc(sizeof(int32_t) * (size_t)(n ? n : 1));
+  if (!b->off || !b->ids) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t i = 0; i < mesh->nnode; ++i)
+    if (mesh->node_dim[i] == dim) b->off[mesh->node_cell[i] + 1]++;
+  for (int32_t c = 0; c < ncell; ++c) b->off[c + 1] += b->off[c];
+  int32_t *fill = malloc(sizeof(int32_t) * ((size_t)ncell + 1));
+  if (!fill) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  memcpy(fill, b->off, sizeof(int32_t) * ((size_t)ncell + 1));
+  for (int32_t i = 0; i < mesh->nnode; ++i)
+    if (mesh->node_dim[i] == dim) b->ids[fill[mesh->node_cell[i]]++] = i;
+  free(fill);
+  return PM_OK;
+}
+
+/* ---- step 0: validate, drop trimmed-away face nodes, add what is missing ------------------- */
+
+static pm_status validate_nodes(const pm_model *m, const pm_mesh *mesh, pm_error *err) {
+  for (int32_t i = 0; i < mesh->nnode; ++i) {
+    int d = mesh->node_dim[i];
+    int32_t c = mesh->node_cell[i];
+    if (d < 0 || d > 3 || c < 0 || c >= m->count[d])
+      return pm_error_setf(err, PM_ERR_ARG,
+                           "node %d is not classified on a cell of the model (dim %d, cell %d)",
+                           (int)i, d, (int)c);
+    const double *x = &mesh->xyz[3 * i];
+    if (!isfinite(x[0]) || !isfinite(x[1]) || !isfinite(x[2]))
+      return pm_error_setf(err, PM_ERR_ARG, "node %d has non-finite coordinates", (int)i);
+  }
+  return PM_OK;
+}
+
+/* Remove the nodes flagged in `drop` (order of the others kept). */
+static void compact_nodes(pm_mesh *mesh, const uint8_t *drop) {
+  int32_t n = 0;
+  for (int32_t i = 0; i < mesh->nnode; ++i) {
+    if (drop[i]) continue;
+    if (n != i) {
+      memcpy(&mesh->xyz[3 * n], &mesh->xyz[3 * i], 3 * sizeof(double));
+      memcpy(&mesh->node_par[2 * n], &mesh->node_par[2 * i], 2 * sizeof(double));
+      mesh->node_dim[n] = mesh->node_dim[i];
+      mesh->node_cell[n] = mesh->node_cell[i];
+    }
+    ++n;
+  }
+  mesh->nnode = n;
+}
+
+static pm_status prepare_nodes(const pm_model *m, pm_mesh *mesh, pm_connect_report *rep,
+                               pm_error *err) {
+  pm_status s = validate_nodes(m, mesh, err);
+  if (s) return s;
+  /* Face nodes outside their face's trimmed region cannot be mesh nodes. */
+  uint8_t *drop = calloc((size_t)mesh->nnode + 1, 1);
+  if (!drop) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  int32_t ndrop = 0;
+  for (int32_t i = 0; i < mesh->nnode; ++i) {
+    if (mesh->node_dim[i] != PM_FACE) continue;
+    const pm_cell *f = &m->cells[PM_FACE][mesh->node_cell[i]];
+    double *uv = &mesh->node_par[2 * i];
+    pm_cell_wrap(f, uv);
+    if (!pm_face_inside(f, uv)) drop[i] = 1, ++ndrop;
+  }
+  if (ndrop) compact_nodes(mesh, drop);
+  free(drop);
+  rep->dropped_nodes = ndrop;
+
+  /* A vertex that bounds nothing and lies in nothing, at the place of another vertex, is a stray
+   * point of the CAD file (a leftover construction point): its node would duplicate the other
+   * vertex's node, so it gets none. */
+  int32_t nv = m->count[PM_VERTEX];
+  uint8_t *stray = calloc((size_t)nv + 1, 1);
+  if (!stray) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t v = 0; v < nv; ++v) {
+    const pm_cell *a = &m->cells[PM_VERTEX][v];
+    if (a->nup || a->nhost) continue;
+    for (int32_t u = 0; u < nv && !stray[v]; ++u) {
+      const pm_cell *b = &m->cells[PM_VERTEX][u];
+      if (u != v && (b->nup || b->nhost || u < v) && pm_v3_dist(a->xyz, b->xyz) <= 1e3 * m->tol) stray[v] = 1;
+    }
+  }
+  drop = calloc((size_t)mesh->nnode + 1, 1);
+  if (!drop) {
+    free(stray);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  ndrop = 0;
+  for (int32_t i = 0; i < mesh->nnode; ++i)
+    if (mesh->node_dim[i] == PM_VERTEX && stray[mesh->node_cell[i]]) drop[i] = 1, ++ndrop;
+  if (ndrop) compact_nodes(mesh, drop);
+  free(drop);
+  rep->dropped_nodes += ndrop;
+
+  /* One node per vertex: add the missing ones, reject doubles. */
+  int32_t *has = calloc((size_t)nv + 1, sizeof(int32_t));
+  if (!has) {
+    free(stray);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int32_t i = 0; i < mesh->nnode; ++i)
+    if (mesh->node_dim[i] == PM_VERTEX && has[mesh->node_cell[i]]++) {
+      int tag = m->cells[PM_VERTEX][mesh->node_cell[i]].tag;
+      free(has);
+      free(stray);
+      return pm_error_setf(err, PM_ERR_ARG, "vertex %d carries more than one node", tag);
+    }
+  for (int32_t v = 0; v < nv && !s; ++v)
+    if (!has[v] && !stray[v]) {
+      s = pm_mesh_add_node(mesh, m->cells[PM_VERTEX][v].xyz, PM_VERTEX, v, NULL, NULL, err);
+      rep->added_nodes++;
+    }
+  free(has);
+  free(stray);
+  if (s) return s;
+
+  /* A closed curve (one end vertex) is a polygon only with at least two interior nodes: with
+   * none, add nodes at a third and two thirds of its range; with one, add one half a range away. */
+  for (int32_t c = 0; c < m->count[PM_CURVE] && !s; ++c) {
+    const pm_cell *cv = &m->cells[PM_CURVE][c];
+    if (cv->degenerate || cv->nbound != 2 || cv->bound[0].cell != cv->bound[1].cell) continue;
+    int32_t n = 0, one = -1;
+    for (int32_t i = 0; i < mesh->nnode; ++i)
+      if (mesh->node_dim[i] == PM_CURVE && mesh->node_cell[i] == c) ++n, one = i;
+    if (n >= 2) continue;
+    double range = cv->hi[0] - cv->lo[0], ts[2];
+    int nadd = 2 - n;
+    if (n == 0) {
+      ts[0] = cv->lo[0] + range / 3, ts[1] = cv->lo[0] + 2 * range / 3;
+    } else {
+      ts[0] = mesh->node_par[2 * one] + range / 2;
+      if (ts[0] > cv->hi[0]) ts[0] -= range;
+    }
+    for (int k = 0; k < nadd && !s; ++k) {
+      double x[3];
+      pm_cell_point(cv, &ts[k], x);
+      s = pm_mesh_add_node(mesh, x, PM_CURVE, c, &ts[k], NULL, err);
+      rep->added_nodes++;
+    }
+  }
+  return s;
+}
+
+/* ---- step 1: curve chains ------------------------------------------------------------------- */
+
+/* The chain of a curve: its start-vertex node, its own nodes by increasing t, its end-vertex
+ * node; node[off[c] .. off[c+1]) with parameters t[...]. A degenerate curve's chain is its two
+ * end-vertex nodes (often the same node). */
+typedef struct chains {
+  int32_t *off, *node;
+  double *t;
+} chains;
+
+static void chains_free(chains *ch) {
+  free(ch->off), free(ch->node), free(ch->t);
+  memset(ch, 0, sizeof *ch);
+}
+
+typedef struct tnode {
+  double t;
+  int32_t id;
+} tnode;
+
+static int tnode_cmp(const void *a, const void *b) {
+  const tnode *x = a, *y = b;
+  if (x->t < y->t) return -1;
+  if (x->t > y->t) return 1;
+  return (x->id > y->id) - (x->id < y->id);
+}
+
+static pm_status chains_build(const pm_model *m, const pm_mesh *mesh, const buckets *cb,
+                              const int32_t *vnode, chains *ch, pm_error *err) {
+  int32_t nc = m->count[PM_CURVE];
+  ch->off = malloc(sizeof(int32_t) * ((size_t)nc + 1));
+  int32_t total = 0;
+  for (int32_t c = 0; c < nc; ++c) total += cb->off[c + 1] - cb->off[c] + 2;
+  ch->node = malloc(sizeof(int32_t) * (size_t)(total ? total : 1));
+  ch->t = malloc(sizeof(double) * (size_t)(total ? total : 1));
+  if (!ch->off || !ch->node || !ch->t) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  int32_t pos = 0;
+  for (int32_t c = 0; c < nc; ++c) {
+    const pm_cell *cv = &m->cells[PM_CURVE][c];
+    ch->off[c] = pos;
+    if (cv->nbound != 2)
+      return pm_error_setf(err, PM_ERR_GEOM, "curve %d does not have two end vertices", cv->tag);
+    int32_t n = cb->off[c + 1] - cb->off[c];
+    if (cv->degenerate && n > 0)
+      return pm_error_setf(err, PM_ERR_ARG, "degenerate curve %d (a pole) carries %d nodes",
+                           cv->tag, (int)n);
+    tnode *tn = malloc(sizeof(tnode) * (size_t)(n ? n : 1));
+    if (!tn) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    for (int32_t k = 0; k < n; ++k) {
+      int32_t id = cb->ids[cb->off[c] + k];
+      double t = mesh->node_par[2 * id];
+      if (cv->periodic[0]) pm_cell_wrap(cv, &t);
+      tn[k] = (tnode){t, id};
+    }
+    qsort(tn, (size_t)n, sizeof(tnode), tnode_cmp);
+    ch->node[pos] = vnode[cv->bound[0].cell], ch->t[pos++] = cv->lo[0];
+    for (int32_t k = 0; k < n; ++k) ch->node[pos] = tn[k].id, ch->t[pos++] = tn[k].t;
+    ch->node[pos] = vnode[cv->bound[1].cell], ch->t[pos++] = cv->hi[0];
+    free(tn);
+  }
+  ch->off[nc] = pos;
+  return PM_OK;
+}
+
+static pm_status emit_segments(const pm_model *m, pm_mesh *mesh, const chains *ch, pm_error *err) {
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    if (m->cells[PM_CURVE][c].degenerate) continue;
+    for (int32_t k = ch->off[c]; k + 1 < ch->off[c + 1]; ++k) {
+      pm_status s = pm_mesh_add_seg(mesh, ch->node[k], ch->node[k + 1], c, err);
+      if (s) return s;
+    }
+  }
+  return PM_OK;
+}
+
+/* ---- a small set of node pairs (open addressing), for duplicate-edge checks ------------------ */
+
+typedef struct pairset {
+  uint64_t *key; /* 0 = empty, 1 = removed */
+  int64_t cap, n;
+} pairset;
+
+static uint64_t pair_key(int32_t a, int32_t b) {
+  if (a > b) {
+    int32_t t = a;
+    a = b, b = t;
+  }
+  return (((uint64_t)(uint32_t)a << 32) | (uint32_t)b) + 2; /* never 0 or 1 */
+}
+
+static uint64_t mix64(uint64_t x) {
+  x ^= x >> 33, x *= 0xff51afd7ed558ccdULL, x ^= x >> 33, x *= 0xc4ceb9fe1a85ec53ULL;
+  return x ^ (x >> 33);
+}
+
+static int pairset_init(pairset *s, int64_t n) {
+  s->cap = 16;
+  while (s->cap < 2 * n + 16) s->cap *= 2;
+  s->key = calloc((size_t)s->cap, sizeof(uint64_t));
+  s->n = 0;
+  return s->key != NULL;
+}
+
+static int64_t pairset_slot(const pairset *s, uint64_t k, int for_insert) {
+  int64_t mask = s->cap - 1, i = (int64_t)(mix64(k) & (uint64_t)mask), tomb = -1;
+  for (;;) {
+    uint64_t v = s->key[i];
+    if (v == k) return i;
+    if (v == 0) return for_insert && tomb >= 0 ? tomb : (for_insert ? i : -1);
+    if (v == 1 && tomb < 0) tomb = i;
+    i = (i + 1) & mask;
+  }
+}
+
+static int pairset_has(const pairset *s, int32_t a, int32_t b) {
+  return pairset_slot(s, pair_key(a, b), 0) >= 0;
+}
+
+/* Capacity is fixed at init to twice the expected count: flips keep the edge count constant. */
+static void pairset_add(pairset *s, int32_t a, int32_t b) {
+  uint64_t k = pair_key(a, b);
+  int64_t i = pairset_slot(s, k, 1);
+  if (s->key[i] != k) s->key[i] = k, s->n++;
+}
+
+static void pairset_del(pairset *s, int32_t a, int32_t b) {
+  int64_t i = pairset_slot(s, pair_key(a, b), 0);
+  if (i >= 0) s->key[i] = 1, s->n--;
+}
+
+/* ---- step 2: one face ------------------------------------------------------------------------ */
+
+typedef struct face_work {
+  /* points of the face's parameter-space triangulation */
+  int32_t np, capp;
+  double *uv;     /* [2*np] raw (u, v) */
+  double snap2;   /* squared (u, v) distance under which two points of one node are one point */
+  int32_t *next_of_node; /* [np] the node's previous point (a chain per node), -1 at the end */
+  int32_t *head;  /* [mesh nnode] the node's latest point, -1 when none (allocated per face) */
+  double *xy;     /* [2*np] what is triangulated (u, v after the affine map) */
+  int32_t *node;  /* [np] mesh node of each point */
+  int32_t nc, capc;
+  int32_t *cons;  /* [2*nc] constraint edges between points */
+  /* the triangulation, in point indices, and its adjacency */
+  int32_t ntri;
+  int32_t *tri;   /* [3*ntri] */
+  int32_t *nbr;   /* [3*ntri] triangle across edge (tri[3t+k], tri[3t+(k+1)%3]), -1 none */
+  uint8_t *fixed; /* [3*ntri] 1 when that edge is a constraint */
+} face_work;
+
+typedef struct face_out {
+  int32_t ntri;
+  int32_t *tri; /* [3*ntri] mesh nodes, oriented */
+  int32_t pole, flips, cap_hit, curved;
+  double asp_before, asp_after; /* sums over the face's triangles (curved faces) */
+  double max_before, max_after; /* maxima over them */
+  int32_t degen_before, degen_after; /* degenerate triangles (left out of the sums) */
+  pm_status status;
+  pm_error err;
+} face_out;
+
+static void face_work_free(face_work *w) {
+  free(w->next_of_node), free(w->head);
+  free(w->uv), free(w->xy), free(w->node), free(w->cons), free(w->tri), free(w->nbr), free(w->fixed);
+  memset(w, 0, sizeof *w);
+}
+
+/* Add a point of node `node` at uv; returns its index, or -1 when out of memory. A node's image
+ * reached twice through different pcurves (a vertex where two curves of a loop meet, a seam
+ * vertex touched by a hole) may differ in the last bits; within w->snap2 the earlier point is
+ * reused, so the triangulation never sees two points a rounding error apart. Images far apart
+ * (the two sides of a seam, the copies of a pole) stay distinct. */
+static int add_point(face_work *w, const double uv[2], int32_t node) {
+  for (int32_t q = w->head[node]; q >= 0; q = w->next_of_node[q]) {
+    double du = w->uv[2 * q] - uv[0], dv = w->uv[2 * q + 1] - uv[1];
+    if (du * du + dv * dv <= w->snap2) return q;
+  }
+  if (w->np == w->capp) {
+    int32_t cap = w->capp ? 2 * w->capp : 256;
+    double *a = realloc(w->uv, sizeof(double) * 2 * (size_t)cap);
+    if (!a) return -1;
+    w->uv = a;
+    int32_t *b = realloc(w->node, sizeof(int32_t) * (size_t)cap);
+    if (!b) return -1;
+    w->node = b;
+    int32_t *c = realloc(w->next_of_node, sizeof(int32_t) * (size_t)cap);
+    if (!c) return -1;
+    w->next_of_node = c;
+    w->capp = cap;
+  }
+  w->uv[2 * w->np] = uv[0], w->uv[2 * w->np + 1] = uv[1];
+  w->node[w->np] = node;
+  w->next_of_node[w->np] = w->head[node];
+  w->head[node] = w->np;
+  return w->np++;
+}
+
+static int add_constraint(face_work *w, int32_t a, int32_t b) {
+  if (a == b) return 0;
+  if (w->nc == w->capc) {
+    int32_t cap = w->capc ? 2 * w->capc : 256;
+    int32_t *c = realloc(w->cons, sizeof(int32_t) * 2 * (size_t)cap);
+    if (!c) return -1;
+    w->cons = c;
+    w->capc = cap;
+  }
+  w->cons[2 * w->nc] = a, w->cons[2 * w->nc + 1] = b;
+  w->nc++;
+  return 0;
+}
+
+/* A pole (the image of a degenerate curve: a sphere's pole, a cone's apex) is one node, but a
+ * segment in the face's parameter space. Copies of its node are placed along that segment, as a
+ * chain of constraint edges: at the segment's start (its end is the next use's start), at the
+ * parameters where the face nodes closest to the pole project onto it, and evenly every 1/32 of
+ * it. Each node next to the pole then finds a copy right "above" it, so the parameter-space
+ * triangles around the pole lift to a fan in angular order around it; triangles between two
+ * copies collapse onto the pole and are dropped. With only the two end copies, a node close to
+ * the pole would be joined to a copy far away along the segment, giving a triangle that wraps
+ * around the pole in 3D. */
+static int cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
+static pm_status add_pole_copies(const pm_cell *f, const pm_use *use, double tlo, double thi,
+                                 int32_t node, const pm_mesh *mesh, const buckets *fb,
+                                 face_work *w, int32_t *first, int32_t *prev, pm_error *err) {
+  double t0 = use->sense >= 0 ? tlo : thi, t1 = use->sense >= 0 ? thi : tlo;
+  double A[2], B[2];
+  pm_face_curve_uv(f, use, t0, A);
+  pm_face_curve_uv(f, use, t1, B);
+  double d[2] = {B[0] - A[0], B[1] - A[1]}, len2 = d[0] * d[0] + d[1] * d[1];
+  int32_t nf = fb->off[f->index + 1] - fb->off[f->index];
+  double *s = malloc(sizeof(double) * ((size_t)nf + 40));
+  if (!s) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  int32_t ns = 0;
+  for (int k = 0; k < 32; ++k) s[ns++] = k / 32.0;
+  if (len2 > 0 && nf > 0) {
+    /* The face nodes nearest to the segment: within three times the smallest distance. */
+    double dmin = INFINITY;
+    for (int32_t k = fb->off[f->index]; k < fb->off[f->index + 1]; ++k) {
+      const double *p = &mesh->node_par[2 * fb->ids[k]];
+      double cr = fabs((p[0] - A[0]) * d[1] - (p[1] - A[1]) * d[0]) / sqrt(len2);
+      dmin = fmin(dmin, cr);
+    }
+    for (int32_t k = fb->off[f->index]; k < fb->off[f->index + 1]; ++k) {
+      const double *p = &mesh->node_par[2 * fb->ids[k]];
+      double cr = fabs((p[0] - A[0]) * d[1] - (p[1] - A[1]) * d[0]) / sqrt(len2);
+      double sp = ((p[0] - A[0]) * d[0] + (p[1] - A[1]) * d[1]) / len2;
+      if (cr <= 3 * dmin && sp > 0 && sp < 1) s[ns++] = sp;
+    }
+  }
+  qsort(s, (size_t)ns, sizeof(double), cmp_double);
+  pm_status st = PM_OK;
+  double last = -1;
+  for (int32_t k = 0; k < ns; ++k) {
+    if (s[k] - last < 1e-6) continue; /* copies closer than this add nothing */
+    last = s[k];
+    double uv[2];
+    pm_face_curve_uv(f, use, t0 + (t1 - t0) * s[k], uv);
+    int32_t q = add_point(w, uv, node);
+    if (q < 0 || (*prev >= 0 && add_constraint(w, *prev, q))) {
+      st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+      break;
+    }
+    if (*first < 0) *first = q;
+    *prev = q;
+  }
+  free(s);
+  return st;
+}
+
+/* The points of face f: the node chains of its loops (through the pcurves of each use) as closed
+ * constrained polygons, its embedded curves as open constrained chains, and its own nodes. */
+static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const pm_mesh *mesh,
+                                    const chains *ch, const buckets *fb, face_work *w,
+                                    pm_error *err) {
+  w->head = malloc(sizeof(int32_t) * ((size_t)mesh->nnode + 1));
+  if (!w->head) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t i = 0; i < mesh->nnode; ++i) w->head[i] = -1;
+  /* 1e-9 of the parameter box: far below any two distinct nodes, far above rounding. */
+  double du = f->hi[0] - f->lo[0], dv = f->hi[1] - f->lo[1];
+  w->snap2 = 1e-18 * (du * du + dv * dv);
+  for (int32_t l = 0; l < f->nloop; ++l) {
+    const pm_loop *lp = &f->loop[l];
+    int32_t first = -1, prev = -1; /* the loop's first point and the last one added */
+    for (int32_t k = 0; k < lp->nuse; ++k) {
+      const pm_use *use = &lp->use[k];
+      int32_t c = use->cell, a = ch->off[c], b = ch->off[c + 1];
+      if (m->cells[PM_CURVE][c].degenerate) {
+        pm_status s = add_pole_copies(f, use, ch->t[a], ch->t[b - 1], ch->node[a], mesh, fb, w,
+                                      &first, &prev, err);
+        if (s) return s;
+        continue;
+      }
+      /* Every chain node but the last in the use's direction: the last is the next use's first. */
+      for (int32_t q = 0; q < b - a - 1; ++q) {
+        int32_t i = use->sense >= 0 ? a + q : b - 1 - q;
+        double uv[2];
+        pm_face_curve_uv(f, use, ch->t[i], uv);
+        int32_t p = add_point(w, uv, ch->node[i]);
+        if (p < 0) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+        if (prev >= 0 && add_constraint(w, prev, p)) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+        if (first < 0) first = p;
+        prev = p;
+      }
+    }
+    if (prev >= 0 && prev != first && add_constraint(w, prev, first))
+      return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int32_t e = 0; e < f->nembed; ++e) {
+    pm_cellref r = f->embed[e];
+    if (r.dim == PM_CURVE) {
+      pm_use use = {r.index, 1, 0};
+      int32_t prev = -1;
+      for (int32_t i = ch->off[r.index]; i < ch->off[r.index + 1]; ++i) {
+        double uv[2];
+        pm_face_curve_uv(f, &use, ch->t[i], uv);
+        int32_t p = add_point(w, uv, ch->node[i]);
+        if (p < 0) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+        if (prev >= 0 && add_constraint(w, prev, p)) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+        prev = p;
+      }
+    }
+  }
+  (void)m;
+  for (int32_t k = fb->off[f->index]; k < fb->off[f->index + 1]; ++k) {
+    int32_t id = fb->ids[k];
+    if (add_point(w, &mesh->node_par[2 * id], id) < 0)
+      return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  w->xy = malloc(sizeof(double) * 2 * (size_t)(w->np ? w->np : 1));
+  if (!w->xy) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  memcpy(w->xy, w->uv, sizeof(double) * 2 * (size_t)w->np);
+  return PM_OK;
+}
+
+/* papers/001 eq. 16: the linear map A of the parameter plane that best preserves distances,
+ * min sum (|A du_ij| - |r_ij|)^2 over neighbouring pairs. We solve it in squared form, for the
+ * symmetric positive definite Q = A^T A: min sum w_ij (du_ij^T Q du_ij - |r_ij|^2)^2 with
+ * w_ij = 1 / |r_ij|^4 (relative errors, so small and large edges count alike) -- linear least
+ * squares in the three entries of Q, with the same minimizer as eq. 16 when the fit is exact --
+ * then A = Q^(1/2), the symmetric square root (det A > 0 keeps orientations). The pairs are the
+ * edges of a first, unscaled triangulation. Returns 0 (and leaves xy unscaled) when Q is not
+ * positive definite. */
+static int affine_scale(face_work *w, const pm_mesh *mesh, const pm_cdt_result *first) {
+  /* Interior edges appear in two triangles and so count twice, boundary edges once. */
+  double N[3][3] = {{0}}, rhs[3] = {0};
+  int used = 0;
+  for (int32_t t = 0; t < first->ntri; ++t)
+    for (int k = 0; k < 3; ++k) {
+      int32_t a = first->tri[3 * t + k], b = first->tri[3 * t + (k + 1) % 3];
+      int32_t na = w->node[a], nb = w->node[b];
+      if (na == nb) continue;
+      double du = w->uv[2 * a] - w->uv[2 * b], dv = w->uv[2 * a + 1] - w->uv[2 * b + 1];
+      double r2 = pm_v3_dist2(&mesh->xyz[3 * na], &mesh->xyz[3 * nb]);
+      if (!(r2 > 0) || (du == 0 && dv == 0)) continue;
+      double phi[3] = {du * du, 2 * du * dv, dv * dv}, wt = 1.0 / (r2 * r2);
+      for (int i = 0; i < 3; ++i) {
+        rhs[i] += wt * phi[i] * r2;
+        for (int j = 0; j < 3; ++j) N[i][j] += wt * phi[i] * phi[j];
+      }
+      ++used;
+    }
+  if (used < 3) return 0;
+  /* Solve the 3x3 normal equations by Cramer's rule. */
+  double det = N[0][0] * (N[1][1] * N[2][2] - N[1][2] * N[2][1]) -
+               N[0][1] * (N[1][0] * N[2][2] - N[1][2] * N[2][0]) +
+               N[0][2] * (N[1][0] * N[2][1] - N[1][1] * N[2][0]);
+  if (!(fabs(det) > 0) || !isfinite(det)) return 0;
+  double q[3];
+  for (int c = 0; c < 3; ++c) {
+    double M[3][3];
+    memcpy(M, N, sizeof M);
+    for (int r = 0; r < 3; ++r) M[r][c] = rhs[r];
+    q[c] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+            M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+            M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) / det;
+  }
+  double a = q[0], b = q[1], c = q[2];
+  if (!(a > 0 && a * c - b * b > 1e-12 * (a + c) * (a + c))) return 0;
+  /* Symmetric square root of [[a, b], [b, c]]: sqrt(Q) = (Q + sqrt(det) I) / sqrt(tr + 2 sqrt(det)). */
+  double sd = sqrt(a * c - b * b), s = sqrt(a + c + 2 * sd);
+  double A00 = (a + sd) / s, A01 = b / s, A11 = (c + sd) / s;
+  for (int32_t i = 0; i < w->np; ++i) {
+    double u = w->uv[2 * i], v = w->uv[2 * i + 1];
+    w->xy[2 * i] = A00 * u + A01 * v;
+    w->xy[2 * i + 1] = A01 * u + A11 * v;
+  }
+  return 1;
+}
+
+/* Adjacency of the point-index triangulation: nbr and the constraint flags. */
+static pm_status build_adjacency(face_work *w, pm_error *err) {
+  w->nbr = malloc(sizeof(int32_t) * 3 * (size_t)(w->ntri ? w->ntri : 1));
+  w->fixed = calloc(3 * (size_t)(w->ntri ? w->ntri : 1), 1);
+  if (!w->nbr || !w->fixed) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t i = 0; i < 3 * w->ntri; ++i) w->nbr[i] = -1;
+  pm_edges e = {0};
+  pm_status s = pm_edges_build(w->np, w->tri, w->ntri, 3, &e, err);
+  if (s) return s;
+  for (int64_t k = 0; k < e.nedge; ++k) {
+    if (e.off[k + 1] - e.off[k] != 2) continue;
+    int32_t t0 = e.elem[e.off[k]], t1 = e.elem[e.off[k] + 1];
+    int32_t a = e.ends[2 * k], b = e.ends[2 * k + 1];
+    for (int q = 0; q < 3; ++q) {
+      int32_t x = w->tri[3 * t0 + q], y = w->tri[3 * t0 + (q + 1) % 3];
+      if ((x == a && y == b) || (x == b && y == a)) w->nbr[3 * t0 + q] = t1;
+      x = w->tri[3 * t1 + q], y = w->tri[3 * t1 + (q + 1) % 3];
+      if ((x == a && y == b) || (x == b && y == a)) w->nbr[3 * t1 + q] = t0;
+    }
+  }
+  pm_edges_free(&e);
+  /* Constraint edges: sort-free check through a pair set of constrained point pairs. */
+  pairset cs;
+  if (!pairset_init(&cs, w->nc)) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t k = 0; k < w->nc; ++k) pairset_add(&cs, w->cons[2 * k], w->cons[2 * k + 1]);
+  for (int32_t t = 0; t < w->ntri; ++t)
+    for (int q = 0; q < 3; ++q)
+      w->fixed[3 * t + q] = (uint8_t)pairset_has(&cs, w->tri[3 * t + q], w->tri[3 * t + (q + 1) % 3]);
+  free(cs.key);
+  return PM_OK;
+}
+
+/* Circumcentre and squared circumradius of a 3D triangle; returns 0 when degenerate. */
+static int circumsphere(const double a[3], const double b[3], const double c[3], double ctr[3],
+                        double *r2) {
+  double ab[3], ac[3], n[3], t1[3], t2[3], num[3];
+  pm_v3_sub(ab, b, a), pm_v3_sub(ac, c, a);
+  pm_v3_cross(n, ab, ac);
+  double nn = pm_v3_dot(n, n);
+  if (!(nn > 1e-30 * pm_v3_dot(ab, ab) * pm_v3_dot(ac, ac))) return 0;
+  /* ctr = a + ((|ab|^2 ac - |ac|^2 ab) x n) / (2 |n|^2) */
+  pm_v3_scale(t1, ac, pm_v3_dot(ab, ab));
+  pm_v3_scale(t2, ab, pm_v3_dot(ac, ac));
+  pm_v3_sub(t1, t1, t2);
+  pm_v3_cross(num, t1, n);
+  pm_v3_axpy(ctr, a, 0.5 / nn, num);
+  *r2 = pm_v3_dist2(ctr, a);
+  return 1;
+}
+
+/* Is p strictly inside the diametric ball of triangle (a, b, c)? (A degenerate triangle's ball
+ * is unbounded: everything is inside, so it is always flipped away when allowed.) */
+static int in_ball(const double *a, const double *b, const double *c, const double *p, double *r2) {
+  double ctr[3];
+  if (!circumsphere(a, b, c, ctr, r2)) {
+    *r2 = 0;
+    return 1;
+  }
+  return pm_v3_dist2(p, ctr) < *r2 * (1 - 1e-12);
+}
+
+static const double *P3(const face_work *w, const pm_mesh *mesh, int32_t p) {
+  return &mesh->xyz[3 * w->node[p]];
+}
+
+/* The natural normal Su x Sv at the centroid of three parameter points. */
+static void surface_normal(const pm_cell *f, const face_work *w, int32_t a, int32_t b, int32_t c,
+                           double n[3]) {
+  double uv[2] = {(w->uv[2 * a] + w->uv[2 * b] + w->uv[2 * c]) / 3,
+                  (w->uv[2 * a + 1] + w->uv[2 * b + 1] + w->uv[2 * c + 1]) / 3};
+  pm_face_point fp;
+  pm_face_eval(f, uv, 1, &fp);
+  pm_v3_cross(n, fp.su, fp.sv);
+}
+
+/* A triangle of points (a, b, c) is acceptable when it is not degenerate in 3D and its normal
+ * agrees with the surface's natural normal (so that a flip never folds the mesh over). */
+static int acceptable(const pm_cell *f, const face_work *w, const pm_mesh *mesh, int32_t a,
+                      int32_t b, int32_t c) {
+  const double *A = P3(w, mesh, a), *B = P3(w, mesh, b), *C = P3(w, mesh, c);
+  double ab[3], ac[3], n[3], ns[3];
+  pm_v3_sub(ab, B, A), pm_v3_sub(ac, C, A);
+  pm_v3_cross(n, ab, ac);
+  double scale = pm_v3_dot(ab, ab) + pm_v3_dot(ac, ac);
+  if (!(pm_v3_dot(n, n) > 1e-20 * scale * scale)) return 0;
+  surface_normal(f, w, a, b, c, ns);
+  return pm_v3_dot(n, ns) > 0;
+}
+
+/* Edge flips towards empty diametric balls (papers/001 section 4.3): an edge (a, b) shared by
+ * (a, b, c) and (b, a, d) is flipped to (c, d) when a diametric ball of the pair contains the
+ * opposite vertex and either the flipped pair has empty balls or -- the paper's tie-break for
+ * edges that would flip back and forth -- both pairs fail and the flipped pair has the larger
+ * minimum circumradius. A pair holding an inverted or degenerate triangle is flipped whenever the
+ * flipped pair is acceptable, whatever the balls say. Guards: a constrained edge is never flipped; the flipped triangles must
+ * be acceptable (non-degenerate, agreeing with the surface normal); the new edge must not exist
+ * yet (no duplicate triangle); at most max_flips flips (termination is then guaranteed whatever
+ * the surface; the cap is counted when hit). */
+static void flip_face(const pm_cell *f, face_work *w, const pm_mesh *mesh, int64_t max_flips,
+                      face_out *out) {
+  if (w->ntri < 2) return;
+  pairset edges;
+  if (!pairset_init(&edges, 3 * (int64_t)w->ntri)) return;
+  for (int32_t t = 0; t < w->ntri; ++t)
+    for (int q = 0; q < 3; ++q) pairset_add(&edges, w->node[w->tri[3 * t + q]], w->node[w->tri[3 * t + (q + 1) % 3]]);
+  /* A FIFO of half-edges (t, q), with an in-queue flag; each edge enters through one side. */
+  int64_t cap = 3 * (int64_t)w->ntri;
+  int32_t *queue = malloc(sizeof(int32_t) * (size_t)cap);
+  uint8_t *inq = calloc((size_t)cap, 1);
+  if (!queue || !inq) {
+    free(queue), free(inq), free(edges.key);
+    return;
+  }
+  int64_t head = 0, size = 0;
+  for (int32_t t = 0; t < w->ntri; ++t)
+    for (int q = 0; q < 3; ++q) {
+      int32_t u = w->nbr[3 * t + q];
+      if (u > t && !w->fixed[3 * t + q]) queue[(head + size++) % cap] = 3 * t + q, inq[3 * t + q] = 1;
+    }
+  int64_t flips = 0;
+  while (size > 0) {
+    int32_t he = queue[head];
+    head = (head + 1) % cap, --size;
+    inq[he] = 0;
+    int32_t t1 = he / 3, q1 = he % 3, t2 = w->nbr[he];
+    if (t2 < 0 || w->fixed[he]) continue;
+    int32_t a = w->tri[3 * t1 + q1], b = w->tri[3 * t1 + (q1 + 1) % 3], c = w->tri[3 * t1 + (q1 + 2) % 3];
+    int q2 = 0;
+    while (q2 < 3 && !(w->tri[3 * t2 + q2] == b && w->tri[3 * t2 + (q2 + 1) % 3] == a)) ++q2;
+    if (q2 == 3) continue; /* inconsistent orientation: leave it */
+    int32_t d = w->tri[3 * t2 + (q2 + 2) % 3];
+    const double *A = P3(w, mesh, a), *B = P3(w, mesh, b), *C = P3(w, mesh, c), *D = P3(w, mesh, d);
+    int32_t nc = w->node[c], nd = w->node[d];
+    if (nc == nd || pairset_has(&edges, nc, nd)) continue;
+    /* A pair with an inverted or degenerate triangle (left by the parameter-space triangulation
+     * where the parametrization is strongly distorted) is flipped whenever the flipped pair is
+     * acceptable: untangling comes before the ball criterion. */
+    int tangled = !acceptable(f, w, mesh, a, b, c) || !acceptable(f, w, mesh, b, a, d);
+    if (!tangled) {
+      double r1, r2, r3, r4;
+      int bad_old = in_ball(A, B, C, D, &r1) | in_ball(B, A, D, C, &r2);
+      if (!bad_old) continue;
+      int bad_new = in_ball(A, D, C, B, &r3) | in_ball(B, C, D, A, &r4);
+      if (bad_new && !(fmin(r3, r4) > fmin(r1, r2))) continue;
+    }
+    if (!acceptable(f, w, mesh, a, d, c) || !acceptable(f, w, mesh, b, c, d)) continue;
+    if (flips >= max_flips) {
+      out->cap_hit = 1;
+      break;
+    }
+    /* Neighbours across the outer edges: (b, c), (c, a) of t1 and (a, d), (d, b) of t2. */
+    int32_t n_bc = w->nbr[3 * t1 + (q1 + 1) % 3], n_ca = w->nbr[3 * t1 + (q1 + 2) % 3];
+    int32_t n_ad = w->nbr[3 * t2 + (q2 + 1) % 3], n_db = w->nbr[3 * t2 + (q2 + 2) % 3];
+    uint8_t f_bc = w->fixed[3 * t1 + (q1 + 1) % 3], f_ca = w->fixed[3 * t1 + (q1 + 2) % 3];
+    uint8_t f_ad = w->fixed[3 * t2 + (q2 + 1) % 3], f_db = w->fixed[3 * t2 + (q2 + 2) % 3];
+    /* t1 becomes (a, d, c), t2 becomes (b, c, d). */
+    int32_t T1[3] = {a, d, c}, T2[3] = {b, c, d};
+    int32_t N1[3] = {n_ad, t2, n_ca}, N2[3] = {n_bc, t1, n_db};
+    uint8_t F1[3] = {f_ad, 0, f_ca}, F2[3] = {f_bc, 0, f_db};
+    for (int q = 0; q < 3; ++q) {
+      w->tri[3 * t1 + q] = T1[q], w->nbr[3 * t1 + q] = N1[q], w->fixed[3 * t1 + q] = F1[q];
+      w->tri[3 * t2 + q] = T2[q], w->nbr[3 * t2 + q] = N2[q], w->fixed[3 * t2 + q] = F2[q];
+    }
+    /* Point the neighbours that changed sides back at the right triangle. */
+    if (n_ad >= 0)
+      for (int q = 0; q < 3; ++q)
+        if (w->nbr[3 * n_ad + q] == t2) w->nbr[3 * n_ad + q] = t1;
+    if (n_bc >= 0)
+      for (int q = 0; q < 3; ++q)
+        if (w->nbr[3 * n_bc + q] == t1) w->nbr[3 * n_bc + q] = t2;
+    pairset_del(&edges, w->node[a], w->node[b]);
+    pairset_add(&edges, nc, nd);
+    ++flips;
+    /* The four outer edges may now violate. */
+    int32_t re[4] = {3 * t1 + 0, 3 * t1 + 2, 3 * t2 + 0, 3 * t2 + 2};
+    for (int k = 0; k < 4; ++k)
+      if (!inq[re[k]] && w->nbr[re[k]] >= 0 && !w->fixed[re[k]] && size < cap) {
+        queue[(head + size++) % cap] = re[k];
+        inq[re[k]] = 1;
+      }
+  }
+  out->flips = (int32_t)flips;
+  free(queue), free(inq), free(edges.key);
+}
+
+/* Sum and maximum of R/l_min over the face's non-degenerate triangles; degenerate ones (zero
+ * area in 3D) are counted apart, their R/l_min being unbounded. */
+static double sum_aspect(const face_work *w, const pm_mesh *mesh, double *max, int32_t *ndegen) {
+  double s = 0;
+  for (int32_t t = 0; t < w->ntri; ++t) {
+    pm_tri_measure q;
+    pm_tri_measure_eval(P3(w, mesh, w->tri[3 * t]), P3(w, mesh, w->tri[3 * t + 1]),
+                        P3(w, mesh, w->tri[3 * t + 2]), &q);
+    if (q.degenerate) {
+      (*ndegen)++;
+      continue;
+    }
+    s += q.aspect_ratio;
+    *max = fmax(*max, q.aspect_ratio);
+  }
+  return s;
+}
+
+/* Is the face curved? Its largest principal curvature at a few inside points, relative to the
+ * model size. */
+static int face_is_curved(const pm_cell *f, double diag) {
+  for (int a = 1; a <= 3; ++a)
+    for (int b = 1; b <= 3; ++b) {
+      double uv[2] = {f->lo[0] + (f->hi[0] - f->lo[0]) * a / 4, f->lo[1] + (f->hi[1] - f->lo[1]) * b / 4};
+      if (!pm_face_inside(f, uv)) continue;
+      double k1, k2;
+      pm_face_curvatures(f, uv, &k1, &k2, NULL);
+      if (fabs(k1) * diag > 1e-6) return 1;
+    }
+  return 0;
+}
+
+/* Take a CDT's triangles into w->tri: merged points mapped to their representative, triangles
+ * collapsed onto a pole (two corners on one node: the two ends of a degenerate pcurve) dropped
+ * and counted. */
+static pm_status take_triangles(face_work *w, const pm_cdt_result *cdt, int32_t *pole,
+                                pm_error *err) {
+  w->tri = malloc(sizeof(int32_t) * 3 * (size_t)(cdt->ntri ? cdt->ntri : 1));
+  if (!w->tri) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  w->ntri = 0;
+  for (int32_t t = 0; t < cdt->ntri; ++t) {
+    int32_t v[3];
+    for (int q = 0; q < 3; ++q) {
+      v[q] = cdt->tri[3 * t + q];
+      if (cdt->merged_into) v[q] = cdt->merged_into[v[q]];
+    }
+    int32_t na = w->node[v[0]], nb = w->node[v[1]], nc = w->node[v[2]];
+    if (na == nb || nb == nc || na == nc) {
+      (*pole)++;
+      continue;
+    }
+    memcpy(&w->tri[3 * w->ntri], v, sizeof v);
+    w->ntri++;
+  }
+  return PM_OK;
+}
+
+static int32_t count_unacceptable_in(const pm_cell *f, const face_work *w, const pm_mesh *mesh,
+                                     const int32_t *tri, int32_t ntri) {
+  int32_t n = 0;
+  for (int32_t t = 0; t < ntri; ++t) n += !acceptable(f, w, mesh, tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]);
+  return n;
+}
+
+static int32_t count_unacceptable(const pm_cell *f, const face_work *w, const pm_mesh *mesh) {
+  return count_unacceptable_in(f, w, mesh, w->tri, w->ntri);
+}
+
+static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mesh, const chains *ch,
+                         const buckets *fb, const pm_connect_params *p, face_out *out) {
+  face_work w = {0};
+  pm_error *err = &out->err;
+  pm_cdt_result cdt = {0};
+  pm_status s = gather_face_points(m, f, mesh, ch, fb, &w, err);
+  if (s) goto fail;
+  if (w.np < 3) {
+    s = pm_error_setf(err, PM_ERR_GEOM, "face %d has fewer than 3 nodes", f->tag);
+    goto fail;
+  }
+  /* The unscaled triangulation; with the affine scaling (eq. 16) a second one in the scaled
+   * plane, kept unless it lifts to more inverted triangles than the first (one affine map cannot
+   * undo the distortion of a whole sphere near its poles). */
+  s = pm_cdt_triangulate(w.xy, w.np, w.cons, w.nc, 1, 1, &cdt, err);
+  if (s) goto fail_cdt;
+  if ((s = take_triangles(&w, &cdt, &out->pole, err))) goto fail;
+  if (p->affine && affine_scale(&w, mesh, &cdt)) {
+    pm_cdt_result scaled = {0};
+    s = pm_cdt_triangulate(w.xy, w.np, w.cons, w.nc, 1, 1, &scaled, err);
+    if (s) goto fail_cdt;
+    int32_t *raw_tri = w.tri, raw_n = w.ntri, raw_pole = out->pole, pole = 0;
+    w.tri = NULL, w.ntri = 0;
+    s = take_triangles(&w, &scaled, &pole, err);
+    pm_cdt_result_free(&scaled);
+    if (s) {
+      free(raw_tri);
+      goto fail;
+    }
+    if (count_unacceptable(f, &w, mesh) > count_unacceptable_in(f, &w, mesh, raw_tri, raw_n)) {
+      free(w.tri);
+      w.tri = raw_tri, w.ntri = raw_n, out->pole = raw_pole;
+    } else {
+      free(raw_tri);
+      out->pole = pole;
+    }
+  }
+  pm_cdt_result_free(&cdt);
+  out->curved = face_is_curved(f, m->diagonal);
+  if (out->curved) out->asp_before = sum_aspect(&w, mesh, &out->max_before, &out->degen_before);
+  if (p->flips != PM_FLIP_NONE && w.ntri > 1) {
+    s = build_adjacency(&w, err);
+    if (s) goto fail;
+    flip_face(f, &w, mesh, (int64_t)p->max_flips_per_tri * w.ntri, out);
+  }
+  if (out->curved) out->asp_after = sum_aspect(&w, mesh, &out->max_after, &out->degen_after);
+  out->tri = malloc(sizeof(int32_t) * 3 * (size_t)(w.ntri ? w.ntri : 1));
+  if (!out->tri) {
+    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto fail;
+  }
+  int sign = pm_face_mesh_sign(m, f->index);
+  for (int32_t t = 0; t < w.ntri; ++t) {
+    int32_t a = w.node[w.tri[3 * t]], b = w.node[w.tri[3 * t + 1]], c = w.node[w.tri[3 * t + 2]];
+    out->tri[3 * t] = a;
+    out->tri[3 * t + 1] = sign > 0 ? b : c;
+    out->tri[3 * t + 2] = sign > 0 ? c : b;
+  }
+  out->ntri = w.ntri;
+  face_work_free(&w);
+  out->status = PM_OK;
+  return;
+fail_cdt:
+  pm_error_prefix(err, "face %d", f->tag);
+fail:
+  pm_cdt_result_free(&cdt);
+  face_work_free(&w);
+  out->status = s ? s : PM_ERR_INTERNAL;
+}
+
+/* ---- step 3: volumes ---------------------------------------------------------------------------- */
+
+/* Does the segment p-q cross triangle (a, b, c)? 1 yes, 0 no, -1 degenerate (touches an edge or
+ * a vertex, or p lies in the triangle's plane): the caller picks another ray. */
+static int segment_hits(const double *p, const double *q, const double *a, const double *b,
+                        const double *c) {
+  int s1 = pm_orient3d(a, b, c, p), s2 = pm_orient3d(a, b, c, q);
+  if (s1 == 0 || s2 == 0) return s1 == s2 ? 0 : -1;
+  if (s1 == s2) return 0;
+  int e1 = pm_orient3d(p, q, a, b), e2 = pm_orient3d(p, q, b, c), e3 = pm_orient3d(p, q, c, a);
+  if ((e1 > 0 && e2 > 0 && e3 > 0) || (e1 < 0 && e2 < 0 && e3 < 0)) return 1;
+  if (e1 == 0 || e2 == 0 || e3 == 0) {
+    int pos = (e1 > 0) + (e2 > 0) + (e3 > 0), neg = (e1 < 0) + (e2 < 0) + (e3 < 0);
+    if (pos == 0 || neg == 0) return -1;
+  }
+  return 0;
+}
+
+/* Parity of crossings of rays from x with the triangles of volume v's shell: 1 inside, 0 outside,
+ * -1 undecided (every ray touched an edge). */
+static int inside_shell(const pm_model *m, const pm_mesh *mesh, const face_out *fo,
+                        const pm_cell *v, const double x[3]) {
+  static const double dirs[5][3] = {{0.5773, 0.5779, 0.5768}, {-0.3121, 0.8126, 0.4921},
+                                    {0.7071, -0.1234, -0.6963}, {-0.6417, -0.5132, 0.5700},
+                                    {0.1111, 0.2222, -0.9686}};
+  for (int k = 0; k < 5; ++k) {
+    double q[3];
+    pm_v3_axpy(q, x, 4 * m->diagonal, dirs[k]);
+    int parity = 0, bad = 0;
+    for (int32_t b = 0; b < v->nbound && !bad; ++b) {
+      const face_out *o = &fo[v->bound[b].cell];
+      for (int32_t t = 0; t < o->ntri && !bad; ++t) {
+        int h = segment_hits(x, q, &mesh->xyz[3 * o->tri[3 * t]], &mesh->xyz[3 * o->tri[3 * t + 1]],
+                             &mesh->xyz[3 * o->tri[3 * t + 2]]);
+        if (h < 0) bad = 1;
+        parity ^= h > 0;
+      }
+    }
+    if (!bad) return parity;
+  }
+  return -1;
+}
+
+/* A point strictly inside volume v: a small step inward from the centroid of one of its boundary
+ * triangles, checked by ray parity against its shell. */
+static int region_seed(const pm_model *m, const pm_mesh *mesh, const face_out *fo,
+                       const pm_cell *v, double seed[3]) {
+  for (int32_t b = 0; b < v->nbound; ++b) {
+    const face_out *o = &fo[v->bound[b].cell];
+    /* Triangles are oriented outward of the face's first volume; for the others the sense
+     * tells: inward = -(outward normal) x (this volume's sense relative to the stored one). */
+    const pm_cell *f = &m->cells[PM_FACE][v->bound[b].cell];
+    int stored = pm_face_mesh_sign(m, f->index), here = v->bound[b].sense < 0 ? -1 : 1;
+    for (int32_t t = 0; t < o->ntri; t += 1 + o->ntri / 8) {
+      const double *A = &mesh->xyz[3 * o->tri[3 * t]], *B = &mesh->xyz[3 * o->tri[3 * t + 1]],
+                   *C = &mesh->xyz[3 * o->tri[3 * t + 2]];
+      double ab[3], ac[3], n[3], ctr[3];
+      pm_v3_sub(ab, B, A), pm_v3_sub(ac, C, A);
+      pm_v3_cross(n, ab, ac);
+      double area2 = pm_v3_normalize(n);
+      if (!(area2 > 0)) continue;
+      for (int k = 0; k < 3; ++k) ctr[k] = (A[k] + B[k] + C[k]) / 3;
+      double h = 0.1 * sqrt(area2);
+      double sgn = -(double)(stored * here);
+      for (int tries = 0; tries < 4; ++tries, h *= 0.25) {
+        double x[3];
+        pm_v3_axpy(x, ctr, sgn * h, n);
+        if (inside_shell(m, mesh, fo, v, x) == 1) {
+          pm_v3_copy(seed, x);
+          return 1;
+        }
+      }
+    }
+  }
+  return 0;
+}
+
+/* A flat tet under a planar face: TetGen may leave a tet of (near) zero volume whose four corners
+ * are boundary nodes of one planar face -- two of its faces are the face's triangles over a
+ * quadrilateral of nearly cocircular nodes, the other two the quadrilateral's other diagonal
+ * pair. Such a tet is removed and the face's two triangles are replaced by its two other faces
+ * (the same planar quadrilateral split along the other diagonal), so the surface stays a
+ * triangulation of the face and the tets' boundary still matches it exactly. Returns the number
+ * of tets removed; `keep[t]` is cleared for them. */
+static int32_t repair_flat_tets(pm_mesh *mesh, const int32_t *rtet, int32_t rntet,
+                                const int32_t *back, int32_t tri_first, uint8_t *keep,
+                                pm_error *err) {
+  int32_t ntri = mesh->ntri - tri_first;
+  /* Hash of the surface triangles by their sorted node triple. */
+  int64_t cap = 16;
+  while (cap < 4 * (int64_t)ntri + 16) cap *= 2;
+  int64_t *slot = malloc(sizeof(int64_t) * (size_t)cap);
+  if (!slot) return -pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int64_t i = 0; i < cap; ++i) slot[i] = -1;
+#define TRI_KEY(a, b, c) (mix64(((uint64_t)(uint32_t)(a) * 0x9E3779B97F4A7C15ULL) ^ ((uint64_t)(uint32_t)(b) << 21) ^ ((uint64_t)(uint32_t)(c) << 42) ^ (uint64_t)(uint32_t)(c)))
+  for (int32_t t = 0; t < ntri; ++t) {
+    int32_t v[3];
+    memcpy(v, &mesh->tri[3 * (tri_first + t)], sizeof v);
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2 - i; ++j)
+        if (v[j] > v[j + 1]) { int32_t x = v[j]; v[j] = v[j + 1]; v[j + 1] = x; }
+    int64_t h = (int64_t)(TRI_KEY(v[0], v[1], v[2]) & (uint64_t)(cap - 1));
+    while (slot[h] >= 0) h = (h + 1) & (cap - 1);
+    slot[h] = t;
+  }
+  int32_t removed = 0;
+  for (int32_t t = 0; t < rntet; ++t) {
+    if (!keep[t]) continue;
+    int32_t n[4];
+    for (int q = 0; q < 4; ++q) n[q] = back[rtet[4 * t + q]];
+    const double *X[4];
+    for (int q = 0; q < 4; ++q) X[q] = &mesh->xyz[3 * n[q]];
+    double e1[3], e2[3], e3[3], c[3], lmax = 0;
+    pm_v3_sub(e1, X[1], X[0]), pm_v3_sub(e2, X[2], X[0]), pm_v3_sub(e3, X[3], X[0]);
+    pm_v3_cross(c, e1, e2);
+    double vol6 = fabs(pm_v3_dot(c, e3));
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) lmax = fmax(lmax, pm_v3_dist(X[a], X[b]));
+    /* 100 times the checker's flatness (PM_DEGENERATE_REL): what is repaired is surely flat. */
+    if (!(vol6 <= 100 * PM_DEGENERATE_REL * lmax * lmax * lmax)) continue;
+    /* Its faces on the surface: face q is the one opposite corner q. */
+    int32_t found[4], nfound = 0;
+    for (int q = 0; q < 4; ++q) {
+      int32_t v[3], k = 0;
+      for (int r = 0; r < 4; ++r)
+        if (r != q) v[k++] = n[r];
+      for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2 - i; ++j)
+          if (v[j] > v[j + 1]) { int32_t x = v[j]; v[j] = v[j + 1]; v[j + 1] = x; }
+      int64_t h = (int64_t)(TRI_KEY(v[0], v[1], v[2]) & (uint64_t)(cap - 1));
+      found[q] = -1;
+      for (; slot[h] >= 0; h = (h + 1) & (cap - 1)) {
+        int32_t tt = slot[h], w[3];
+        memcpy(w, &mesh->tri[3 * (tri_first + tt)], sizeof w);
+        for (int i = 0; i < 2; ++i)
+          for (int j = 0; j < 2 - i; ++j)
+            if (w[j] > w[j + 1]) { int32_t x = w[j]; w[j] = w[j + 1]; w[j + 1] = x; }
+        if (w[0] == v[0] && w[1] == v[1] && w[2] == v[2]) {
+          found[q] = tt;
+          break;
+        }
+      }
+      nfound += found[q] >= 0;
+    }
+    if (nfound != 2) continue;
+    int qa = -1, qb = -1, qc = -1, qd = -1; /* faces on the surface (opposite qa, qb), others */
+    for (int q = 0; q < 4; ++q) {
+      if (found[q] >= 0) (qa < 0 ? (qa = q) : (qb = q));
+      else (qc < 0 ? (qc = q) : (qd = q));
+    }
+    int32_t ta = tri_first + found[qa], tb = tri_first + found[qb];
+    if (mesh->tri_cell[ta] != mesh->tri_cell[tb]) continue;
+    /* The outward direction: the normal of the surface triangles being replaced. */
+    double nout[3] = {0, 0, 0};
+    for (int k = 0; k < 2; ++k) {
+      const int32_t *v = &mesh->tri[3 * (k ? tb : ta)];
+      double u1[3], u2[3], nn[3];
+      pm_v3_sub(u1, &mesh->xyz[3 * v[1]], &mesh->xyz[3 * v[0]]);
+      pm_v3_sub(u2, &mesh->xyz[3 * v[2]], &mesh->xyz[3 * v[0]]);
+      pm_v3_cross(nn, u1, u2);
+      pm_v3_add(nout, nout, nn);
+    }
+    int qs[2] = {qc, qd};
+    int32_t slots[2] = {ta, tb};
+    for (int k = 0; k < 2; ++k) {
+      int32_t v[3], m3 = 0;
+      for (int r = 0; r < 4; ++r)
+        if (r != qs[k]) v[m3++] = n[r];
+      double u1[3], u2[3], nn[3];
+      pm_v3_sub(u1, &mesh->xyz[3 * v[1]], &mesh->xyz[3 * v[0]]);
+      pm_v3_sub(u2, &mesh->xyz[3 * v[2]], &mesh->xyz[3 * v[0]]);
+      pm_v3_cross(nn, u1, u2);
+      if (pm_v3_dot(nn, nout) < 0) { int32_t x = v[1]; v[1] = v[2]; v[2] = x; }
+      memcpy(&mesh->tri[3 * slots[k]], v, sizeof v);
+    }
+    keep[t] = 0;
+    ++removed;
+    /* The hash still holds the old triples at these slots; a second flat tet on the same
+     * triangles cannot exist (each surface triangle bounds one tet), so it is not rebuilt. */
+  }
+#undef TRI_KEY
+  free(slot);
+  return removed;
+}
+
+/* Tetrahedralize one group of volumes (those with ingroup[v] set): volumes joined by shared or
+ * embedded faces go to TetGen together, so their tets conform across the shared faces. */
+static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const face_out *fo,
+                                      const uint8_t *ingroup, const pm_connect_params *p,
+                                      pm_connect_report *rep, pm_error *err) {
+  int32_t nf = m->count[PM_FACE];
+  /* Faces that go to TetGen: bounding or embedded in a volume. */
+  uint8_t *use_face = calloc((size_t)nf + 1, 1);
+  int32_t *map = malloc(sizeof(int32_t) * ((size_t)mesh->nnode + 1));
+  if (!use_face || !map) {
+    free(use_face), free(map);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int32_t v = 0; v < m->count[PM_VOLUME]; ++v) {
+    if (!ingroup[v]) continue;
+    const pm_cell *vc = &m->cells[PM_VOLUME][v];
+    for (int32_t b = 0; b < vc->nbound; ++b) use_face[vc->bound[b].cell] = 1;
+    for (int32_t e = 0; e < vc->nembed; ++e)
+      if (vc->embed[e].dim == PM_FACE) use_face[vc->embed[e].index] = 1;
+  }
+  int32_t ntri = 0, nseg = 0;
+  for (int32_t f = 0; f < nf; ++f)
+    if (use_face[f]) ntri += fo[f].ntri;
+  /* Dangling curves inside volumes become segments TetGen must keep. */
+  for (int32_t v = 0; v < m->count[PM_VOLUME]; ++v) {
+    if (!ingroup[v]) continue;
+    const pm_cell *vc = &m->cells[PM_VOLUME][v];
+    for (int32_t e = 0; e < vc->nembed; ++e)
+      if (vc->embed[e].dim == PM_CURVE)
+        for (int32_t s = 0; s < mesh->nseg; ++s) nseg += mesh->seg_cell[s] == vc->embed[e].index;
+  }
+  int32_t *tri = malloc(sizeof(int32_t) * 3 * (size_t)(ntri ? ntri : 1));
+  int32_t *tag = malloc(sizeof(int32_t) * (size_t)(ntri ? ntri : 1));
+  int32_t *seg = malloc(sizeof(int32_t) * 2 * (size_t)(nseg ? nseg : 1));
+  double *xyz = malloc(sizeof(double) * 3 * ((size_t)mesh->nnode + 1));
+  int32_t *back = malloc(sizeof(int32_t) * ((size_t)mesh->nnode + 1));
+  double *region = malloc(sizeof(double) * 4 * (size_t)m->count[PM_VOLUME]);
+  pm_tet_result res = {0};
+  uint8_t *keep = NULL;
+  pm_status s = PM_OK;
+  if (!tri || !tag || !seg || !xyz || !back || !region) {
+    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto done;
+  }
+  for (int32_t i = 0; i < mesh->nnode; ++i) map[i] = -1;
+  int32_t np = 0, k = 0;
+  for (int32_t f = 0; f < nf; ++f) {
+    if (!use_face[f]) continue;
+    for (int32_t t = 0; t < fo[f].ntri; ++t, ++k) {
+      for (int q = 0; q < 3; ++q) {
+        int32_t id = fo[f].tri[3 * t + q];
+        if (map[id] < 0) map[id] = np, back[np] = id, memcpy(&xyz[3 * np], &mesh->xyz[3 * id], 3 * sizeof(double)), ++np;
+        tri[3 * k + q] = map[id];
+      }
+      tag[k] = f;
+    }
+  }
+  k = 0;
+  for (int32_t v = 0; v < m->count[PM_VOLUME]; ++v) {
+    if (!ingroup[v]) continue;
+    const pm_cell *vc = &m->cells[PM_VOLUME][v];
+    for (int32_t e = 0; e < vc->nembed; ++e)
+      if (vc->embed[e].dim == PM_CURVE)
+        for (int32_t sg = 0; sg < mesh->nseg; ++sg) {
+          if (mesh->seg_cell[sg] != vc->embed[e].index) continue;
+          for (int q = 0; q < 2; ++q) {
+            int32_t id = mesh->seg[2 * sg + q];
+            if (map[id] < 0) map[id] = np, back[np] = id, memcpy(&xyz[3 * np], &mesh->xyz[3 * id], 3 * sizeof(double)), ++np;
+            seg[2 * k + q] = map[id];
+          }
+          ++k;
+        }
+  }
+  int32_t nsurf = np;
+  /* Interior points: the volumes' own nodes and isolated vertices embedded in a volume. */
+  for (int32_t i = 0; i < mesh->nnode; ++i) {
+    int interior = mesh->node_dim[i] == PM_VOLUME && ingroup[mesh->node_cell[i]];
+    if (mesh->node_dim[i] == PM_VERTEX && map[i] < 0) {
+      const pm_cell *vx = &m->cells[PM_VERTEX][mesh->node_cell[i]];
+      for (int32_t h = 0; h < vx->nhost; ++h)
+        interior |= vx->host[h].dim == PM_VOLUME && ingroup[vx->host[h].index];
+    }
+    if (interior && map[i] < 0) map[i] = np, back[np] = i, memcpy(&xyz[3 * np], &mesh->xyz[3 * i], 3 * sizeof(double)), ++np;
+  }
+  int32_t nregion = 0;
+  for (int32_t v = 0; v < m->count[PM_VOLUME]; ++v) {
+    if (!ingroup[v]) continue;
+    double seed[3];
+    if (!region_seed(m, mesh, fo, &m->cells[PM_VOLUME][v], seed)) {
+      s = pm_error_setf(err, PM_ERR_GEOM, "volume %d: no point inside its surface mesh was found",
+                        m->cells[PM_VOLUME][v].tag);
+      goto done;
+    }
+    region[4 * nregion] = seed[0], region[4 * nregion + 1] = seed[1], region[4 * nregion + 2] = seed[2];
+    region[4 * nregion + 3] = v;
+    ++nregion;
+  }
+  if (p->check_surface) {
+    pm_selfint_report si = {0};
+    s = pm_triangles_self_intersections(xyz, nsurf, tri, ntri, 1, &si, err);
+    if (!s && si.count > 0) {
+      int32_t ta = si.pairs[0], tb = si.pairs[1];
+      s = pm_error_setf(err, PM_ERR_BACKEND,
+                        "the surface mesh intersects itself (%lld pairs of triangles; first: a "
+                        "triangle of face %d and one of face %d): no tetrahedralization",
+                        (long long)si.count, m->cells[PM_FACE][tag[ta]].tag, m->cells[PM_FACE][tag[tb]].tag);
+    }
+    pm_selfint_report_free(&si);
+    if (s) goto done;
+  }
+  pm_tet_input in = {0};
+  in.npts = np, in.xyz = xyz, in.nsurf = nsurf;
+  in.ntri = ntri, in.tri = tri, in.tri_tag = tag;
+  in.nseg = nseg, in.seg = nseg ? seg : NULL;
+  in.nregion = nregion, in.region = region;
+  in.mode = p->volume == PM_VOLUME_GIVEN ? PM_TET_GIVEN_POINTS : PM_TET_REFINE;
+  in.radius_edge = p->radius_edge;
+  in.max_volume = p->max_volume;
+  in.max_points = p->max_nodes > 0 ? p->max_nodes - (mesh->nnode - np) : 0;
+  s = pm_tet_tetrahedralize(&in, &res, err);
+  if (s) goto done;
+  /* Steiner points become volume nodes of the volume of their first tet. */
+  if (res.npts > np) {
+    int32_t *grown = realloc(back, sizeof(int32_t) * (size_t)res.npts);
+    if (!grown) {
+      s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+      goto done;
+    }
+    back = grown;
+    for (int32_t i = np; i < res.npts; ++i) back[i] = -1;
+  }
+  for (int32_t t = 0; t < res.ntet && !s; ++t)
+    for (int q = 0; q < 4 && !s; ++q) {
+      int32_t i = res.tet[4 * t + q];
+      if (back[i] >= 0) continue;
+      int32_t vol = res.tet_tag[t] >= 0 ? res.tet_tag[t] : 0;
+      s = pm_mesh_add_node(mesh, &res.xyz[3 * i], PM_VOLUME, vol, NULL, &back[i], err);
+    }
+  /* A cavity that is no volume has tag -1: its tets are dropped. Then flat tets (nearly
+   * coplanar and cospherical nodes, which TetGen's flips leave) are removed: inside the volume
+   * by edge removal (tet_flip.h), against a planar face by flipping its diagonal. */
+  int32_t kt = 0;
+  for (int32_t t = 0; t < res.ntet; ++t)
+    if (res.tet_tag[t] >= 0) {
+      memmove(&res.tet[4 * kt], &res.tet[4 * t], 4 * sizeof(int32_t));
+      res.tet_tag[kt++] = res.tet_tag[t];
+    }
+  res.ntet = kt;
+  if (!s) {
+    pm_tet_flip_input fi = {res.xyz, res.npts, ntri, tri, nseg, nseg ? seg : NULL,
+                            100 * PM_DEGENERATE_REL, 10000};
+    int32_t remaining = 0, nflip = 0;
+    s = pm_tet_remove_flat(&fi, &res.tet, &res.tet_tag, &res.ntet, &remaining, &nflip, err);
+    rep->flat_tet_flips += nflip;
+  }
+  if (!s) {
+    keep = malloc((size_t)res.ntet + 1);
+    if (!keep) s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  if (!s) {
+    for (int32_t t = 0; t < res.ntet; ++t) keep[t] = 1;
+    int32_t removed = repair_flat_tets(mesh, res.tet, res.ntet, back, 0, keep, err);
+    if (removed < 0) s = (pm_status)-removed;
+    else rep->flat_tets_repaired += removed;
+  }
+  for (int32_t t = 0; t < res.ntet && !s; ++t) {
+    if (!keep[t]) continue;
+    s = pm_mesh_add_tet(mesh, back[res.tet[4 * t]], back[res.tet[4 * t + 1]], back[res.tet[4 * t + 2]],
+                        back[res.tet[4 * t + 3]], res.tet_tag[t], err);
+  }
+  rep->steiner += res.npts - np;
+done:
+  pm_tet_result_free(&res);
+  free(keep);
+  free(use_face), free(map), free(tri), free(tag), free(seg), free(xyz), free(back), free(region);
+  return s;
+}
+
+/* Volumes joined through shared faces (or a face embedded in both) form one group for TetGen;
+ * groups that share no face -- the solids of an assembly that merely touch or overlap -- are
+ * tetrahedralized separately, as gmsh does, so one solid's surface is never checked against
+ * another's. */
+static pm_status connect_volumes(const pm_model *m, pm_mesh *mesh, const face_out *fo,
+                                 const pm_connect_params *p, pm_connect_report *rep,
+                                 pm_error *err) {
+  int32_t nv = m->count[PM_VOLUME];
+  if (nv == 0) return PM_OK;
+  int32_t *group = malloc(sizeof(int32_t) * (size_t)nv);
+  uint8_t *in = malloc((size_t)nv);
+  if (!group || !in) {
+    free(group), free(in);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int32_t v = 0; v < nv; ++v) group[v] = v;
+  /* Union of volumes through faces: a face's `up` volumes and the volumes it is embedded in. */
+  for (int32_t f = 0; f < m->count[PM_FACE]; ++f) {
+    const pm_cell *fc = &m->cells[PM_FACE][f];
+    int32_t first = -1;
+    for (int32_t k = 0; k < fc->nup + fc->nhost; ++k) {
+      int32_t v = k < fc->nup ? fc->up[k] : (fc->host[k - fc->nup].dim == PM_VOLUME ? fc->host[k - fc->nup].index : -1);
+      if (v < 0) continue;
+      while (group[v] != v) v = group[v];
+      if (first < 0) first = v;
+      else if (v != first) group[v > first ? v : first] = v > first ? first : v, first = v < first ? v : first;
+    }
+  }
+  pm_status s = PM_OK;
+  for (int32_t g = 0; g < nv && !s; ++g) {
+    int32_t root = g;
+    while (group[root] != root) root = group[root];
+    if (root != g) continue;
+    for (int32_t v = 0; v < nv; ++v) {
+      int32_t r = v;
+      while (group[r] != r) r = group[r];
+      in[v] = r == g;
+    }
+    s = connect_volume_group(m, mesh, fo, in, p, rep, err);
+  }
+  free(group), free(in);
+  return s;
+}
+
+/* ---- the entry point ---------------------------------------------------------------------------- */
+
+pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *p,
+                     pm_connect_report *rep_out, pm_error *err) {
+  pm_connect_params defaults;
+  if (!p) pm_connect_params_init(&defaults), p = &defaults;
+  pm_connect_report rep;
+  memset(&rep, 0, sizeof rep);
+  mesh->nseg = mesh->ntri = mesh->ntet = 0;
+  buckets cb = {0}, fb = {0};
+  chains ch = {0};
+  face_out *fo = NULL;
+  int32_t *vnode = NULL;
+  double t0 = pm_seconds();
+
+  pm_status s = prepare_nodes(m, mesh, &rep, err);
+  if (s) goto done;
+  vnode = malloc(sizeof(int32_t) * ((size_t)m->count[PM_VERTEX] + 1));
+  if (!vnode) {
+    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto done;
+  }
+  for (int32_t i = 0; i < mesh->nnode; ++i)
+    if (mesh->node_dim[i] == PM_VERTEX) vnode[mesh->node_cell[i]] = i;
+  if ((s = buckets_build(mesh, PM_CURVE, m->count[PM_CURVE], &cb, err))) goto done;
+  if ((s = buckets_build(mesh, PM_FACE, m->count[PM_FACE], &fb, err))) goto done;
+  if ((s = chains_build(m, mesh, &cb, vnode, &ch, err))) goto done;
+  if ((s = emit_segments(m, mesh, &ch, err))) goto done;
+  double t1 = pm_seconds();
+  rep.time_curves = t1 - t0;
+
+  int32_t nf = m->count[PM_FACE];
+  fo = calloc((size_t)nf + 1, sizeof(face_out));
+  if (!fo) {
+    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto done;
+  }
+  /* Faces are independent: triangulate them in parallel, then append in face order so the
+   * result does not depend on the thread count. */
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int32_t f = 0; f < nf; ++f) connect_face(m, &m->cells[PM_FACE][f], mesh, &ch, &fb, p, &fo[f]);
+  for (int32_t f = 0; f < nf; ++f)
+    if (fo[f].status) {
+      if (err) *err = fo[f].err;
+      s = fo[f].status;
+      goto done;
+    }
+  double asp_b = 0, asp_a = 0;
+  for (int32_t f = 0; f < nf && !s; ++f) {
+    rep.pole_triangles += fo[f].pole;
+    rep.flips += fo[f].flips;
+    rep.flip_cap_hits += fo[f].cap_hit;
+    if (fo[f].curved) {
+      asp_b += fo[f].asp_before, asp_a += fo[f].asp_after, rep.curved_triangles += fo[f].ntri;
+      rep.degenerate_before += fo[f].degen_before, rep.degenerate_after += fo[f].degen_after;
+      rep.aspect_max_before = fmax(rep.aspect_max_before, fo[f].max_before);
+      rep.aspect_max_after = fmax(rep.aspect_max_after, fo[f].max_after);
+    }
+    if ((s = pm_mesh_reserve(mesh, mesh->nnode, mesh->nseg, mesh->ntri + fo[f].ntri, 0, err))) break;
+    for (int32_t t = 0; t < fo[f].ntri && !s; ++t)
+      s = pm_mesh_add_tri(mesh, fo[f].tri[3 * t], fo[f].tri[3 * t + 1], fo[f].tri[3 * t + 2], f, err);
+  }
+  if (s) goto done;
+  if (rep.curved_triangles > rep.degenerate_before) rep.aspect_before = asp_b / (rep.curved_triangles - rep.degenerate_before);
+  if (rep.curved_triangles > rep.degenerate_after) rep.aspect_after = asp_a / (rep.curved_triangles - rep.degenerate_after);
+  double t2 = pm_seconds();
+  rep.time_faces = t2 - t1;
+
+  if (p->volume != PM_VOLUME_NONE) {
+    if ((s = connect_volumes(m, mesh, fo, p, &rep, err))) goto done;
+    if (p->max_nodes > 0 && mesh->nnode > p->max_nodes) {
+      s = pm_error_setf(err, PM_ERR_LIMIT, "the volume mesh needs %d nodes, more than the cap %d",
+                        (int)mesh->nnode, (int)p->max_nodes);
+      goto done;
+    }
+  }
+  rep.time_volumes = pm_seconds() - t2;
+
+done:
+  if (fo)
+    for (int32_t f = 0; f < m->count[PM_FACE]; ++f) free(fo[f].tri);
+  free(fo);
+  free(vnode);
+  buckets_free(&cb), buckets_free(&fb);
+  chains_free(&ch);
+  if (s) mesh->nseg = mesh->ntri = mesh->ntet = 0;
+  if (rep_out) *rep_out = rep;
+  return s;
+}

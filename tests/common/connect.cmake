@@ -1,0 +1,27 @@
+# The connection layer (connect.c).
+pm_add_test(test_connect LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_connect.c)
+
+# Nodes of gmsh's own mesh of every shared CAD model, connected by pm_connect: one ctest entry
+# per model (a crash of gmsh's mesher on one model stays that model's failure).
+add_executable(test_connect_cad ${CMAKE_CURRENT_LIST_DIR}/test_connect_cad.c)
+target_compile_options(test_connect_cad PRIVATE ${PM_WARNINGS})
+target_include_directories(test_connect_cad PRIVATE ${CMAKE_SOURCE_DIR}/tests)
+target_include_directories(test_connect_cad SYSTEM PRIVATE ${GMSH_INCLUDE_DIR})
+target_compile_definitions(test_connect_cad PRIVATE PM_CAD_DIR="${PM_CAD_DIR}")
+target_link_libraries(test_connect_cad PRIVATE packmesh ${CMOCKA_LIBRARIES} m)
+set(PM_CONNECT_CAD_FAST planar_step.brep crack.brep synth_box_hole.brep synth_box_hole.step
+  synth_bspline_patch.brep synth_cone.brep synth_sphere.brep synth_torus.brep synth_torus.step
+  slender_face.brep cyl_loop_seam.brep bspline_sphere.brep screw.step t20_component8.step
+  cube_fillet.stp table.brep base_interface.step wrench.stp featuretype.step
+  cylinder_head.stp box_sides.step bottle.brep bearing.iges fusee.stp)
+set(PM_CONNECT_CAD_LONG engine_block.stp solid56.step)
+foreach(f ${PM_CONNECT_CAD_FAST})
+  add_test(NAME test_connect_cad_${f} COMMAND test_connect_cad ${PM_CAD_DIR}/${f})
+  set_tests_properties(test_connect_cad_${f} PROPERTIES LABELS "backend" TIMEOUT 300
+    ENVIRONMENT "OMP_NUM_THREADS=2")
+endforeach()
+foreach(f ${PM_CONNECT_CAD_LONG})
+  add_test(NAME test_connect_cad_${f} COMMAND test_connect_cad ${PM_CAD_DIR}/${f})
+  set_tests_properties(test_connect_cad_${f} PROPERTIES LABELS "backend;long" TIMEOUT 1200
+    ENVIRONMENT "OMP_NUM_THREADS=2")
+endforeach()

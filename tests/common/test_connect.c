@@ -1,0 +1,241 @@
+/* pm_connect on planar domains and on curved CAD faces: conformity (pm_mesh_check), counts,
+ * holes, orientation, the 3D flips (they improve curved faces and never cross a constraint),
+ * determinism, and volumes through TetGen in both modes. */
+#include "test_support.h"
+
+#include <string.h>
+
+#include "common/connect.h"
+#include "common/geom_analytic.h"
+#include "common/geom_cad.h"
+#include "common/mesh_check.h"
+#include "common/quality.h"
+
+/* Nodes for a planar model: every curve sampled every ~h (its own nodes only), the face filled
+ * with a triangular lattice of spacing h kept h/2 away from the boundary curves. */
+static pm_mesh *planar_nodes(const pm_model *m, double h) {
+  pm_mesh *mesh = pm_mesh_create();
+  pm_error e = {0};
+  for (int32_t v = 0; v < pm_model_count(m, PM_VERTEX); ++v)
+    PM_ASSERT_OK(pm_mesh_add_node(mesh, pm_model_cell(m, PM_VERTEX, v)->xyz, 0, v, NULL, NULL, &e), e);
+  for (int32_t c = 0; c < pm_model_count(m, PM_CURVE); ++c) {
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+    int n = (int)ceil((cv->hi[0] - cv->lo[0]) / h);
+    for (int k = 1; k < n; ++k) {
+      double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * k / n, x[3];
+      pm_cell_point(cv, &t, x);
+      PM_ASSERT_OK(pm_mesh_add_node(mesh, x, 1, c, &t, NULL, &e), e);
+    }
+  }
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  for (int j = 0;; ++j) {
+    double y = f->lo[1] + j * h * sqrt(3) / 2;
+    if (y > f->hi[1]) break;
+    for (int i = -1;; ++i) {
+      double x = f->lo[0] + (i + 0.5 * (j % 2)) * h;
+      if (x > f->hi[0]) break;
+      double uv[2] = {x, y}, p[3] = {x, y, 0}, par[2], dist;
+      if (!pm_face_inside(f, uv)) continue;
+      /* Keep away from the boundary: the distance to the closest curve. */
+      double dmin = 1e300;
+      for (int32_t c = 0; c < pm_model_count(m, PM_CURVE); ++c) {
+        PM_ASSERT_OK(pm_cell_project(pm_model_cell(m, PM_CURVE, c), p, NULL, par, NULL, &dist, &e), e);
+        dmin = fmin(dmin, dist);
+      }
+      if (dmin < 0.5 * h) continue;
+      PM_ASSERT_OK(pm_mesh_add_node(mesh, p, 2, 0, uv, NULL, &e), e);
+    }
+  }
+  return mesh;
+}
+
+static pm_model *square_with_hole(double hole) {
+  const pm_planar_piece sq[4] = {{PM_PIECE_LINE, {-1, -1}, {0, 0}, 0}, {PM_PIECE_LINE, {1, -1}, {0, 0}, 0},
+                                 {PM_PIECE_LINE, {1, 1}, {0, 0}, 0}, {PM_PIECE_LINE, {-1, 1}, {0, 0}, 0}};
+  const pm_planar_piece circ[1] = {{PM_PIECE_ARC, {hole, 0}, {0, 0}, 0}};
+  pm_planar_loop loops[2] = {{4, sq}, {1, circ}};
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_planar_model("square", hole > 0 ? 2 : 1, loops, &m, &e), e);
+  return m;
+}
+
+static void check_valid(const pm_mesh *mesh, const pm_model *m, pm_check_report *r) {
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_mesh_check(mesh, m, r, &e), e);
+  if (!r->valid)
+    for (int i = 0; i < r->nproblem; ++i) print_error("problem: %s\n", r->problem[i]);
+  assert_true(r->valid);
+}
+
+static void planar_square(void **state) {
+  (void)state;
+  pm_model *m = square_with_hole(0);
+  pm_mesh *mesh = planar_nodes(m, 0.1);
+  pm_connect_report rep;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_connect(m, mesh, NULL, &rep, &e), e);
+  /* 20 nodes per side of length 2 at h = 0.1: 80 segments. */
+  assert_int_equal(mesh->nseg, 80);
+  pm_check_report r = {0};
+  check_valid(mesh, m, &r);
+  /* A disk: V - E + F = 1 (Euler with the outer face not counted). Triangles of a triangulated
+   * polygon with b boundary and i interior nodes: 2 i + b - 2. */
+  int32_t b = 80, i = mesh->nnode - 80;
+  assert_int_equal(mesh->ntri, 2 * i + b - 2);
+  double area = 0;
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    const double *A = &mesh->xyz[3 * mesh->tri[3 * t]], *B = &mesh->xyz[3 * mesh->tri[3 * t + 1]],
+                 *C = &mesh->xyz[3 * mesh->tri[3 * t + 2]];
+    double z = (B[0] - A[0]) * (C[1] - A[1]) - (B[1] - A[1]) * (C[0] - A[0]);
+    assert_true(z > 0); /* along the face's natural normal +z */
+    area += 0.5 * z;
+  }
+  PM_ASSERT_NEAR(area, 4.0, 1e-12);
+  assert_int_equal(rep.dropped_nodes, 0);
+  assert_int_equal(rep.added_nodes, 0);
+  pm_check_report_clear(&r);
+  pm_mesh_destroy(mesh);
+  pm_model_destroy(m);
+}
+
+static void planar_hole_and_determinism(void **state) {
+  (void)state;
+  pm_model *m = square_with_hole(0.3);
+  pm_mesh *mesh = planar_nodes(m, 0.08);
+  pm_mesh *copy = pm_mesh_copy(mesh);
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_connect(m, mesh, NULL, NULL, &e), e);
+  pm_check_report r = {0};
+  check_valid(mesh, m, &r);
+  /* Nothing inside the hole: every centroid lies outside the circle. */
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    double cx = 0, cy = 0;
+    for (int q = 0; q < 3; ++q) cx += mesh->xyz[3 * mesh->tri[3 * t + q]] / 3, cy += mesh->xyz[3 * mesh->tri[3 * t + q] + 1] / 3;
+    assert_true(hypot(cx, cy) > 0.25);
+  }
+  /* The same nodes give the same mesh, element by element. */
+  PM_ASSERT_OK(pm_connect(m, copy, NULL, NULL, &e), e);
+  assert_int_equal(copy->ntri, mesh->ntri);
+  assert_memory_equal(copy->tri, mesh->tri, sizeof(int32_t) * 3 * (size_t)mesh->ntri);
+  pm_check_report_clear(&r);
+  pm_mesh_destroy(mesh);
+  pm_mesh_destroy(copy);
+  pm_model_destroy(m);
+}
+
+static void bad_nodes_rejected(void **state) {
+  (void)state;
+  pm_model *m = square_with_hole(0);
+  pm_mesh *mesh = planar_nodes(m, 0.25);
+  pm_error e = {0};
+  double x[3] = {0, 0, 0};
+  /* A second node on vertex 0. */
+  PM_ASSERT_OK(pm_mesh_add_node(mesh, pm_model_cell(m, 0, 0)->xyz, 0, 0, NULL, NULL, &e), e);
+  assert_int_equal(pm_connect(m, mesh, NULL, NULL, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "vertex"));
+  mesh->nnode--;
+  /* A node on a face the model lacks. */
+  PM_ASSERT_OK(pm_mesh_add_node(mesh, x, 2, 5, x, NULL, &e), e);
+  assert_int_equal(pm_connect(m, mesh, NULL, NULL, &e), PM_ERR_ARG);
+  assert_int_equal(mesh->ntri, 0);
+  pm_mesh_destroy(mesh);
+  pm_model_destroy(m);
+}
+
+/* Nodes on a CAD model from a (u, v) grid per face and a uniform t grid per curve: a grid in
+ * parameter space is badly shaped on a sphere or torus, which is what the flips are for. */
+static pm_mesh *grid_nodes(const pm_model *m, int n) {
+  pm_mesh *mesh = pm_mesh_create();
+  pm_error e = {0};
+  for (int32_t v = 0; v < pm_model_count(m, 0); ++v)
+    PM_ASSERT_OK(pm_mesh_add_node(mesh, pm_model_cell(m, 0, v)->xyz, 0, v, NULL, NULL, &e), e);
+  for (int32_t c = 0; c < pm_model_count(m, 1); ++c) {
+    const pm_cell *cv = pm_model_cell(m, 1, c);
+    if (cv->degenerate) continue;
+    for (int k = 1; k < n; ++k) {
+      double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * k / n, x[3];
+      pm_cell_point(cv, &t, x);
+      PM_ASSERT_OK(pm_mesh_add_node(mesh, x, 1, c, &t, NULL, &e), e);
+    }
+  }
+  for (int32_t f = 0; f < pm_model_count(m, 2); ++f) {
+    const pm_cell *fc = pm_model_cell(m, 2, f);
+    for (int a = 1; a < n; ++a)
+      for (int b = 1; b < n; ++b) {
+        double uv[2] = {fc->lo[0] + (fc->hi[0] - fc->lo[0]) * (a + 0.3 * (b % 2) + 0.137) / n,
+                        fc->lo[1] + (fc->hi[1] - fc->lo[1]) * (b + 0.071) / n}, x[3];
+        if (!pm_face_inside(fc, uv)) continue;
+        pm_cell_point(fc, uv, x);
+        PM_ASSERT_OK(pm_mesh_add_node(mesh, x, 2, f, uv, NULL, &e), e);
+      }
+  }
+  return mesh;
+}
+
+static double mean_radius_ratio(const pm_mesh *mesh) {
+  double s = 0;
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    pm_tri_measure q;
+    pm_tri_measure_eval(&mesh->xyz[3 * mesh->tri[3 * t]], &mesh->xyz[3 * mesh->tri[3 * t + 1]],
+                        &mesh->xyz[3 * mesh->tri[3 * t + 2]], &q);
+    s += q.radius_ratio;
+  }
+  return s / mesh->ntri;
+}
+
+/* Closed shells with the right Euler characteristic on curved solids; the 3D flips improve the
+ * triangles. The flips are measured on their own (no affine scaling first, which would already
+ * do part of their work): mean R/l_min must drop and the mean radius ratio rise. With the
+ * default scaling on, flips must not lower the mean radius ratio. */
+static void curved_faces_flip_and_close(void **state) {
+  (void)state;
+  const char *cases[] = {"sphere", "torus", "cylinder", "boxhole"};
+  for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+    pm_model *m = NULL;
+    pm_error e = {0};
+    PM_ASSERT_OK(pm_cad_case(cases[k], &m, &e), e);
+    double rr[2][2];
+    for (int affine = 0; affine < 2; ++affine)
+      for (int flips = 0; flips < 2; ++flips) {
+        pm_mesh *mesh = grid_nodes(m, 24);
+        pm_connect_params p;
+        pm_connect_params_init(&p);
+        p.affine = affine;
+        p.flips = flips ? PM_FLIP_DIAMETRIC : PM_FLIP_NONE;
+        pm_connect_report rep;
+        PM_ASSERT_OK(pm_connect(m, mesh, &p, &rep, &e), e);
+        pm_check_report r = {0};
+        check_valid(mesh, m, &r);
+        /* One closed shell per volume with the Euler characteristic of its genus. */
+        assert_int_equal(r.nshell, pm_model_count(m, 3));
+        int genus = strcmp(cases[k], "torus") == 0 || strcmp(cases[k], "boxhole") == 0;
+        assert_true(r.shell[0].closed);
+        assert_int_equal(r.shell[0].euler, 2 - 2 * genus);
+        rr[affine][flips] = mean_radius_ratio(mesh);
+        if (flips && !affine) {
+          print_message("%s (no affine scaling): %d flips, mean R/l_min on curved faces %.4f -> %.4f\n",
+                        cases[k], rep.flips, rep.aspect_before, rep.aspect_after);
+          assert_true(rep.flips > 0);
+          assert_true(rep.aspect_after < rep.aspect_before);
+        }
+        pm_check_report_clear(&r);
+        pm_mesh_destroy(mesh);
+      }
+    print_message("%s: mean radius ratio %.4f -> %.4f (no scaling), %.4f -> %.4f (scaling)\n", cases[k],
+                  rr[0][0], rr[0][1], rr[1][0], rr[1][1]);
+    assert_true(rr[0][1] > rr[0][0]);
+    assert_true(rr[1][1] >= rr[1][0] - 1e-12);
+    pm_model_destroy(m);
+  }
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(planar_square),
+      cmocka_unit_test(planar_hole_and_determinism),
+      cmocka_unit_test(bad_nodes_rejected),
+      cmocka_unit_test(curved_faces_flip_and_close),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
