@@ -1,7 +1,8 @@
 /* Benchmark of the Embree checks: BVH build time and closest-point queries per second
  * (closest_embree.c), and the self-intersection check (self_intersect.c), on closed UV spheres of
  * 10^4 .. 10^6 triangles. Also compares the build with Embree's own thread pool (default device)
- * against the single-thread device that pm_bvh uses.
+ * against the single-thread device that pm_bvh uses, and times the two-sided distance
+ * (distance.c) of the same spheres against the built-in case "sphere".
  *
  * Usage: bench_closest [max_triangles]   (default 1000000)
  * Figures go to stdout; nothing is asserted (the tests check correctness). */
@@ -14,6 +15,9 @@
 #include <time.h>
 
 #include "common/closest_embree.h"
+#include "common/distance.h"
+#include "common/geom_cad.h"
+#include "common/mesh.h"
 #include "common/rng.h"
 #include "common/self_intersect.h"
 
@@ -172,9 +176,43 @@ int main(int argc, char **argv) {
     free(near), free(far), free(xyz), free(tri);
     if (sum < 0) printf("%g\n", sum); /* keep the loops */
   }
+  /* The two-sided distance to the exact sphere, with default parameters. Loading a CAD case
+   * initializes gmsh, which resets the OpenMP thread count of this thread to 1: restore it. */
+  pm_model *m = NULL;
+  pm_error e = {0};
+  if (pm_cad_case("sphere", &m, &e)) {
+    fprintf(stderr, "bench_closest: %s\n", e.msg);
+    return 1;
+  }
+  omp_set_num_threads(nthreads);
+  printf("# %9s %9s %12s %12s %12s %9s %9s\n", "ntri", "dist_s", "max", "mesh->model", "model->mesh",
+         "nmesh", "nmodel");
+  for (long target = 10000; target <= maxtri && target <= 100000; target *= 10) {
+    int nv = (int)ceil(sqrt((double)target / 4.0)), nu = 2 * nv;
+    double *xyz;
+    int32_t *tri, nnode, ntri;
+    uv_sphere(nu, nv, &xyz, &nnode, &tri, &ntri);
+    pm_mesh *me = pm_mesh_create();
+    if (!me || pm_mesh_reserve(me, nnode, 0, ntri, 0, &e)) return 1;
+    for (int32_t i = 0; i < nnode; ++i) pm_mesh_add_node(me, &xyz[3 * i], -1, -1, NULL, NULL, &e);
+    for (int32_t t = 0; t < ntri; ++t) pm_mesh_add_tri(me, tri[3 * t], tri[3 * t + 1], tri[3 * t + 2], -1, &e);
+    pm_distance d;
+    double t0 = now();
+    if (pm_mesh_distance(me, m, NULL, NULL, &d, &e)) {
+      fprintf(stderr, "bench_closest: %s\n", e.msg);
+      return 1;
+    }
+    printf("  %9d %9.3f %12.5g %12.5g %12.5g %9lld %9lld\n", (int)ntri, now() - t0, d.max,
+           d.mesh_to_model_max, d.model_to_mesh_max, (long long)d.nsamples_mesh,
+           (long long)d.nsamples_model);
+    pm_mesh_destroy(me);
+    free(xyz), free(tri);
+  }
+  pm_model_destroy(m);
   printf("# build_s: pm_bvh_create (copy + checks + single-thread Embree build);\n"
          "# build_tbb / build_1th: the same Embree build with the default device (TBB pool) / threads=1;\n"
          "# q/s: pm_bvh_closest per second, 1 thread or all OpenMP threads; near: points within 5%% of\n"
-         "# the surface, far: at radius 1.5 .. 3; selfint_s: pm_triangles_self_intersections.\n");
+         "# the surface, far: at radius 1.5 .. 3; selfint_s: pm_triangles_self_intersections;\n"
+         "# dist_s: pm_mesh_distance against case:sphere (default parameters, unclassified mesh).\n");
   return 0;
 }
