@@ -1,7 +1,8 @@
 /* packmesh quality MESH [--size EXPR|NUMBER] [--json | --csv]
  *
  * Measures a mesh file with the one quality implementation (quality.h) and checks it
- * (mesh_check.h, generic checks). Output, all on stdout and only once everything succeeded:
+ * (mesh_check.h, generic checks). --size adds the size conformity (edge length over the size
+ * field at each edge's midpoint). Output, all on stdout and only once everything succeeded:
  *   default  a readable table;
  *   --json   the stats JSON (stats.h) with method "external" and input = MESH;
  *   --csv    one row per element (kind, index, cell, radius ratio, aspect ratio, min and max
@@ -17,12 +18,15 @@
 #include "common/mesh_check.h"
 #include "common/mesh_io.h"
 #include "common/quality.h"
+#include "common/sizing.h"
 #include "common/stats.h"
 
 static const char *const usage_text =
-    "usage: packmesh quality MESH [--json | --csv]\n"
+    "usage: packmesh quality MESH [--size EXPR|NUMBER] [--json | --csv]\n"
     "\n"
     "Measure the elements of MESH (.msh, .stl, .vtk or .mesh) and check its validity.\n"
+    "  --size S the desired edge length d(x, y, z), a number or an expression in x, y, z, r\n"
+    "           (\"0.1\", \"0.2*abs(r-2)+0.15\"): adds edge length / d at the edge midpoints\n"
     "  --json   the stats JSON (the keys of packmesh mesh --stats) on stdout\n"
     "  --csv    per-element measures, one row per element:\n"
     "           kind,index,cell,radius_ratio,aspect_ratio,min_angle_deg,max_angle_deg\n"
@@ -87,13 +91,21 @@ static void table(FILE *f, const char *path, const pm_mesh *m, const pm_quality 
 }
 
 int pm_cli_quality(int argc, char **argv) {
-  const char *path = NULL;
+  const char *path = NULL, *size_text = NULL;
   int json = 0, csv = 0;
   for (int i = 1; i < argc;) {
     const char *a = argv[i];
     if (pm_cli_flag(a, "help") || strcmp(a, "-h") == 0) {
       fputs(usage_text, stdout);
       return PM_EXIT_OK;
+    }
+    const char *value = NULL;
+    int got = pm_cli_option(argc, argv, &i, "size", &value);
+    if (got < 0) return pm_cli_usage("quality", "--size needs a value");
+    if (got > 0) {
+      if (size_text) return pm_cli_usage("quality", "--size given twice");
+      size_text = value;
+      continue;
     }
     if (pm_cli_flag(a, "json")) {
       json = 1;
@@ -119,10 +131,16 @@ int pm_cli_quality(int argc, char **argv) {
   pm_check_report r = {0};
   pm_stats st;
   pm_stats_init(&st);
+  pm_sizing *size = NULL;
   char *out = NULL;
   size_t len = 0;
   int code = PM_EXIT_FAIL;
-  if (pm_mesh_read(path, &m, &e) || pm_quality_compute_fn(m, NULL, NULL, &q, &e) ||
+  /* The size field first: a bad --size is reported before any file is read. */
+  if (size_text && pm_sizing_parse(size_text, &size, &e)) {
+    code = pm_cli_fail("--size: %s", e.msg);
+    goto done;
+  }
+  if (pm_mesh_read(path, &m, &e) || pm_quality_compute(m, size, &q, &e) ||
       pm_mesh_check(m, NULL, &r, &e)) {
     code = pm_cli_error(&e);
     goto done;
@@ -133,6 +151,7 @@ int pm_cli_quality(int argc, char **argv) {
     pm_stats_set_mesh(&st, m);
     pm_stats_set_quality(&st, &q);
     if (pm_stats_set_check(&st, &r, &e) || pm_stats_set_time(&st, "total", seconds, &e) ||
+        (size && pm_stats_add_text(&st, "size", pm_sizing_describe(size), &e)) ||
         pm_stats_to_json(&st, &out, &e)) {
       code = pm_cli_error(&e);
       goto done;
@@ -158,6 +177,7 @@ int pm_cli_quality(int argc, char **argv) {
   }
   code = pm_cli_emit(out, len);
 done:
+  pm_sizing_destroy(size);
   free(out);
   pm_stats_clear(&st);
   pm_check_report_clear(&r);

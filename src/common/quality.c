@@ -636,3 +636,12 @@ pm_status pm_quality_compute_fn(const pm_mesh *m, pm_sizing_fn fn, void *user, p
   if (s) pm_quality_clear(q);
   return s;
 }
+
+static double eval_sizing(const double xyz[3], void *user) {
+  return pm_sizing_eval((const pm_sizing *)user, xyz);
+}
+
+pm_status pm_quality_compute(const pm_mesh *m, const pm_sizing *size, pm_quality *q,
+                             pm_error *err) {
+  return pm_quality_compute_fn(m, size ? eval_sizing : NULL, (void *)size, q, err);
+}

@@ -145,6 +145,10 @@ typedef struct pm_quality {
 pm_status pm_quality_compute_fn(const pm_mesh *m, pm_sizing_fn fn, void *user, pm_quality *q,
                                 pm_error *err);
 
+/* The same with a size field (may be NULL: no size conformity). */
+pm_status pm_quality_compute(const pm_mesh *m, const pm_sizing *size, pm_quality *q,
+                             pm_error *err);
+
 /* Release the arrays and zero q. Accepts a zeroed q. */
 void pm_quality_clear(pm_quality *q);
 

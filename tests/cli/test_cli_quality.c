@@ -258,6 +258,46 @@ static void json_matches_independent_computation(void **state) {
   assert_true(cJSON_GetObjectItem(tri, "eps_t_nodes")->valuedouble == (double)ni);
   PM_ASSERT_NEAR(cJSON_GetObjectItem(tri, "eps_t")->valuedouble, sum / (double)ni, 1e-12);
 
+  /* Size conformity with --size EXPR: edge length / d(midpoint) over the unique edges, d an
+   * expression evaluated here by hand. */
+  {
+    char *o2, *e2;
+    snprintf(args, sizeof args, "quality '%s' --json --size '0.1+0.05*x*x+0.02*abs(z)'", msh);
+    int c2 = run(args, &o2, &e2);
+    if (c2 != 0) fail_msg("exit %d: %s", c2, e2);
+    cJSON *r2 = cJSON_Parse(o2);
+    const cJSON *sr = cJSON_GetObjectItem(cJSON_GetObjectItem(r2, "tri"), "size_ratio");
+    assert_non_null(sr);
+    double sum1 = 0, sum2 = 0;
+    size_t ne = 0;
+    for (size_t i = 0; i < 3 * n; ++i) {
+      if (i > 0 && edges[i][0] == edges[i - 1][0] && edges[i][1] == edges[i - 1][1]) continue;
+      const double *a = R.xyz + 3 * edges[i][0], *b = R.xyz + 3 * edges[i][1];
+      double mx = 0.5 * (a[0] + b[0]), mz = 0.5 * (a[2] + b[2]);
+      double d = 0.1 + 0.05 * mx * mx + 0.02 * fabs(mz);
+      double l = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                      (a[2] - b[2]) * (a[2] - b[2]));
+      sum1 += l / d;
+      ++ne;
+    }
+    double mean = sum1 / (double)ne;
+    for (size_t i = 0; i < 3 * n; ++i) {
+      if (i > 0 && edges[i][0] == edges[i - 1][0] && edges[i][1] == edges[i - 1][1]) continue;
+      const double *a = R.xyz + 3 * edges[i][0], *b = R.xyz + 3 * edges[i][1];
+      double mx = 0.5 * (a[0] + b[0]), mz = 0.5 * (a[2] + b[2]);
+      double d = 0.1 + 0.05 * mx * mx + 0.02 * fabs(mz);
+      double l = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                      (a[2] - b[2]) * (a[2] - b[2]));
+      sum2 += (l / d - mean) * (l / d - mean);
+    }
+    PM_ASSERT_NEAR(cJSON_GetObjectItem(sr, "mean")->valuedouble, mean, 1e-9);
+    PM_ASSERT_NEAR(cJSON_GetObjectItem(sr, "std")->valuedouble, sqrt(sum2 / (double)ne), 1e-9);
+    assert_string_equal(cJSON_GetObjectItem(r2, "size")->valuestring, "0.1+0.05*x*x+0.02*abs(z)");
+    cJSON_Delete(r2);
+    free(o2);
+    free(e2);
+  }
+
   /* The torus surface: closed, V - E + F = 0, genus 1. */
   const cJSON *sh = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "shells"), 0);
   assert_true(cJSON_GetObjectItem(sh, "euler")->valuedouble == 0);
@@ -344,6 +384,16 @@ static void errors(void **state) {
   write_file("plain.txt", "1 2 3\n", p);
   snprintf(args, sizeof args, "quality '%s'", p);
   expect_error(args, 1, "'.txt'");
+  /* Bad sizes: reported before the mesh is read (so even for a missing mesh). */
+  snprintf(args, sizeof args, "quality '%s/missing.msh' --size -0.1", dir);
+  expect_error(args, 1, "size '-0.1'");
+  expect_error("quality x.msh --size nan", 1, "nan");
+  expect_error("quality x.msh --size inf", 1, "inf");
+  expect_error("quality x.msh --size '0.1*(x'", 1, "Missing parenthesis");
+  expect_error("quality x.msh --size 'foo+1'", 1, "foo");
+  expect_error("quality x.msh --size '0*x'", 1, "0*x");
+  expect_error("quality x.msh --size", 2, "--size needs a value");
+  expect_error("quality x.msh --size 1 --size 2", 2, "twice");
   expect_error("quality some.msh --bogus", 2, "--bogus");
   expect_error("quality", 2, "no mesh file");
   expect_error("quality a.msh b.msh", 2, "b.msh");

@@ -7,6 +7,7 @@
 
 #include "common/mesh.h"
 #include "common/quality.h"
+#include "common/sizing.h"
 
 #define DEG(x) ((x) * 57.295779513082320876798154814105)
 
@@ -264,6 +265,17 @@ static void mesh_measures(void **state) {
     d = 0.5;
     PM_ASSERT_OK(pm_quality_compute_fn(m, unit_size, &d, &q, &e), e);
     PM_ASSERT_NEAR(q.tri.size_ratio.mean, 2 * mean, 1e-14);
+    pm_quality_clear(&q);
+    /* The same through a pm_sizing: an expression field that is 0.5 everywhere. */
+    pm_sizing *sz = NULL;
+    PM_ASSERT_OK(pm_sizing_parse("0.25+0.25", &sz, &e), e);
+    PM_ASSERT_OK(pm_quality_compute(m, sz, &q, &e), e);
+    PM_ASSERT_NEAR(q.tri.size_ratio.mean, 2 * mean, 1e-14);
+    PM_ASSERT_NEAR(q.tri.size_ratio_std, 2 * sqrt(var), 1e-14);
+    pm_quality_clear(&q);
+    pm_sizing_destroy(sz);
+    PM_ASSERT_OK(pm_quality_compute(m, NULL, &q, &e), e);
+    assert_false(q.tri.has_size);
     pm_quality_clear(&q);
     assert_int_equal(pm_quality_compute_fn(m, bad_size, NULL, &q, &e), PM_ERR_ARG);
     assert_non_null(strstr(e.msg, "size field is -1"));
