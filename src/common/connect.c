@@ -26,6 +26,7 @@ void pm_connect_params_init(pm_connect_params *p) {
   p->max_volume = 0;
   p->max_nodes = 0;
   p->check_surface = 1;
+  p->recovery_points = 1;
 }
 
 /* ---- nodes grouped by cell --------------------------------------------------------------- */
@@ -1206,6 +1207,7 @@ static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const fa
   in.radius_edge = p->radius_edge;
   in.max_volume = p->max_volume;
   in.max_points = p->max_nodes > 0 ? p->max_nodes - (mesh->nnode - np) : 0;
+  in.allow_recovery_points = p->recovery_points;
   s = pm_tet_tetrahedralize(&in, &res, err);
   if (s) goto done;
   /* Steiner points become volume nodes of the volume of their first tet. */
@@ -1218,13 +1220,7 @@ static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const fa
     back = grown;
     for (int32_t i = np; i < res.npts; ++i) back[i] = -1;
   }
-  for (int32_t t = 0; t < res.ntet && !s; ++t)
-    for (int q = 0; q < 4 && !s; ++q) {
-      int32_t i = res.tet[4 * t + q];
-      if (back[i] >= 0) continue;
-      int32_t vol = res.tet_tag[t] >= 0 ? res.tet_tag[t] : 0;
-      s = pm_mesh_add_node(mesh, &res.xyz[3 * i], PM_VOLUME, vol, NULL, &back[i], err);
-    }
+
   /* A cavity that is no volume has tag -1: its tets are dropped. Then flat tets (nearly
    * coplanar and cospherical nodes, which TetGen's flips leave) are removed: inside the volume
    * by edge removal (tet_flip.h), against a planar face by flipping its diagonal. */
@@ -1242,6 +1238,15 @@ static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const fa
     s = pm_tet_remove_flat(&fi, &res.tet, &res.tet_tag, &res.ntet, &remaining, &nflip, err);
     rep->flat_tet_flips += nflip;
   }
+  /* Steiner points used by the tets (all in a volume now) become volume nodes of the volume of
+   * their first tet; a point in a dropped cavity never becomes a node. */
+  for (int32_t t = 0; t < res.ntet && !s; ++t)
+    for (int q = 0; q < 4 && !s; ++q) {
+      int32_t i = res.tet[4 * t + q];
+      if (back[i] >= 0) continue;
+      s = pm_mesh_add_node(mesh, &res.xyz[3 * i], PM_VOLUME, res.tet_tag[t], NULL, &back[i], err);
+      rep->steiner++;
+    }
   if (!s) {
     keep = malloc((size_t)res.ntet + 1);
     if (!keep) s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
@@ -1257,7 +1262,6 @@ static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const fa
     s = pm_mesh_add_tet(mesh, back[res.tet[4 * t]], back[res.tet[4 * t + 1]], back[res.tet[4 * t + 2]],
                         back[res.tet[4 * t + 3]], res.tet_tag[t], err);
   }
-  rep->steiner += res.npts - np;
 done:
   pm_tet_result_free(&res);
   free(keep);

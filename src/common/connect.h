@@ -53,6 +53,11 @@ typedef struct pm_connect_params {
   double max_volume;      /* PM_VOLUME_REFINE: TetGen -a bound, <= 0 for none; default 0 */
   int32_t max_nodes;      /* cap on the mesh's node count after refinement, <= 0 none; default 0 */
   int check_surface;      /* 1: reject a self-intersecting surface before TetGen; default 1 */
+  int recovery_points;    /* PM_VOLUME_GIVEN: when the boundary cannot be recovered from the given
+                             nodes alone (a Delaunay tetrahedralization of some node sets lacks a
+                             surface triangle, Schoenhardt's prism being the classic case), let
+                             TetGen add the interior points it needs for that and report them
+                             (pm_connect_report.steiner) instead of failing; default 1 */
 } pm_connect_params;
 
 /* Defaults, in one place. */

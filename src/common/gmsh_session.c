@@ -4,6 +4,7 @@
 #include <gmshc.h>
 
 #include <fcntl.h>
+#include <omp.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <string.h>
@@ -22,6 +23,9 @@ static void init_mutex_and_gmsh(void) {
   pthread_mutexattr_destroy(&attr);
 
   int ierr = 0;
+  /* gmsh applies General.NumThreads through omp_set_num_threads() on the calling thread: without
+   * restoring it, every OpenMP loop of the program would run on one thread after gmsh starts. */
+  int omp_threads = omp_get_max_threads();
   gmshInitialize(0, NULL, 0, &ierr);
   if (ierr) {
     snprintf(gmsh_init_error, sizeof gmsh_init_error, "gmsh failed to initialize");
@@ -33,6 +37,7 @@ static void init_mutex_and_gmsh(void) {
   gmshOptionSetNumber("General.AbortOnError", 0, &ierr);
   /* packmesh decides threading itself; gmsh's own threads would compete for the 2 cores. */
   gmshOptionSetNumber("General.NumThreads", 1, &ierr);
+  omp_set_num_threads(omp_threads);
   gmsh_ready = 1;
 }
 
@@ -74,6 +79,9 @@ pm_status pm_gmsh_error(pm_error *err, pm_status code, const char *what) {
 pm_status pm_gmsh_scope_enter(pm_gmsh_scope *scope, const char *name, int create, pm_error *err) {
   pm_status s = pm_gmsh_begin(err);
   if (s) return s;
+  /* The scope holds the (recursive) gmsh lock until it is left, so no other thread can switch
+   * the current model under it. */
+  pm_gmsh_lock();
   scope->previous[0] = '\0';
   scope->had_previous = 0;
   int ierr = 0;
@@ -96,22 +104,27 @@ pm_status pm_gmsh_scope_enter(pm_gmsh_scope *scope, const char *name, int create
     if (cur) gmshFree(cur);
   }
   if (create) {
-    if (exists)
-      return pm_error_setf(err, PM_ERR_INTERNAL, "gmsh model '%s' exists already", name);
-    gmshModelAdd(name, &ierr);
-    if (ierr) return pm_gmsh_error(err, PM_ERR_BACKEND, "creating a gmsh model");
+    if (exists) s = pm_error_setf(err, PM_ERR_INTERNAL, "gmsh model '%s' exists already", name);
+    if (!s) gmshModelAdd(name, &ierr);
+    if (!s && ierr) s = pm_gmsh_error(err, PM_ERR_BACKEND, "creating a gmsh model");
   } else {
-    if (!exists) return pm_error_setf(err, PM_ERR_INTERNAL, "no gmsh model named '%s'", name);
-    gmshModelSetCurrent(name, &ierr);
-    if (ierr) return pm_gmsh_error(err, PM_ERR_BACKEND, "selecting a gmsh model");
+    if (!exists) s = pm_error_setf(err, PM_ERR_INTERNAL, "no gmsh model named '%s'", name);
+    if (!s) gmshModelSetCurrent(name, &ierr);
+    if (!s && ierr) s = pm_gmsh_error(err, PM_ERR_BACKEND, "selecting a gmsh model");
   }
-  return PM_OK;
+  /* A failed enter leaves nothing to leave: restore and release here. */
+  if (s) {
+    if (scope->had_previous && scope->previous[0]) gmshModelSetCurrent(scope->previous, &ierr);
+    pm_gmsh_unlock();
+  }
+  return s;
 }
 
 void pm_gmsh_scope_leave(pm_gmsh_scope *scope, int remove_current) {
   int ierr = 0;
   if (remove_current) gmshModelRemove(&ierr);
   if (scope->had_previous && scope->previous[0]) gmshModelSetCurrent(scope->previous, &ierr);
+  pm_gmsh_unlock();
 }
 
 int pm_gmsh_mute_stdout(void) {

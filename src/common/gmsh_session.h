@@ -35,11 +35,12 @@ typedef struct pm_gmsh_scope {
 } pm_gmsh_scope;
 
 /* Make model `name` current, creating it when `create` is set (an existing model of that name is
- * an error then). Remembers the previous current model in scope. */
+ * an error then). Remembers the previous current model in scope. The scope holds the gmsh lock
+ * from a successful enter to its leave; a failed enter holds nothing. */
 pm_status pm_gmsh_scope_enter(pm_gmsh_scope *scope, const char *name, int create, pm_error *err);
 
-/* Restore the model that was current before pm_gmsh_scope_enter(). When `remove_current` is set,
- * the scope's model is removed first. */
+/* Restore the model that was current before pm_gmsh_scope_enter() and release the lock. When
+ * `remove_current` is set, the scope's model is removed first. */
 void pm_gmsh_scope_leave(pm_gmsh_scope *scope, int remove_current);
 
 /* Redirect file descriptor 1 to /dev/null until pm_gmsh_unmute_stdout(); returns a token

@@ -685,7 +685,7 @@ pm_status collect(const pm_tet_input *in, const Plc &plc, Raw &o, pm_tet_result 
   const int32_t nout = o.npts, ntet = o.ntet;
   const double *pointlist = o.xyz.data();
   const int32_t nsteiner = nout - n;
-  if (in->mode == PM_TET_GIVEN_POINTS && nsteiner > 0)
+  if (in->mode == PM_TET_GIVEN_POINTS && nsteiner > 0 && !in->allow_recovery_points)
     return pm_error_setf(err, PM_ERR_GEOM,
                          "tet: the boundary cannot be recovered with the given points alone "
                          "(TetGen needed %d Steiner point%s)",

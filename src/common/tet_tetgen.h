@@ -73,6 +73,10 @@ typedef struct pm_tet_input {
   double max_volume;      /* PM_TET_REFINE: bound on tet volume (-a), <= 0 for none */
   int32_t max_points;     /* cap on the output point count (refinement stops with an error
                              beyond it), <= 0 for no cap */
+  int allow_recovery_points; /* PM_TET_GIVEN_POINTS: accept the interior points TetGen adds to
+                             recover the boundary (counted in nsteiner) instead of failing; no
+                             quality refinement is done either way. 0 (the default of a zeroed
+                             input) keeps the strict no-Steiner-point contract. */
 } pm_tet_input;
 
 typedef struct pm_tet_result {
