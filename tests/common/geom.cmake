@@ -1,0 +1,3 @@
+# Geometry core (geom.c, trim.c) and the analytic backend.
+pm_add_test(test_geom_analytic LABELS unit SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_geom_analytic.c)
+pm_add_test(test_input LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_input.c)
