@@ -31,10 +31,17 @@
  * points tested per query (SHIFT = 0 tests about twice the points for the same answers). */
 #define SHIFT 1
 
-/* The roots sit TOP_GAP levels above the highest level in use, so that a query starts from a
- * handful of hash lookups and reaches the cells near it through child links (which compaction
- * keeps next to each other in memory) instead of hashing every cell it looks at. */
+/* Queries enter the tree at level T = TOP_GAP levels above the highest level in use: a handful
+ * of hash lookups, then child links (which compaction keeps next to each other in memory)
+ * instead of a hash lookup for every cell looked at. */
 #define TOP_GAP 2
+
+/* The tree continues above T up to the apex level A, raised until at most APEX_MAX cells remain
+ * there (points around the origin need 8: keys -1 and 0 on every axis). k-nearest searches
+ * start from the apex and queries too wide for hash lookups at T descend from it. */
+#define APEX_MAX 16
+/* A query box covering more than this many keys at level T descends from the apex instead. */
+#define LOOKUP_MAX 64
 
 /* Radius histogram per level: NBIN bins per octave give each level a radius bound at most
  * 1/16 of an octave above the true largest radius (grid.h, invariant I4). */
@@ -107,11 +114,12 @@ struct pm_grid {
   uint32_t tab_cap; /* power of two */
   uint32_t tab_used;
 
-  int32_t *roots, *roots2; /* roots2: scratch while the top level changes */
+  int32_t *roots, *roots2; /* the apex cells; roots2: scratch while the apex level changes */
   int32_t nroots, roots_cap, roots2_cap;
 
-  int32_t top;  /* T: level of the roots (meaningful when n > 0) */
-  int32_t maxl; /* M: highest level in use (LVL_NONE when empty) */
+  int32_t top;   /* A: level of the apex cells ("roots", parent -1), meaningful when n > 0 */
+  int32_t entry; /* T: where queries enter the tree, M + TOP_GAP <= T <= A */
+  int32_t maxl;  /* M: highest level in use (LVL_NONE when empty) */
 
   int32_t lvl_cnt[NLVL];
   int32_t bin_cnt[NLVL][NBIN];
@@ -475,9 +483,9 @@ static void fix_maxlev(pm_grid *g, int32_t c, int32_t stop) {
   }
 }
 
-/* ---- top level ----------------------------------------------------------------------------- */
+/* ---- apex and entry levels ------------------------------------------------------------------ */
 
-/* Raise the roots to level l: every root gets a parent one level up, repeatedly. */
+/* Raise the apex to level l: every apex cell gets a parent one level up, repeatedly. */
 static pm_status raise_top(pm_grid *g, int32_t l, pm_error *err) {
   while (g->top < l) {
     pm_status st = reserve_cells(g, g->nroots, err);
@@ -511,35 +519,34 @@ static pm_status raise_top(pm_grid *g, int32_t l, pm_error *err) {
   return PM_OK;
 }
 
-/* Lower the roots to level l (> every level in use): the children of the roots become roots. */
-static void lower_top(pm_grid *g, int32_t l) {
-  while (g->top > l) {
-    if (reserve_roots2(g, 8 * (int64_t)g->nroots, NULL)) return; /* optional: keep T */
-    int32_t nn = 0;
-    for (int32_t i = 0; i < g->nroots; ++i) {
-      int32_t r = g->roots[i];
-      for (int c = 0; c < 8; ++c) {
-        int32_t ch = g->cells[r].child[c];
-        if (ch < 0) continue;
-        g->cells[ch].parent = -1;
-        g->cells[ch].slot = nn;
-        g->roots2[nn++] = ch;
-      }
-      cell_release(g, r);
-    }
-    int32_t *t = g->roots;
-    int32_t tc = g->roots_cap;
-    g->roots = g->roots2, g->roots_cap = g->roots2_cap;
-    g->roots2 = t, g->roots2_cap = tc;
-    g->nroots = nn;
-    g->top--;
-  }
+/* Make room for a point at level l: T at least l + TOP_GAP, the apex at least T. */
+static pm_status lift_for(pm_grid *g, int32_t l, pm_error *err) {
+  if (l + TOP_GAP <= g->entry) return PM_OK;
+  pm_status st = raise_top(g, l + TOP_GAP, err);
+  if (!st) g->entry = l + TOP_GAP;
+  return st;
 }
 
-/* Keep T near M + TOP_GAP. Lowering waits until T is 3 levels too high (hysteresis), so a radius
- * that wobbles across a power of two does not rebuild the root list at every move. */
-static void maybe_lower_top(pm_grid *g) {
-  if (g->n > 0 && g->maxl + TOP_GAP + 3 <= g->top) lower_top(g, g->maxl + TOP_GAP);
+/* After updates: keep the apex list short (raising merges up to 8 cells into one; optional, so
+ * a failed allocation only leaves it longer), bring T down when the largest radius has shrunk
+ * (with a lag of 3 levels, so a radius that wobbles across a power of two changes nothing), and
+ * drop apex levels that are a single chain (left by a far point that has gone). */
+static void settle_levels(pm_grid *g) {
+  if (g->n == 0) return;
+  while (g->nroots > APEX_MAX && !raise_top(g, g->top + 1, NULL)) {
+  }
+  if (g->maxl + TOP_GAP + 3 <= g->entry) g->entry = g->maxl + TOP_GAP;
+  while (g->top > g->entry && g->nroots == 1) {
+    int32_t r = g->roots[0], only = -1, nch = 0;
+    for (int c = 0; c < 8; ++c)
+      if (g->cells[r].child[c] >= 0) only = g->cells[r].child[c], ++nch;
+    if (nch != 1 || g->cells[r].nown > 0) break;
+    g->cells[only].parent = -1;
+    g->cells[only].slot = 0;
+    g->roots[0] = only;
+    cell_release(g, r);
+    g->top--;
+  }
 }
 
 /* ---- level statistics -------------------------------------------------------------------- */
@@ -678,7 +685,7 @@ pm_status pm_grid_create(double hmin, pm_grid **out, pm_error *err) {
   g->lmin = ceil_log2(hmin) - SHIFT;
   g->free_head = -1;
   g->free_slot = -1;
-  g->top = LVL_NONE;
+  g->top = g->entry = LVL_NONE;
   g->maxl = LVL_NONE;
   g->tab_cap = 64;
   g->tab = malloc(g->tab_cap * sizeof *g->tab);
@@ -712,7 +719,7 @@ void pm_grid_clear(pm_grid *g) {
   g->free_head = -1;
   hash_clear(g);
   g->nroots = 0;
-  g->top = LVL_NONE;
+  g->top = g->entry = LVL_NONE;
   g->maxl = LVL_NONE;
   memset(g->lvl_cnt, 0, sizeof g->lvl_cnt);
   memset(g->bin_cnt, 0, sizeof g->bin_cnt);
@@ -812,8 +819,8 @@ pm_status pm_grid_insert(pm_grid *g, int32_t id, const double xyz[3], double r, 
   if ((st = reserve_slot(g, err))) return st;
   int32_t l = level_for(g, xyz, r);
   if (g->n == 0)
-    g->top = l + TOP_GAP;
-  else if (l + TOP_GAP > g->top && (st = raise_top(g, l + TOP_GAP, err)))
+    g->top = g->entry = l + TOP_GAP;
+  else if ((st = lift_for(g, l, err)))
     return st;
   if ((st = reserve_cells(g, (int64_t)g->top - l + 1, err))) return st;
   int64_t k[3];
@@ -835,6 +842,7 @@ pm_status pm_grid_insert(pm_grid *g, int32_t id, const double xyz[3], double r, 
   stats_add(g, l, p->bin);
   g->n++;
   g->disorder++;
+  settle_levels(g);
   maybe_compact(g);
   return PM_OK;
 }
@@ -859,8 +867,8 @@ pm_status pm_grid_remove(pm_grid *g, int32_t id, pm_error *err) {
   p->next = g->free_slot;
   g->free_slot = s;
   g->n--;
-  if (g->n == 0) g->top = LVL_NONE;
-  maybe_lower_top(g);
+  if (g->n == 0) g->top = g->entry = LVL_NONE;
+  settle_levels(g);
   return PM_OK;
 }
 
@@ -887,7 +895,7 @@ pm_status pm_grid_move(pm_grid *g, int32_t id, const double xyz[3], double r, pm
     }
     return PM_OK;
   }
-  if (l + TOP_GAP > g->top && (st = raise_top(g, l + TOP_GAP, err))) return st;
+  if ((st = lift_for(g, l, err))) return st;
   if ((st = reserve_cells(g, (int64_t)g->top - l + 1, err))) return st;
   int32_t nc = cell_get(g, l, k); /* may create cells; never the old one */
   p = &g->pts[s];
@@ -926,7 +934,7 @@ pm_status pm_grid_move(pm_grid *g, int32_t id, const double xyz[3], double r, pm
   if (common >= 0) fix_maxlev(g, common, -1);
   stats_add(g, l, b);
   stats_remove(g, ol, ob);
-  maybe_lower_top(g);
+  settle_levels(g);
   g->disorder++;
   maybe_compact(g);
   return PM_OK;
@@ -1107,32 +1115,48 @@ static int collect_root(void *ctx, int32_t c) {
   }
 }
 
-/* Call f(c) for every root whose cube lies within `rch` of x: by hash lookups over the covered
- * keys (skipping keys whose cube is out of reach), or by a scan of the root list when that is
- * shorter. */
+/* Call f(c) for every cell of the entry level T whose cube lies within `rch` of x: by hash
+ * lookups over the covered keys (skipping keys whose cube is out of reach), or, when the box
+ * covers too many keys, by a descent from the apex that prunes on the same distance. */
 typedef int (*root_fn)(void *ctx, int32_t c);
+
+static int descend_to_entry(const pm_grid *g, int32_t c, const double x[3], double lim,
+                            root_fn f, void *ctx) {
+  const gcell *cc = &g->cells[c];
+  if (cc->level == g->entry) return f(ctx, c);
+  double cd2[8];
+  child_dist2(cc, x, cd2);
+  for (int i = 0; i < 8; ++i)
+    if (cc->child[i] >= 0 && cd2[i] <= lim && descend_to_entry(g, cc->child[i], x, lim, f, ctx))
+      return 1;
+  return 0;
+}
+
 static void for_roots(const pm_grid *g, const double x[3], double rch, root_fn f, void *ctx) {
-  double lo[3], hi[3], ncell = 1;
+  double lo[3], hi[3], ncell = 1, lim = rch * rch * PRUNE_MARGIN;
   for (int a = 0; a < 3; ++a) {
-    lo[a] = floor(ldexp(x[a] - rch, -g->top));
-    hi[a] = floor(ldexp(x[a] + rch, -g->top));
+    lo[a] = floor(ldexp(x[a] - rch, -g->entry));
+    hi[a] = floor(ldexp(x[a] + rch, -g->entry));
     if (!(lo[a] >= -KEY_CLAMP)) lo[a] = -KEY_CLAMP;
     if (!(hi[a] <= KEY_CLAMP)) hi[a] = KEY_CLAMP;
     if (hi[a] < lo[a]) hi[a] = lo[a];
     ncell *= hi[a] - lo[a] + 1;
   }
-  if (ncell > g->nroots) {
-    for (int32_t i = 0; i < g->nroots; ++i)
-      if (f(ctx, g->roots[i])) return;
+  if (ncell > LOOKUP_MAX) {
+    for (int32_t i = 0; i < g->nroots; ++i) {
+      int32_t r = g->roots[i];
+      if (key_dist2(g->cells[r].level, g->cells[r].k, x) <= lim &&
+          descend_to_entry(g, r, x, lim, f, ctx))
+        return;
+    }
     return;
   }
-  double lim = rch * rch * PRUNE_MARGIN;
   int64_t k[3];
   for (k[2] = (int64_t)lo[2]; k[2] <= (int64_t)hi[2]; ++k[2])
     for (k[1] = (int64_t)lo[1]; k[1] <= (int64_t)hi[1]; ++k[1])
       for (k[0] = (int64_t)lo[0]; k[0] <= (int64_t)hi[0]; ++k[0]) {
-        if (key_dist2(g->top, k, x) > lim) continue;
-        int32_t c = cell_find(g, g->top, k, key_hash(g->top, k));
+        if (key_dist2(g->entry, k, x) > lim) continue;
+        int32_t c = cell_find(g, g->entry, k, key_hash(g->entry, k));
         if (c >= 0 && f(ctx, c)) return;
       }
 }
@@ -1196,7 +1220,6 @@ typedef struct knn {
   int32_t k, n;
   int32_t *ids;
   double *d2;
-  double reach2; /* while the heap is not full: accept d2 <= reach2 */
 } knn;
 
 static inline int worse(double da, int32_t ia, double db, int32_t ib) {
@@ -1219,7 +1242,6 @@ static void heap_sift_down(knn *h, int32_t i) {
 
 static void heap_offer(knn *h, int32_t id, double d2) {
   if (h->n < h->k) {
-    if (d2 > h->reach2) return;
     int32_t i = h->n++;
     while (i > 0) {
       int32_t p = (i - 1) / 2;
@@ -1234,7 +1256,11 @@ static void heap_offer(knn *h, int32_t id, double d2) {
   }
 }
 
-/* Descent for k nearest: the reach shrinks to the current k-th distance once k are held. */
+/* Depth-first descent for k nearest, nearest child first, pruning on the current k-th distance
+ * (the classic tree search): the first dive reaches the points next to x at once, and from then
+ * on every subtree farther than the k-th point held is skipped. A best-first order over cube
+ * distances does badly here: for a query off a flat point set, large cells look nearer than the
+ * small ones that hold the answer, and the frontier fills with them. */
 static void knn_descend(knn *h, int32_t c) {
   const pm_grid *g = h->g;
   const gcell *cc = &g->cells[c];
@@ -1242,41 +1268,42 @@ static void knn_descend(knn *h, int32_t c) {
     heap_offer(h, g->pts[s].id, point_dist2(&g->pts[s], h->x));
   if (cc->count == cc->nown) return;
   double cd2[8];
+  int order[8], n = 0;
   child_dist2(cc, h->x, cd2);
   for (int i = 0; i < 8; ++i) {
     if (cc->child[i] < 0) continue;
-    double lim = h->n < h->k ? h->reach2 : h->d2[0];
-    if (cd2[i] <= lim * PRUNE_MARGIN) knn_descend(h, cc->child[i]);
+    int j = n++;
+    while (j > 0 && cd2[order[j - 1]] > cd2[i]) order[j] = order[j - 1], --j;
+    order[j] = i;
+  }
+  for (int j = 0; j < n; ++j) {
+    if (h->n == h->k && cd2[order[j]] > h->d2[0] * PRUNE_MARGIN) break; /* sorted: all farther */
+    knn_descend(h, cc->child[order[j]]);
   }
 }
 
-static int knn_cell(void *ctx, int32_t c) {
-  knn *h = ctx;
-  const gcell *cc = &h->g->cells[c];
-  double lim = h->n < h->k ? h->reach2 : h->d2[0];
-  if (key_dist2(cc->level, cc->k, h->x) <= lim * PRUNE_MARGIN) knn_descend(h, c);
-  return 0;
-}
-
-/* A first reach that surely holds k points: the diameter of the smallest cell on x's path
- * whose subtree has at least k points (x lies in that cell). 0 when there is none. */
-static double knn_first_reach(const pm_grid *g, const double x[3], int32_t k) {
-  int32_t l = g->top;
-  int64_t key[3];
-  for (int a = 0; a < 3; ++a) {
-    double s = floor(ldexp(x[a], -l));
-    if (!(fabs(s) < KEY_CLAMP)) return 0;
-    key[a] = (int64_t)s;
+static void knn_search(knn *h) {
+  const pm_grid *g = h->g;
+  /* apex cells nearest first (there are at most APEX_MAX of them unless raising them failed) */
+  enum { NSORT = 64 };
+  int32_t order[NSORT];
+  double rd2[NSORT];
+  int32_t n = g->nroots < NSORT ? g->nroots : NSORT;
+  for (int32_t i = 0; i < n; ++i) {
+    int32_t r = g->roots[i], j = i;
+    double d2 = key_dist2(g->cells[r].level, g->cells[r].k, h->x);
+    while (j > 0 && rd2[j - 1] > d2) rd2[j] = rd2[j - 1], order[j] = order[j - 1], --j;
+    rd2[j] = d2, order[j] = r;
   }
-  int32_t c = cell_find(g, l, key, key_hash(l, key));
-  if (c < 0 || g->cells[c].count < k) return 0;
-  for (;;) {
-    key_of(x, g->cells[c].level - 1, key); /* |key| < 2^53: x lies in cell c */
-    int32_t ch = g->cells[c].child[child_index(key)];
-    if (ch < 0 || g->cells[ch].count < k) break;
-    c = ch;
+  for (int32_t i = 0; i < n; ++i) {
+    if (h->n == h->k && rd2[i] > h->d2[0] * PRUNE_MARGIN) break;
+    knn_descend(h, order[i]);
   }
-  return sqrt(3.0) * pow2i(g->cells[c].level) * (1 + 1e-9);
+  for (int32_t i = n; i < g->nroots; ++i) {
+    int32_t r = g->roots[i];
+    double d2 = key_dist2(g->cells[r].level, g->cells[r].k, h->x);
+    if (h->n < h->k || d2 <= h->d2[0] * PRUNE_MARGIN) knn_descend(h, r);
+  }
 }
 
 int32_t pm_grid_knearest_fixed(const pm_grid *g, const double xyz[3], int32_t k, int32_t *ids,
@@ -1286,16 +1313,8 @@ int32_t pm_grid_knearest_fixed(const pm_grid *g, const double xyz[3], int32_t k,
   double dbuf[64];
   double *dd = d2 ? d2 : (k <= 64 ? dbuf : malloc((size_t)k * sizeof *dd));
   if (!dd) return 0;
-  knn h = {g, {xyz[0], xyz[1], xyz[2]}, k, 0, ids, dd, 0};
-  double rch = knn_first_reach(g, xyz, k);
-  if (rch <= 0) rch = ldexp(1.0, g->top);
-  for (;;) {
-    h.n = 0;
-    h.reach2 = rch * rch;
-    for_roots(g, h.x, rch, knn_cell, &h);
-    if (h.n == k) break;
-    rch *= 4; /* too few within reach: widen; ends since k <= count (rch reaches +inf at worst) */
-  }
+  knn h = {g, {xyz[0], xyz[1], xyz[2]}, k, 0, ids, dd};
+  knn_search(&h);
   /* Heap -> increasing (d2, id). */
   for (int32_t i = 1; i < k; ++i) {
     double dv = dd[i];
@@ -1380,8 +1399,9 @@ static pm_status validate_with(const pm_grid *g, int32_t *lvl, int32_t (*bins)[N
     }
   }
   if (m != g->maxl) BAD("highest level %d, recorded %d", m, g->maxl);
-  if (g->n > 0 && (g->top < g->maxl + TOP_GAP || g->top > g->maxl + TOP_GAP + 2))
-    BAD("top level %d not within [%d, %d]", g->top, g->maxl + TOP_GAP, g->maxl + TOP_GAP + 2);
+  if (g->n > 0 && (g->entry < g->maxl + TOP_GAP || g->entry > g->maxl + TOP_GAP + 2))
+    BAD("entry level %d not within [%d, %d]", g->entry, g->maxl + TOP_GAP, g->maxl + TOP_GAP + 2);
+  if (g->n > 0 && g->top < g->entry) BAD("apex level %d below entry level %d", g->top, g->entry);
   int32_t live = 0, rootsum = 0, owned = 0;
   for (int32_t c = 0; c < g->cells_used; ++c) {
     const gcell *cc = &g->cells[c];

@@ -47,7 +47,9 @@ pm_status pm_sizing_callback(pm_sizing_fn fn, void *user, const char *descriptio
  * of the nearest element when that is within 0.1 x the element's longest edge of the query
  * point, else by inverse-distance weighting (1/d^2) of the 8 nearest nodes. The value always lies
  * within [min, max] of the samples. Elements are located through a pm_grid, so an evaluation
- * costs O(1), not a scan. Both inputs are copied; degenerate elements are ignored. */
+ * costs O(1), not a scan (far from a thin sample set the nearest-node fallback slows down: sample
+ * a field meant for a volume on tets). Both inputs are copied; degenerate elements are
+ * ignored. */
 pm_status pm_sizing_sampled(const pm_mesh *samples, const double *values, pm_sizing **out,
                             pm_error *err);
 

@@ -25,6 +25,12 @@
  * given on a mesh and continuous inside it.
  *
  * Evaluation reads only immutable data and stack storage: safe from any number of threads.
+ *
+ * Cost (bench_sizing): about 1 us on the mesh, about 2 us beside it in its plane. The fallback is
+ * meant for points near the mesh: far from a thin sample set (well above a planar mesh, deep
+ * inside a closed surface mesh) many nodes are almost equally near, and an exact k-nearest
+ * search must look at all of them (tens of microseconds on 10^4 nodes). A field for a volume
+ * should be sampled on tets.
  */
 #include "common/sizing_private.h"
 

@@ -441,6 +441,54 @@ static void offsets_and_levels(void **state) {
   pm_grid_destroy(g);
 }
 
+/* A far outlier raises the apex; queries from far away (the sampled size field's fallback)
+ * stay exact; removing the outlier leaves a valid grid. */
+static void far_points(void **state) {
+  (void)state;
+  setup s = {0, RAD_UNIFORM, 0.05};
+  pm_rng rng;
+  pm_rng_init(&rng, 21, 0);
+  pm_grid *g = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_grid_create(1e-4, &g, &e), e);
+  ref f;
+  ref_init(&f, 801);
+  for (int32_t i = 0; i < 800; ++i) {
+    draw_point(&rng, &s, f.x + 3 * i, &f.r[i]);
+    PM_ASSERT_OK(pm_grid_insert(g, i, f.x + 3 * i, f.r[i], &e), e);
+    f.on[i] = 1;
+  }
+  double out[3] = {1e6, -3e5, 42};
+  memcpy(f.x + 3 * 800, out, sizeof out);
+  f.r[800] = 0.05;
+  f.on[800] = 1;
+  PM_ASSERT_OK(pm_grid_insert(g, 800, out, 0.05, &e), e);
+  PM_ASSERT_OK(pm_grid_validate(g, &e), e);
+  pm_idbuf b = PM_IDBUF_INIT;
+  int32_t want[801];
+  double qs[4][3] = {{0.5, 0.5, 0.5}, {0.5, 0.5, 3.0}, {5e5, -1e5, 0}, {-2e6, 7e6, 1e3}};
+  for (int round = 0; round < 2; ++round) {
+    for (int q = 0; q < 4; ++q) {
+      for (int32_t k = 1; k <= 12; k += 11) {
+        int32_t nw = brute_knn(&f, qs[q], k, want);
+        PM_ASSERT_OK(pm_grid_knearest(g, qs[q], k, &b, &e), e);
+        assert_same(want, nw, &b, "far knn", q);
+      }
+      int32_t nw = brute(&f, qs[q], 3.0, PM_GRID_BALL, want);
+      PM_ASSERT_OK(pm_grid_query_ball(g, qs[q], 3.0, &b, &e), e);
+      assert_same(want, nw, &b, "far ball", q);
+    }
+    if (round == 0) { /* then without the outlier */
+      PM_ASSERT_OK(pm_grid_remove(g, 800, &e), e);
+      f.on[800] = 0;
+      PM_ASSERT_OK(pm_grid_validate(g, &e), e);
+    }
+  }
+  pm_idbuf_free(&b);
+  ref_free(&f);
+  pm_grid_destroy(g);
+}
+
 /* Queries from several threads give what a serial loop gives. */
 static void concurrent_queries(void **state) {
   (void)state;
@@ -494,6 +542,7 @@ int main(void) {
       cmocka_unit_test(brute_2d_uniform),
       cmocka_unit_test(brute_2d_graded),
       cmocka_unit_test(offsets_and_levels),
+      cmocka_unit_test(far_points),
       cmocka_unit_test(concurrent_queries),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
