@@ -21,9 +21,11 @@
  *   are filed as if they were hmin, and a point is never filed below 2^-50 of its largest
  *   coordinate (finer cells than that would be below double precision). It lives in the one
  *   cell of that level that contains its position.
- * - The roots are the cells of the top level T, two levels above the highest level in use (so a
- *   query starts from a handful of hash lookups and reaches nearby cells through child links);
- *   T follows the largest radius up at once and down with a lag of three levels.
+ * - Queries enter the tree at level T, two levels above the highest level in use: a handful of
+ *   hash lookups, then child links. T follows the largest radius up at once and down with a lag
+ *   of three levels. Above T the tree goes on to the apex level, raised until at most 16 apex
+ *   cells remain: k-nearest searches descend from there (nearest child first, pruned by the k-th
+ *   distance found), and so do queries too wide for hash lookups at T.
  * - Point records live in slots the grid owns; every so often (after about n/2 inserts and moves
  *   to another cell) they and the cells are rewritten in depth-first (Morton) order, so that
  *   points close in space are close in memory whatever the caller's ids. The cost is O(n),
@@ -31,8 +33,8 @@
  *
  * Invariants (pm_grid_validate checks them all):
  *   (I0) every id in the grid maps to one slot holding its record, in its cell's list;
- *   (I1) a cell exists if and only if its subtree holds at least one point; every non-root cell
- *        is linked from its parent, every root is in the root list;
+ *   (I1) a cell exists if and only if its subtree holds at least one point; every cell below the
+ *        apex level is linked from its parent, every apex cell is in the apex list;
  *   (I2) every point lies inside the cube of its cell, hence inside the cube of every ancestor;
  *   (I3) count(C) is the number of points in C's subtree, maxlev(C) the highest level filed in
  *        it;
