@@ -77,6 +77,8 @@ typedef struct gpoint {
 
 typedef struct gcell {
   int64_t k[3];
+  double maxr;      /* >= every radius in the subtree (grown by updates, made exact by
+                       compaction); never below a child's */
   int32_t level;
   int32_t maxlev;   /* highest level filed in the subtree */
   int32_t head;     /* first own point (slot), -1 */
@@ -408,6 +410,7 @@ static int32_t cell_alloc(pm_grid *g, int32_t l, const int64_t k[3], uint32_t h)
   for (int i = 0; i < 8; ++i) cc->child[i] = -1;
   cc->count = 0;
   cc->maxlev = LVL_NONE;
+  cc->maxr = 0;
   cc->head = -1;
   cc->nown = 0;
   cc->slot = -1;
@@ -473,6 +476,12 @@ static int32_t maxlev_of(const pm_grid *g, int32_t c) {
   return m;
 }
 
+/* Raise the loose radius bound from c upwards until an ancestor already covers r (every
+ * ancestor's bound is at least its children's). */
+static void raise_maxr(pm_grid *g, int32_t c, double r) {
+  for (; c >= 0 && g->cells[c].maxr < r; c = g->cells[c].parent) g->cells[c].maxr = r;
+}
+
 /* Recompute maxlev from c upwards, stopping at `stop` or where nothing changes. */
 static void fix_maxlev(pm_grid *g, int32_t c, int32_t stop) {
   while (c >= 0 && c != stop) {
@@ -508,6 +517,7 @@ static pm_status raise_top(pm_grid *g, int32_t l, pm_error *err) {
       rc->slot = -1;
       pc->count += rc->count;
       if (rc->maxlev > pc->maxlev) pc->maxlev = rc->maxlev;
+      if (rc->maxr > pc->maxr) pc->maxr = rc->maxr;
     }
     int32_t *t = g->roots;
     int32_t tc = g->roots_cap;
@@ -604,8 +614,14 @@ static void compact_cell(compactor *k, int32_t c) {
     g->slot_of[p->id] = k->np;
     k->np++;
   }
+  double maxr = 0;
+  for (int32_t s = to->head; s >= 0; s = k->pts[s].next) maxr = fmax(maxr, k->pts[s].r);
   for (int i = 0; i < 8; ++i)
-    if (g->cells[c].child[i] >= 0) compact_cell(k, g->cells[c].child[i]);
+    if (g->cells[c].child[i] >= 0) {
+      compact_cell(k, g->cells[c].child[i]);
+      maxr = fmax(maxr, k->cells[k->map[g->cells[c].child[i]]].maxr);
+    }
+  k->cells[nc].maxr = maxr; /* exact again: the bound only grew since the last compaction */
 }
 
 typedef struct rootkey {
@@ -838,6 +854,7 @@ pm_status pm_grid_insert(pm_grid *g, int32_t id, const double xyz[3], double r, 
   for (int32_t a = c; a >= 0; a = g->cells[a].parent) {
     g->cells[a].count++;
     if (g->cells[a].maxlev < l) g->cells[a].maxlev = l;
+    if (g->cells[a].maxr < r) g->cells[a].maxr = r;
   }
   stats_add(g, l, p->bin);
   g->n++;
@@ -888,6 +905,7 @@ pm_status pm_grid_move(pm_grid *g, int32_t id, const double xyz[3], double r, pm
     /* Same cell: only the position and the radius bin change. */
     p->x[0] = xyz[0], p->x[1] = xyz[1], p->x[2] = xyz[2];
     p->r = r;
+    raise_maxr(g, oc, r);
     if (b != p->bin) {
       stats_add(g, l, b); /* add first: the level never looks empty in between */
       stats_remove(g, l, p->bin);
@@ -906,6 +924,7 @@ pm_status pm_grid_move(pm_grid *g, int32_t id, const double xyz[3], double r, pm
   p->level = (int16_t)l;
   p->bin = (uint8_t)b;
   link_point(g, s, nc);
+  raise_maxr(g, nc, r);
   /* Counts: +1 along the new chain, -1 along the old one, up to their lowest common ancestor
    * (above it nothing changes). The lower of the two walkers steps first, so they meet there. */
   int32_t a = nc, o = oc, survivor = -1;
@@ -965,6 +984,13 @@ static inline double point_dist2(const gpoint *p, const double x[3]) {
   return dx * dx + dy * dy + dz * dz;
 }
 
+/* Largest radius a point of c's subtree can have: the smaller of two valid bounds, the cell's
+ * own (tight after compaction) and the level histogram's for its highest level. */
+static inline double radius_bound(const pm_grid *g, const gcell *c) {
+  double b = g->bound[c->maxlev - LVL_LO];
+  return c->maxr < b ? c->maxr : b;
+}
+
 /* Reach of a query over a subtree whose radii are at most rb. */
 static inline double reach(pm_grid_kind kind, double r, double rb) {
   switch (kind) {
@@ -1016,15 +1042,15 @@ static inline void child_dist2(const gcell *cc, const double x[3], double d2[8])
       s = p->next;                                                                         \
     }                                                                                      \
     if (cc->count == cc->nown) return 0;                                                   \
-    double b = reach(KIND, q->r, g->bound[cc->maxlev - LVL_LO]), lim = b * b * PRUNE_MARGIN; \
+    double b = reach(KIND, q->r, radius_bound(g, cc)), lim = b * b * PRUNE_MARGIN;         \
     double cd2[8];                                                                         \
     child_dist2(cc, q->x, cd2);                                                            \
     for (int i = 0; i < 8; ++i) {                                                          \
       int32_t ch = cc->child[i];                                                           \
       if (ch < 0 || cd2[i] > lim) continue;                                                \
       const gcell *hc = &g->cells[ch];                                                     \
-      if (hc->maxlev < cc->maxlev) {                                                       \
-        double bc = reach(KIND, q->r, g->bound[hc->maxlev - LVL_LO]);                      \
+      if (KIND != PM_GRID_BALL) {                                                          \
+        double bc = reach(KIND, q->r, radius_bound(g, hc));                                \
         if (cd2[i] > bc * bc * PRUNE_MARGIN) continue;                                     \
       }                                                                                    \
       if (NAME(q, ch)) return 1;                                                           \
@@ -1040,7 +1066,7 @@ DEFINE_VISIT(visit_overlap, PM_GRID_OVERLAP, d2 < (q->r + p->r) * (q->r + p->r))
 static int visit_cell(qctx *q, int32_t c) {
   const pm_grid *g = q->g;
   const gcell *cc = &g->cells[c];
-  double b = reach(q->kind, q->r, g->bound[cc->maxlev - LVL_LO]);
+  double b = reach(q->kind, q->r, radius_bound(g, cc));
   if (key_dist2(cc->level, cc->k, q->x) > b * b * PRUNE_MARGIN) return 0;
   switch (q->kind) {
     case PM_GRID_MUTUAL: return visit_mutual(q, c);
@@ -1082,15 +1108,15 @@ typedef struct cctx {
       out->n = n;                                                                          \
     }                                                                                      \
     if (cc->count == cc->nown) return 0;                                                   \
-    double b = reach(KIND, q->r, g->bound[cc->maxlev - LVL_LO]), lim = b * b * PRUNE_MARGIN; \
+    double b = reach(KIND, q->r, radius_bound(g, cc)), lim = b * b * PRUNE_MARGIN;         \
     double cd2[8];                                                                         \
     child_dist2(cc, q->x, cd2);                                                            \
     for (int i = 0; i < 8; ++i) {                                                          \
       int32_t ch = cc->child[i];                                                           \
       if (ch < 0 || cd2[i] > lim) continue;                                                \
       const gcell *hc = &g->cells[ch];                                                     \
-      if (hc->maxlev < cc->maxlev) {                                                       \
-        double bc = reach(KIND, q->r, g->bound[hc->maxlev - LVL_LO]);                      \
+      if (KIND != PM_GRID_BALL) {                                                          \
+        double bc = reach(KIND, q->r, radius_bound(g, hc));                                \
         if (cd2[i] > bc * bc * PRUNE_MARGIN) continue;                                     \
       }                                                                                    \
       if (NAME(q, ch)) return 1;                                                           \
@@ -1106,7 +1132,7 @@ static int collect_root(void *ctx, int32_t c) {
   cctx *q = ctx;
   const pm_grid *g = q->g;
   const gcell *cc = &g->cells[c];
-  double b = reach(q->kind, q->r, g->bound[cc->maxlev - LVL_LO]);
+  double b = reach(q->kind, q->r, radius_bound(g, cc));
   if (key_dist2(cc->level, cc->k, q->x) > b * b * PRUNE_MARGIN) return 0;
   switch (q->kind) {
     case PM_GRID_MUTUAL: return collect_mutual(q, c);
@@ -1429,6 +1455,11 @@ static pm_status validate_with(const pm_grid *g, int32_t *lvl, int32_t (*bins)[N
     }
     if (sum != cc->count) BAD("cell %d count %d, subtree holds %d", c, cc->count, sum);
     if (maxlev_of(g, c) != cc->maxlev) BAD("cell %d maxlev %d stale", c, cc->maxlev);
+    for (int32_t s = cc->head; s >= 0; s = g->pts[s].next)
+      if (g->pts[s].r > cc->maxr) BAD("cell %d radius bound %g below a radius %g", c, cc->maxr, g->pts[s].r);
+    for (int i = 0; i < 8; ++i)
+      if (cc->child[i] >= 0 && g->cells[cc->child[i]].maxr > cc->maxr)
+        BAD("cell %d radius bound %g below its child's", c, cc->maxr);
     if (cell_find(g, cc->level, cc->k, key_hash(cc->level, cc->k)) != c)
       BAD("cell %d not hashed", c);
     if (cc->parent < 0) {
