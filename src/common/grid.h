@@ -178,9 +178,9 @@ int32_t pm_grid_nearest(const pm_grid *g, const double xyz[3], double *dist);
 pm_status pm_grid_knearest(const pm_grid *g, const double xyz[3], int32_t k, pm_idbuf *out,
                            pm_error *err);
 
-/* The same without allocating: ids[k] and, when not NULL, d2[k] (squared distances) receive the
- * k nearest in increasing (distance, id) order. Returns how many were found (min(k, count));
- * 0 for a bad xyz or k < 1. */
+/* The same without allocating (unless k > 64 and d2 is NULL): ids[k] and, when not NULL, d2[k]
+ * (squared distances) receive the k nearest in increasing (distance, id) order. Returns how many
+ * were found (min(k, count)); 0 for a bad xyz or k < 1. */
 int32_t pm_grid_knearest_fixed(const pm_grid *g, const double xyz[3], int32_t k, int32_t *ids,
                                double *d2);
 
