@@ -17,6 +17,7 @@ typedef struct subcommand {
 /* The subcommands built into this binary (cli.h declares the full set of DESIGN.md). */
 static const subcommand commands[] = {
     {"quality", pm_cli_quality, "measure a mesh file: quality, validity (--json, --csv)"},
+    {"mesh", pm_cli_mesh, "mesh an input with one method (--method, --size, -o, --stats)"},
     {"cases", pm_cli_cases, "list the built-in cases (INPUT case:NAME)"},
 };
 static const int ncommands = (int)(sizeof commands / sizeof commands[0]);

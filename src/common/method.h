@@ -61,6 +61,11 @@ typedef struct pm_method {
                    pm_error *err);
   int planar_only;         /* 1 when the method meshes planar domains only (CGAL Mesh_2) */
   int needs_size;          /* 1 when the method has no default size of its own */
+  /* May be NULL: the size field the method uses when it is given none (in->size == NULL), as a
+   * pm_sizing the caller owns -- so that a caller can scale it (--target-nodes, matched node
+   * counts in comparisons). */
+  pm_status (*default_size)(const pm_model *model, const void *params, uint64_t seed,
+                            int threads, pm_sizing **out, pm_error *err);
 } pm_method;
 
 /* Default node cap of a run (the CLI's --max-nodes default). */

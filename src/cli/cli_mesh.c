@@ -1,0 +1,354 @@
+/* packmesh mesh: run one mesher on one input, write the mesh, and optionally its stats
+ * (DESIGN.md's JSON keys), the per-iteration trace and snapshots.
+ *
+ *   packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]
+ *                 [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]
+ *                 -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--stats STATS.json] [--trace TRACE.csv]
+ *                 [--frames DIR]
+ *   packmesh mesh --method M --help      the method's parameters, defaults and sources
+ *
+ * Nothing is written unless the run succeeds; every file is written whole or not at all.
+ */
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli/cli.h"
+#include "cli/cli_methods.h"
+#include "cli/cli_size.h"
+#include "cli/cli_util.h"
+#include "common/clock.h"
+#include "common/distance.h"
+#include "common/input.h"
+#include "common/mesh_check.h"
+#include "common/mesh_io.h"
+#include "common/quality.h"
+#include "common/stats.h"
+
+
+#define MAX_SETS 256
+/* --target-nodes: runs allowed to bring the node count within TARGET_TOL of the target. */
+#define TARGET_RUNS 8
+#define TARGET_TOL 0.03
+
+typedef struct mesh_opts {
+  const char *input, *method, *size, *out, *stats, *trace, *frames;
+  const char *sets[MAX_SETS];
+  int nset;
+  unsigned long long seed;
+  long threads;
+  int volume, help;
+  long target_nodes, max_nodes;
+  int method_given;
+} mesh_opts;
+
+static int usage_text(void) {
+  char names[512];
+  pm_cli_method_names(names, sizeof names);
+  printf("usage: packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]\n"
+         "                    [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]\n"
+         "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--stats STATS.json]\n"
+         "                    [--trace TRACE.csv] [--frames DIR]\n"
+         "       packmesh mesh --method M --help\n\n"
+         "INPUT is a CAD file (.step .stp .iges .igs .brep), case:NAME (packmesh cases) or a case\n"
+         "file (.json). --size is the desired edge length: a number, an expression in x, y, z, r,\n"
+         "or 'inferred' (psys's sizing inference). Without --size the input's own size (built-in\n"
+         "cases, case files) or the method's default is used.\n"
+         "methods: %s (default bubble)\n",
+         names);
+  return PM_EXIT_OK;
+}
+
+static int method_help(const pm_method *m) {
+  printf("%s: %s\n", m->name, m->description);
+  if (m->params)
+    pm_params_help(m->params, stdout);
+  else
+    printf("(no parameters)\n");
+  return PM_EXIT_OK;
+}
+
+static int parse(int argc, char **argv, mesh_opts *o) {
+  memset(o, 0, sizeof *o);
+  o->method = "bubble";
+  o->seed = 1;
+  o->threads = omp_get_max_threads();
+  o->max_nodes = PM_DEFAULT_MAX_NODES;
+  for (int i = 1; i < argc; ++i) {
+    const char *v = NULL;
+    int r;
+    const char *a = argv[i];
+    if (pm_cli_flag(a, "help") || strcmp(a, "-h") == 0) {
+      o->help = 1;
+      continue;
+    }
+    if (pm_cli_flag(a, "volume")) {
+      o->volume = 1;
+      continue;
+    }
+    if (strcmp(a, "-o") == 0) {
+      if (i + 1 >= argc) return pm_cli_usage("mesh", "-o needs a file name");
+      o->out = argv[++i];
+      continue;
+    }
+#define OPT(name, field)                                                         \
+  if ((r = pm_cli_option(argc, argv, &i, name, &v)) != 0) {                      \
+    if (r < 0) return pm_cli_usage("mesh", "--%s needs a value", name);          \
+    field = v;                                                                   \
+    continue;                                                                    \
+  }
+    if ((r = pm_cli_option(argc, argv, &i, "method", &v)) != 0) {
+      if (r < 0) return pm_cli_usage("mesh", "--method needs a value");
+      o->method = v;
+      o->method_given = 1;
+      continue;
+    }
+    OPT("size", o->size)
+    OPT("output", o->out)
+    OPT("stats", o->stats)
+    OPT("trace", o->trace)
+    OPT("frames", o->frames)
+#undef OPT
+    if ((r = pm_cli_option(argc, argv, &i, "set", &v)) != 0) {
+      if (r < 0) return pm_cli_usage("mesh", "--set needs KEY=VALUE");
+      if (o->nset == MAX_SETS) return pm_cli_usage("mesh", "too many --set options");
+      o->sets[o->nset++] = v;
+      continue;
+    }
+    long n;
+    if ((r = pm_cli_option(argc, argv, &i, "seed", &v)) != 0) {
+      if (r < 0 || !pm_cli_parse_long(v, 0, 0x7fffffffffffffffL, &n))
+        return pm_cli_usage("mesh", "--seed takes a whole number >= 0, got '%s'", v ? v : "");
+      o->seed = (unsigned long long)n;
+      continue;
+    }
+    if ((r = pm_cli_option(argc, argv, &i, "threads", &v)) != 0) {
+      if (r < 0 || !pm_cli_parse_long(v, 1, 1024, &n))
+        return pm_cli_usage("mesh", "--threads takes a whole number from 1 to 1024, got '%s'", v ? v : "");
+      o->threads = n;
+      continue;
+    }
+    if ((r = pm_cli_option(argc, argv, &i, "target-nodes", &v)) != 0) {
+      if (r < 0 || !pm_cli_parse_long(v, 3, 2000000000L, &n))
+        return pm_cli_usage("mesh", "--target-nodes takes a whole number >= 3, got '%s'", v ? v : "");
+      o->target_nodes = n;
+      continue;
+    }
+    if ((r = pm_cli_option(argc, argv, &i, "max-nodes", &v)) != 0) {
+      if (r < 0 || !pm_cli_parse_long(v, 3, 2000000000L, &n))
+        return pm_cli_usage("mesh", "--max-nodes takes a whole number >= 3, got '%s'", v ? v : "");
+      o->max_nodes = n;
+      continue;
+    }
+    if (a[0] == '-' && a[1]) return pm_cli_usage("mesh", "unknown option '%s'", a);
+    if (o->input) return pm_cli_usage("mesh", "more than one INPUT ('%s' and '%s')", o->input, a);
+    o->input = a;
+  }
+  return PM_EXIT_OK;
+}
+
+/* One run of the method with `size` (may be NULL). */
+static pm_status run_once(const pm_method *method, const void *params, const pm_model *model,
+                          const pm_sizing *size, const mesh_opts *o, pm_trace *trace,
+                          pm_frames *frames, pm_stats *stats, pm_run_output *out, pm_error *err) {
+  pm_run_input in;
+  memset(&in, 0, sizeof in);
+  in.model = model;
+  in.size = size;
+  in.seed = o->seed;
+  in.threads = (int)o->threads;
+  in.volume = o->volume;
+  in.max_nodes = o->max_nodes;
+  in.trace = trace;
+  in.frames = frames;
+  memset(out, 0, sizeof *out);
+  out->stats = stats;
+  return method->run(&in, params, out, err);
+}
+
+int pm_cli_mesh(int argc, char **argv) {
+  mesh_opts o;
+  int rc = parse(argc, argv, &o);
+  if (rc) return rc;
+  if (o.help && !o.method_given) return usage_text();
+  const pm_method *method = pm_cli_method_find(o.method);
+  if (!method) {
+    char names[512];
+    pm_cli_method_names(names, sizeof names);
+    return pm_cli_usage("mesh", "unknown method '%s' (known: %s)", o.method, names);
+  }
+  if (o.help) return method_help(method);
+  if (!o.input) return pm_cli_usage("mesh", "no INPUT given");
+  if (!o.out) return pm_cli_usage("mesh", "no output file given (-o OUT.msh)");
+
+  pm_error e = {0};
+  pm_mesh_format fmt;
+  if (pm_mesh_format_of(o.out, &fmt, &e)) return pm_cli_usage("mesh", "%s", e.msg);
+
+  /* Parameters: defaults, then --set, then the range check. */
+  void *params = NULL;
+  if (method->params_size) {
+    params = calloc(1, method->params_size);
+    if (!params) return pm_cli_fail("out of memory");
+    method->params_init(params);
+  }
+  for (int k = 0; k < o.nset; ++k) {
+    if (!method->params) {
+      free(params);
+      return pm_cli_fail("method %s has no parameters (got --set %s)", method->name, o.sets[k]);
+    }
+    if (pm_params_set_pair(method->params, params, o.sets[k], &e)) {
+      free(params);
+      return pm_cli_error(&e);
+    }
+  }
+  if (method->params && pm_params_check(method->params, params, &e)) {
+    free(params);
+    return pm_cli_error(&e);
+  }
+
+  omp_set_num_threads((int)o.threads);
+  double t_start = pm_seconds();
+  pm_model *model = NULL;
+  pm_sizing *input_size = NULL, *size = NULL, *base = NULL, *scaled = NULL;
+  pm_trace *trace = NULL;
+  pm_frames *frames = NULL;
+  pm_run_output out;
+  memset(&out, 0, sizeof out);
+  pm_stats stats;
+  pm_stats_init(&stats);
+  pm_status s = pm_input_open(o.input, &model, &input_size, &e);
+  if (s) goto fail;
+  if (method->planar_only && !(model->dim == 2 && model->box[2] == 0 && model->box[5] == 0)) {
+    s = pm_error_setf(&e, PM_ERR_ARG, "method %s meshes planar domains only; '%s' is not one",
+                      method->name, o.input);
+    goto fail;
+  }
+
+  /* The size field: --size, else the input's own, else the method's default (NULL). */
+  if (o.size) {
+    s = pm_cli_size_resolve(o.size, method, model, o.seed, (int)o.threads, &size, &e);
+    if (s) goto fail;
+  } else {
+    size = input_size, input_size = NULL;
+  }
+  if (size && (s = pm_sizing_check(size, model, &e))) goto fail;
+
+  if (o.trace && (s = pm_trace_create(&trace, &e))) goto fail;
+  if (o.frames && (s = pm_frames_create(o.frames, model, &frames, &e))) goto fail;
+  pm_stats_set_run(&stats, method->name, o.input);
+
+  /* --target-nodes: scale the size field until the node count is within 3% of the target;
+   * nodes of a surface mesh go as 1/d^2, of a volume mesh as 1/d^3. */
+  base = size;
+  if (o.target_nodes && !base) {
+    if (!method->default_size) {
+      s = pm_error_setf(&e, PM_ERR_ARG,
+                        "--target-nodes needs --size for method %s (it has no default field to scale)",
+                        method->name);
+      goto fail;
+    }
+    if ((s = method->default_size(model, params, o.seed, (int)o.threads, &size, &e))) goto fail;
+    base = size;
+  }
+  double scale = 1;
+  int runs = 0;
+  for (;;) {
+    ++runs;
+    const pm_sizing *use = base;
+    if (scale != 1) {
+      pm_sizing_destroy(scaled);
+      scaled = NULL;
+      if ((s = pm_sizing_scaled(base, scale, &scaled, &e))) goto fail;
+      use = scaled;
+    }
+    pm_stats_clear(&stats);
+    pm_stats_init(&stats);
+    pm_stats_set_run(&stats, method->name, o.input);
+    pm_mesh_destroy(out.mesh);
+    s = run_once(method, params, model, use, &o, trace, frames, &stats, &out, &e);
+    if (s) goto fail;
+    if (!o.target_nodes) break;
+    double n = (double)out.mesh->nnode, ratio = n / (double)o.target_nodes;
+    if (fabs(ratio - 1) <= TARGET_TOL || runs >= TARGET_RUNS) break;
+    scale *= pow(ratio, 1.0 / (o.volume && out.mesh->ntet ? 3.0 : 2.0));
+    /* The trace and the frames describe the last run only. */
+    if (trace) {
+      pm_trace_destroy(trace);
+      trace = NULL;
+      if ((s = pm_trace_create(&trace, &e))) goto fail;
+    }
+  }
+  const pm_sizing *final_size = scale != 1 ? scaled : base;
+  double t_run = pm_seconds() - t_start;
+
+  /* Stats: the verdict of the checker, the quality module, the distance to the model. */
+  if (o.stats) {
+    pm_check_report chk = {0};
+    pm_quality q = {0};
+    if ((s = pm_mesh_check(out.mesh, model, &chk, &e))) goto fail;
+    s = pm_stats_set_check(&stats, &chk, &e);
+    pm_check_report_clear(&chk);
+    if (s) goto fail;
+    if ((s = pm_quality_compute(out.mesh, final_size, &q, &e))) goto fail;
+    pm_stats_set_quality(&stats, &q);
+    pm_quality_clear(&q);
+    pm_stats_set_mesh(&stats, out.mesh);
+    if (out.mesh->ntri > 0 || out.mesh->nseg > 0) {
+      pm_distance_params dp;
+      pm_distance d;
+      pm_distance_params_init(&dp);
+      if ((s = pm_mesh_distance(out.mesh, model, final_size, &dp, &d, &e))) goto fail;
+      pm_stats_set_distance(&stats, d.mean, d.max, d.bbox_diagonal);
+      if (d.has_size) {
+        pm_stats_add_number(&stats, "distance.rel_mean", d.rel_mean, NULL);
+        pm_stats_add_number(&stats, "distance.rel_max", d.rel_max, NULL);
+      }
+    }
+    stats.iterations = out.iterations;
+    stats.time_total = t_run;
+    pm_stats_add_text(&stats, "stop_reason", out.stop_reason, NULL);
+    pm_stats_add_number(&stats, "seed", (double)o.seed, NULL);
+    pm_stats_add_number(&stats, "threads", (double)o.threads, NULL);
+    pm_stats_add_text(&stats, "size", final_size ? pm_sizing_describe(final_size) : "method default", NULL);
+    if (o.target_nodes) {
+      pm_stats_add_number(&stats, "target_nodes", (double)o.target_nodes, NULL);
+      pm_stats_add_number(&stats, "size_scale", scale, NULL);
+      pm_stats_add_number(&stats, "target_runs", runs, NULL);
+    }
+    if (method->params)
+      for (int k = 0; k < method->params->n; ++k) {
+        char key[160], val[64];
+        snprintf(key, sizeof key, "params.%s", method->params->desc[k].name);
+        pm_params_format(&method->params->desc[k], params, val, sizeof val);
+        pm_stats_add_text(&stats, key, val, NULL);
+      }
+  }
+
+  /* Files: the mesh first, then the stats, the trace and the frames' index. */
+  if ((s = pm_mesh_write(out.mesh, o.out, &e))) goto fail;
+  if (o.stats && (s = pm_stats_write_json(&stats, o.stats, &e))) goto fail;
+  if (trace && (s = pm_trace_write_csv(trace, o.trace, &e))) goto fail;
+  if (frames && (s = pm_frames_finish(frames, &e))) goto fail;
+
+  printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
+         method->name, o.input, (int)out.mesh->nnode, (int)out.mesh->nseg, (int)out.mesh->ntri,
+         (int)out.mesh->ntet, t_run, out.stop_reason[0] ? out.stop_reason : "done", o.out);
+  rc = PM_EXIT_OK;
+  goto done;
+fail:
+  rc = pm_cli_error(&e);
+done:
+  pm_stats_clear(&stats);
+  pm_mesh_destroy(out.mesh);
+  pm_trace_destroy(trace);
+  pm_frames_destroy(frames);
+  pm_sizing_destroy(scaled);
+  pm_sizing_destroy(size);
+  pm_sizing_destroy(input_size);
+  pm_model_destroy(model);
+  free(params);
+  return rc;
+}
