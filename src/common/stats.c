@@ -12,10 +12,23 @@
 
 #include "common/atomic_file.h"
 
-static const char *const reserved[] = {"method", "input",    "nodes",  "segments",
-                                       "triangles", "tets",  "valid",  "problems",
-                                       "shells", "iterations", "time_s", "tri",
-                                       "tet",    "distance", NULL};
+/* Standard keys that extras may not use as their first part. */
+static const char *const reserved[] = {"method", "input",      "nodes",  "segments", "triangles",
+                                       "tets",   "valid",      "problems", "shells",  "iterations",
+                                       "time_s", NULL};
+/* Standard objects that extras may add keys to, and the keys those objects already have. */
+static const char *const tri_keys[] = {"radius_ratio", "aspect_ratio", "min_angle_deg",
+                                       "max_angle_deg", "eps_t", "eps_g", "size_ratio", "count",
+                                       "degenerate", "eps_t_nodes", "min_angle_bins",
+                                       "max_angle_over", NULL};
+static const char *const tet_keys[] = {"radius_ratio", "aspect_ratio", "min_dihedral_deg",
+                                       "max_dihedral_deg", "eps_t", "eps_g", "size_ratio",
+                                       "count", "degenerate", "eps_t_nodes", NULL};
+static const char *const distance_keys[] = {"mean", "max", "bbox_diagonal", NULL};
+static const struct {
+  const char *name;
+  const char *const *keys;
+} extendable[] = {{"tri", tri_keys}, {"tet", tet_keys}, {"distance", distance_keys}};
 
 void pm_stats_init(pm_stats *s) { memset(s, 0, sizeof *s); }
 
@@ -135,6 +148,18 @@ static pm_status check_extra_key(const pm_stats *s, const char *key, pm_error *e
     if (strlen(reserved[i]) == head && strncmp(key, reserved[i], head) == 0)
       return pm_error_setf(err, PM_ERR_ARG, "stats key '%s' clashes with the standard key '%s'",
                            key, reserved[i]);
+  for (size_t i = 0; i < sizeof extendable / sizeof extendable[0]; ++i) {
+    const char *name = extendable[i].name;
+    if (strlen(name) != head || strncmp(key, name, head) != 0) continue;
+    if (!key[head])
+      return pm_error_setf(err, PM_ERR_ARG, "stats key '%s' is a standard object", key);
+    const char *sub = key + head + 1;
+    size_t sl = strcspn(sub, ".");
+    for (int k = 0; extendable[i].keys[k]; ++k)
+      if (strlen(extendable[i].keys[k]) == sl && strncmp(sub, extendable[i].keys[k], sl) == 0)
+        return pm_error_setf(err, PM_ERR_ARG, "stats key '%s' clashes with the standard key '%s.%s'",
+                             key, name, extendable[i].keys[k]);
+  }
   for (int32_t i = 0; i < s->nextra; ++i) {
     const char *o = s->extra[i].key;
     size_t lo = strlen(o), lk = strlen(key);
@@ -274,6 +299,7 @@ static void add_extra(jb *b, cJSON *root, const pm_stats_item *it) {
     }
     at = next;
   }
+  if (cJSON_GetObjectItemCaseSensitive(at, part)) return; /* never clobber a standard key */
   if (it->is_text)
     add_str(b, at, part, it->text);
   else

@@ -104,8 +104,10 @@ pm_status pm_stats_set_time(pm_stats *s, const char *phase, double seconds, pm_e
 /* The two-sided mesh-to-model distance and the model's bounding-box diagonal. */
 void pm_stats_set_distance(pm_stats *s, double mean, double max, double bbox_diagonal);
 
-/* An extra key (dots nest). A key whose first part is a standard key of the record (method,
- * input, nodes, ..., tri, tet, distance) or that was added before is PM_ERR_ARG. */
+/* An extra key (dots nest). Extras may add keys inside the standard objects tri, tet and
+ * distance ("distance.rel_mean"), but not replace their standard keys; a key whose first part is
+ * another standard key (method, input, nodes, ..., time_s: use pm_stats_set_time), or one that
+ * was added before, is PM_ERR_ARG. */
 pm_status pm_stats_add_number(pm_stats *s, const char *key, double value, pm_error *err);
 pm_status pm_stats_add_text(pm_stats *s, const char *key, const char *text, pm_error *err);
 

@@ -68,7 +68,14 @@ static void json_keys_and_values(void **state) {
   PM_ASSERT_OK(pm_stats_add_number(&s, "bubble.k0", 30, &e), e);
   PM_ASSERT_OK(pm_stats_add_text(&s, "bubble.scheme", "rk4", &e), e);
   PM_ASSERT_OK(pm_stats_add_number(&s, "seed", 7, &e), e);
-  assert_int_equal(pm_stats_add_number(&s, "tri.extra", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_add_number(&s, "tri.eps_g", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_add_number(&s, "tri.radius_ratio.n", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_add_number(&s, "distance.max", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_add_number(&s, "nodes.x", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_add_number(&s, "time_s.place", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_add_number(&s, "tri", 1, &e), PM_ERR_ARG);
+  PM_ASSERT_OK(pm_stats_add_number(&s, "tri.short_edges", 3, &e), e);
+  PM_ASSERT_OK(pm_stats_add_number(&s, "distance.rel_mean", 0.5, &e), e);
   assert_int_equal(pm_stats_add_number(&s, "bubble.k0", 1, &e), PM_ERR_ARG);
   assert_int_equal(pm_stats_add_number(&s, "bubble", 1, &e), PM_ERR_ARG);
   assert_int_equal(pm_stats_add_number(&s, "a..b", 1, &e), PM_ERR_ARG);
@@ -111,9 +118,12 @@ static void json_keys_and_values(void **state) {
   assert_true(at(root, "tri.max_angle_over.90")->valuedouble == 0);
   /* No interior node in this tiny mesh: eps_t is left out rather than written as 0. */
   assert_null(cJSON_GetObjectItemCaseSensitive(at(root, "tri"), "eps_t"));
-  /* No distance computed: no key. */
-  assert_null(cJSON_GetObjectItemCaseSensitive(root, "distance"));
+  /* No distance computed: only the extra key is there. */
+  assert_true(at(root, "distance.rel_mean")->valuedouble == 0.5);
+  assert_null(cJSON_GetObjectItemCaseSensitive(at(root, "distance"), "mean"));
   assert_true(at(root, "bubble.k0")->valuedouble == 30);
+  assert_true(at(root, "tri.short_edges")->valuedouble == 3);
+  PM_ASSERT_NEAR(at(root, "tri.eps_g")->valuedouble, 1.5 - sqrt(2.0), 1e-15);
   assert_string_equal(at(root, "bubble.scheme")->valuestring, "rk4");
   assert_true(at(root, "shells")->child != NULL);
   cJSON_Delete(root);
@@ -125,6 +135,7 @@ static void json_keys_and_values(void **state) {
   assert_true(at(root, "distance.mean")->valuedouble == 0.001);
   assert_true(at(root, "distance.max")->valuedouble == 0.01);
   assert_true(at(root, "distance.bbox_diagonal")->valuedouble == 2.5);
+  assert_true(at(root, "distance.rel_mean")->valuedouble == 0.5);
   cJSON_Delete(root);
   free(text);
 
