@@ -1,8 +1,11 @@
-/* packmesh quality MESH [--size EXPR|NUMBER] [--json | --csv]
+/* packmesh quality MESH [--size EXPR|NUMBER] [--geometry INPUT] [--json | --csv]
  *
  * Measures a mesh file with the one quality implementation (quality.h) and checks it
- * (mesh_check.h, generic checks). --size adds the size conformity (edge length over the size
- * field at each edge's midpoint). Output, all on stdout and only once everything succeeded:
+ * (mesh_check.h). --size adds the size conformity (edge length over the size field at each
+ * edge's midpoint). --geometry names the model the mesh discretizes: the checker then runs its
+ * model checks (the file's entity tags t read as cells t - 1, mesh_io.h) and the two-sided
+ * distance to the model is measured (distance.h). Output, all on stdout and only once everything
+ * succeeded:
  *   default  a readable table;
  *   --json   the stats JSON (stats.h) with method "external" and input = MESH;
  *   --csv    one row per element (kind, index, cell, radius ratio, aspect ratio, min and max
@@ -14,6 +17,9 @@
 
 #include "cli/cli.h"
 #include "cli/cli_util.h"
+#include "common/distance.h"
+#include "common/geom.h"
+#include "common/input.h"
 #include "common/mesh.h"
 #include "common/mesh_check.h"
 #include "common/mesh_io.h"
@@ -22,11 +28,16 @@
 #include "common/stats.h"
 
 static const char *const usage_text =
-    "usage: packmesh quality MESH [--size EXPR|NUMBER] [--json | --csv]\n"
+    "usage: packmesh quality MESH [--size EXPR|NUMBER] [--geometry INPUT] [--json | --csv]\n"
     "\n"
     "Measure the elements of MESH (.msh, .stl, .vtk or .mesh) and check its validity.\n"
-    "  --size S the desired edge length d(x, y, z), a number or an expression in x, y, z, r\n"
-    "           (\"0.1\", \"0.2*abs(r-2)+0.15\"): adds edge length / d at the edge midpoints\n"
+    "  --size S      the desired edge length d(x, y, z), a number or an expression in x, y, z, r\n"
+    "                (\"0.1\", \"0.2*abs(r-2)+0.15\"): adds edge length / d at the edge midpoints\n"
+    "  --geometry IN the model MESH discretizes: a CAD file (.step, .stp, .iges, .igs, .brep),\n"
+    "                case:NAME or a case file (.json). The checker then verifies conformity,\n"
+    "                closed shells and orientation against it (element entity tag t = cell t-1),\n"
+    "                and the two-sided distance between mesh and model is measured. A case's own\n"
+    "                size field is used when --size is not given.\n"
     "  --json   the stats JSON (the keys of packmesh mesh --stats) on stdout\n"
     "  --csv    per-element measures, one row per element:\n"
     "           kind,index,cell,radius_ratio,aspect_ratio,min_angle_deg,max_angle_deg\n"
@@ -40,9 +51,11 @@ static void row(FILE *f, const char *name, const pm_summary *s) {
           s->median, s->p75, s->max, s->mean);
 }
 
-static void table(FILE *f, const char *path, const pm_mesh *m, const pm_quality *q,
-                  const pm_check_report *r, double seconds) {
+static void table(FILE *f, const char *path, const char *geometry, const pm_mesh *m,
+                  const pm_quality *q, const pm_check_report *r, const pm_distance *d,
+                  double seconds) {
   fprintf(f, "mesh       %s\n", path);
+  if (geometry) fprintf(f, "geometry   %s\n", geometry);
   fprintf(f, "elements   %ld nodes, %ld segments, %ld triangles, %ld tetrahedra\n",
           (long)m->nnode, (long)m->nseg, (long)m->ntri, (long)m->ntet);
   fprintf(f, "valid      %s\n", r->valid ? "yes" : "no");
@@ -50,7 +63,11 @@ static void table(FILE *f, const char *path, const pm_mesh *m, const pm_quality 
   for (int32_t i = 0; i < r->nshell; ++i) {
     const pm_check_shell *s = &r->shell[i];
     if (s->triangles == 0) continue;
-    fprintf(f, "surface    V - E + F = %lld, %d component%s, %s", (long long)s->euler,
+    if (s->volume >= 0)
+      fprintf(f, "volume %-3d ", s->volume);
+    else
+      fprintf(f, "surface    ");
+    fprintf(f, "V - E + F = %lld, %d component%s, %s", (long long)s->euler,
             s->components, s->components == 1 ? "" : "s", s->closed ? "closed" : "open");
     if (s->genus >= 0) fprintf(f, ", genus %d", s->genus);
     fputc('\n', f);
@@ -87,11 +104,18 @@ static void table(FILE *f, const char *path, const pm_mesh *m, const pm_quality 
               (long long)o[1], (long long)o[2]);
     }
   }
+  if (d) {
+    fprintf(f, "\ndistance   mean %.6g, max %.6g (model diagonal %.6g)\n", d->mean, d->max,
+            d->bbox_diagonal);
+    if (d->has_size)
+      fprintf(f, "           relative to the size field: mean %.6g, max %.6g\n", d->rel_mean,
+              d->rel_max);
+  }
   fprintf(f, "\ntime       %.3f s\n", seconds);
 }
 
 int pm_cli_quality(int argc, char **argv) {
-  const char *path = NULL, *size_text = NULL;
+  const char *path = NULL, *size_text = NULL, *geometry = NULL;
   int json = 0, csv = 0;
   for (int i = 1; i < argc;) {
     const char *a = argv[i];
@@ -105,6 +129,13 @@ int pm_cli_quality(int argc, char **argv) {
     if (got > 0) {
       if (size_text) return pm_cli_usage("quality", "--size given twice");
       size_text = value;
+      continue;
+    }
+    got = pm_cli_option(argc, argv, &i, "geometry", &value);
+    if (got < 0) return pm_cli_usage("quality", "--geometry needs a value");
+    if (got > 0) {
+      if (geometry) return pm_cli_usage("quality", "--geometry given twice");
+      geometry = value;
       continue;
     }
     if (pm_cli_flag(a, "json")) {
@@ -131,7 +162,10 @@ int pm_cli_quality(int argc, char **argv) {
   pm_check_report r = {0};
   pm_stats st;
   pm_stats_init(&st);
-  pm_sizing *size = NULL;
+  pm_sizing *size = NULL, *input_size = NULL;
+  pm_model *model = NULL;
+  pm_distance dist;
+  int has_dist = 0;
   char *out = NULL;
   size_t len = 0;
   int code = PM_EXIT_FAIL;
@@ -140,18 +174,42 @@ int pm_cli_quality(int argc, char **argv) {
     code = pm_cli_fail("--size: %s", e.msg);
     goto done;
   }
-  if (pm_mesh_read(path, &m, &e) || pm_quality_compute(m, size, &q, &e) ||
-      pm_mesh_check(m, NULL, &r, &e)) {
+  if (geometry && pm_input_open(geometry, &model, &input_size, &e)) {
+    code = pm_cli_fail("--geometry: %s", e.msg);
+    goto done;
+  }
+  const pm_sizing *field = size ? size : input_size;
+  if (pm_mesh_read(path, &m, &e) || pm_quality_compute(m, field, &q, &e) ||
+      pm_mesh_check(m, model, &r, &e)) {
     code = pm_cli_error(&e);
     goto done;
+  }
+  if (model && (m->ntri > 0 || m->nseg > 0)) {
+    pm_distance_params dp;
+    pm_distance_params_init(&dp);
+    if (pm_mesh_distance(m, model, field, &dp, &dist, &e)) {
+      code = pm_cli_fail("distance to %s: %s", geometry, e.msg);
+      goto done;
+    }
+    has_dist = 1;
   }
   double seconds = pm_cli_now() - t0;
   if (json) {
     pm_stats_set_run(&st, "external", path);
     pm_stats_set_mesh(&st, m);
     pm_stats_set_quality(&st, &q);
+    if (has_dist) {
+      pm_stats_set_distance(&st, dist.mean, dist.max, dist.bbox_diagonal);
+      if (dist.has_size &&
+          (pm_stats_add_number(&st, "distance.rel_mean", dist.rel_mean, &e) ||
+           pm_stats_add_number(&st, "distance.rel_max", dist.rel_max, &e))) {
+        code = pm_cli_error(&e);
+        goto done;
+      }
+    }
     if (pm_stats_set_check(&st, &r, &e) || pm_stats_set_time(&st, "total", seconds, &e) ||
-        (size && pm_stats_add_text(&st, "size", pm_sizing_describe(size), &e)) ||
+        (field && pm_stats_add_text(&st, "size", pm_sizing_describe(field), &e)) ||
+        (geometry && pm_stats_add_text(&st, "geometry", geometry, &e)) ||
         pm_stats_to_json(&st, &out, &e)) {
       code = pm_cli_error(&e);
       goto done;
@@ -168,7 +226,7 @@ int pm_cli_quality(int argc, char **argv) {
     if (csv)
       s = pm_stats_write_elements_csv(f, m, &q, &e);
     else
-      table(f, path, m, &q, &r, seconds);
+      table(f, path, geometry, m, &q, &r, has_dist ? &dist : NULL, seconds);
     if (fclose(f) != 0 && !s) s = pm_error_setf(&e, PM_ERR_NOMEM, "out of memory");
     if (s) {
       code = pm_cli_error(&e);
@@ -178,6 +236,8 @@ int pm_cli_quality(int argc, char **argv) {
   code = pm_cli_emit(out, len);
 done:
   pm_sizing_destroy(size);
+  pm_sizing_destroy(input_size);
+  pm_model_destroy(model);
   free(out);
   pm_stats_clear(&st);
   pm_check_report_clear(&r);

@@ -344,6 +344,64 @@ static void json_matches_independent_computation(void **state) {
   cJSON_Delete(root);
 }
 
+/* Distance from p to the torus of synth_torus.brep (R = 1, r = 0.3 about the z axis). */
+static double torus_distance(const double p[3]) {
+  double rho = sqrt(p[0] * p[0] + p[1] * p[1]) - 1.0;
+  return fabs(sqrt(rho * rho + p[2] * p[2]) - 0.3);
+}
+
+/* --geometry: the model checks pass on gmsh's mesh of the same CAD file, and the two-sided
+ * distance is at least the distance of the worst triangle centroid to the exact torus. */
+static void geometry_checks_and_distance(void **state) {
+  (void)state;
+  if (!make_mesh()) skip();
+  char cad[512], args[1200], *out, *err;
+  pm_test_cad("synth_torus.brep", cad, sizeof cad);
+  snprintf(args, sizeof args, "quality '%s' --geometry '%s' --json --size 0.1", msh, cad);
+  int code = run(args, &out, &err);
+  if (code != 0) fail_msg("exit %d: %s", code, err);
+  assert_string_equal(err, "");
+  cJSON *root = cJSON_Parse(out);
+  assert_non_null(root);
+  if (!cJSON_IsTrue(cJSON_GetObjectItem(root, "valid")))
+    fail_msg("not valid: %s", cJSON_GetArrayItem(cJSON_GetObjectItem(root, "problems"), 0)->valuestring);
+  const cJSON *sh = cJSON_GetArrayItem(cJSON_GetObjectItem(root, "shells"), 0);
+  assert_true(cJSON_GetObjectItem(sh, "volume")->valuedouble == 0);
+  assert_true(cJSON_GetObjectItem(sh, "genus")->valuedouble == 1);
+  const cJSON *d = cJSON_GetObjectItem(root, "distance");
+  assert_non_null(d);
+  double dmean = cJSON_GetObjectItem(d, "mean")->valuedouble;
+  double dmax = cJSON_GetObjectItem(d, "max")->valuedouble;
+  PM_ASSERT_NEAR(cJSON_GetObjectItem(d, "bbox_diagonal")->valuedouble, sqrt(2 * 2.6 * 2.6 + 0.6 * 0.6), 1e-6);
+  double worst = 0;
+  for (size_t t = 0; t < R.ntri; ++t) {
+    double c[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+      size_t id = node_index(R.tri[3 * t + k]);
+      for (int j = 0; j < 3; ++j) c[j] += R.xyz[3 * id + j] / 3;
+    }
+    worst = fmax(worst, torus_distance(c));
+  }
+  assert_true(worst > 0);
+  if (!(dmax >= 0.999 * worst)) fail_msg("distance.max %.9g below a centroid's %.9g", dmax, worst);
+  assert_true(dmean > 0 && dmean < dmax);
+  assert_true(dmax < 0.05 * 3.7256);
+  assert_true(cJSON_IsNumber(cJSON_GetObjectItem(d, "rel_max")));
+  assert_string_equal(cJSON_GetObjectItem(root, "geometry")->valuestring, cad);
+  cJSON_Delete(root);
+  free(out);
+  free(err);
+  /* Against another model: a verdict, not an error. */
+  pm_test_cad("planar_step.brep", cad, sizeof cad);
+  snprintf(args, sizeof args, "quality '%s' --geometry '%s' --json", msh, cad);
+  assert_int_equal(run(args, &out, &err), 0);
+  root = cJSON_Parse(out);
+  assert_true(cJSON_IsFalse(cJSON_GetObjectItem(root, "valid")));
+  cJSON_Delete(root);
+  free(out);
+  free(err);
+}
+
 static void write_file(const char *name, const char *text, char *path) {
   snprintf(path, 512, "%s/%s", dir, name);
   FILE *f = fopen(path, "w");
@@ -394,6 +452,10 @@ static void errors(void **state) {
   expect_error("quality x.msh --size '0*x'", 1, "0*x");
   expect_error("quality x.msh --size", 2, "--size needs a value");
   expect_error("quality x.msh --size 1 --size 2", 2, "twice");
+  snprintf(args, sizeof args, "quality '%s/missing.msh' --geometry '%s/nope.step'", dir, dir);
+  expect_error(args, 1, "nope.step");
+  expect_error("quality x.msh --geometry case:nope", 1, "nope");
+  expect_error("quality x.msh --geometry", 2, "--geometry needs a value");
   expect_error("quality some.msh --bogus", 2, "--bogus");
   expect_error("quality", 2, "no mesh file");
   expect_error("quality a.msh b.msh", 2, "b.msh");
@@ -424,6 +486,7 @@ static void help_and_version(void **state) {
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(json_matches_independent_computation),
+      cmocka_unit_test(geometry_checks_and_distance),
       cmocka_unit_test(errors),
       cmocka_unit_test(help_and_version),
   };
