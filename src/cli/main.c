@@ -19,6 +19,8 @@ static const subcommand commands[] = {
     {"quality", pm_cli_quality, "measure a mesh file: quality, validity (--json, --csv)"},
     {"mesh", pm_cli_mesh, "mesh an input with one method (--method, --size, -o, --stats)"},
     {"cases", pm_cli_cases, "list the built-in cases (INPUT case:NAME)"},
+    {"compare", pm_cli_compare, "run a comparison suite into a folder: CSV, plots, report"},
+    {"demo", pm_cli_demo, "run the default comparison on built-in cases (-o DIR)"},
 };
 static const int ncommands = (int)(sizeof commands / sizeof commands[0]);
 

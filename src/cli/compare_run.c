@@ -1,0 +1,622 @@
+/* Running the rows of a study: each row is a `packmesh mesh` child process (the binary running
+ * the harness, /proc/self/exe) started in the study folder, in its own process group, with a
+ * time limit; a second child, `packmesh quality MESH --csv`, writes the row's per-element
+ * measures. Up to `jobs` children run at once.
+ *
+ * What a row leaves in runs/ID/: mesh.msh, stats.json, trace.csv (when the method writes one),
+ * log.txt (the children's stdout and stderr), elements.csv, and status.json -- written last and
+ * atomically, it is what makes the row finished: a study interrupted at any point resumes with
+ * the rows that have no status.json, or whose recorded command differs from the one the suite
+ * asks for now (so a changed suite reruns exactly the rows it changed).
+ *
+ * A failed child costs its row only: its status is "failed" with the child's one-line message
+ * ("packmesh: ..." on stderr), "crashed (signal N, NAME)" when a library brought it down, or
+ * "timed out after T s" when it was killed (the whole process group, so TetGen's helper process
+ * goes too).
+ */
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "cli/compare_study.h"
+#include "common/atomic_file.h"
+#include "common/clock.h"
+
+#define MAX_ARGS 600
+
+static volatile sig_atomic_t interrupted = 0;
+static void on_signal(int sig) { interrupted = sig; }
+
+typedef enum { R_WAIT = 0, R_RUNNING, R_DONE } rstate;
+
+typedef struct job {
+  int row;       /* -1: slot free */
+  int stage;     /* 0: packmesh mesh, 1: packmesh quality --csv */
+  pid_t pid;
+  double t0;
+  int timed_out;
+} job;
+
+typedef struct runner {
+  pm_cmp_study *st;
+  const pm_cmp_run_opts *o;
+  rstate *state;
+  int threads;
+  int ndone;
+  double t_start, last_draw;
+  char last[1024];
+} runner;
+
+/* ---- paths and files ----------------------------------------------------------------------- */
+
+static void row_path(const pm_cmp_study *st, const pm_cmp_row *r, const char *file, char *buf,
+                     size_t len) {
+  snprintf(buf, len, "%s/runs/%s/%s", st->dir, r->id, file);
+}
+
+static int file_exists(const char *p) {
+  struct stat sb;
+  return stat(p, &sb) == 0 && S_ISREG(sb.st_mode);
+}
+
+/* The child's message: the last "packmesh: ..." line of its log, without the prefix (the same
+ * line a user sees running the command), else the last non-empty line. */
+static void log_error(const char *log_path, char *out, size_t len) {
+  out[0] = '\0';
+  size_t n = 0;
+  char *text = pm_cmp_read_file(log_path, &n);
+  if (!text) return;
+  char *line = text, *best = NULL, *lastline = NULL;
+  while (line && *line) {
+    char *nl = strchr(line, '\n');
+    if (nl) *nl = '\0';
+    if (strncmp(line, "packmesh: ", 10) == 0) best = line + 10;
+    if (line[strspn(line, " \t\r")]) lastline = line;
+    line = nl ? nl + 1 : NULL;
+  }
+  const char *msg = best ? best : lastline;
+  if (msg) snprintf(out, len, "%s", msg);
+  for (char *c = out; *c; ++c)
+    if (*c == '\r') *c = ' ';
+  free(text);
+}
+
+/* ---- the command of a row ------------------------------------------------------------------ */
+
+typedef struct argvec {
+  char *v[MAX_ARGS + 1];
+  int n;
+} argvec;
+
+static int arg_add(argvec *a, const char *s) {
+  if (a->n >= MAX_ARGS) return -1;
+  a->v[a->n] = malloc(strlen(s) + 1);
+  if (!a->v[a->n]) return -1;
+  strcpy(a->v[a->n++], s);
+  a->v[a->n] = NULL;
+  return 0;
+}
+
+static void arg_free(argvec *a) {
+  for (int i = 0; i < a->n; ++i) free(a->v[i]);
+  a->n = 0;
+}
+
+/* argv for `packmesh mesh` and its shell form. target > 0 adds --target-nodes. Paths of the
+ * outputs are relative to the study folder, where the child runs. */
+static int build_command(const runner *R, const pm_cmp_row *r, long target, argvec *a,
+                         char *cmd, size_t cmdlen) {
+  const pm_cmp_suite *s = &R->st->suite;
+  const pm_cmp_case *c = &s->cases[r->icase];
+  const pm_cmp_method *m = &s->methods[r->imethod];
+  char buf[1200];
+  a->n = 0;
+  int bad = 0;
+  bad |= arg_add(a, "packmesh");
+  bad |= arg_add(a, "mesh");
+  bad |= arg_add(a, c->input);
+  bad |= arg_add(a, "--method");
+  bad |= arg_add(a, m->name);
+  const char *size = c->size;
+  if (r->isweep >= 0 && strcmp(s->sweep_key, "size") == 0) size = s->sweep_values[r->isweep];
+  if (size) {
+    bad |= arg_add(a, "--size");
+    bad |= arg_add(a, size);
+  }
+  for (int k = 0; k < m->nset; ++k) {
+    bad |= arg_add(a, "--set");
+    bad |= arg_add(a, m->sets[k]);
+  }
+  if (r->isweep >= 0 && strcmp(s->sweep_key, "size") != 0) {
+    snprintf(buf, sizeof buf, "%s=%s", s->sweep_key, s->sweep_values[r->isweep]);
+    bad |= arg_add(a, "--set");
+    bad |= arg_add(a, buf);
+  }
+  snprintf(buf, sizeof buf, "%ld", r->seed);
+  bad |= arg_add(a, "--seed");
+  bad |= arg_add(a, buf);
+  snprintf(buf, sizeof buf, "%d", R->threads);
+  bad |= arg_add(a, "--threads");
+  bad |= arg_add(a, buf);
+  if (c->volume) bad |= arg_add(a, "--volume");
+  if (s->max_nodes > 0) {
+    snprintf(buf, sizeof buf, "%ld", s->max_nodes);
+    bad |= arg_add(a, "--max-nodes");
+    bad |= arg_add(a, buf);
+  }
+  if (target > 0) {
+    snprintf(buf, sizeof buf, "%ld", target);
+    bad |= arg_add(a, "--target-nodes");
+    bad |= arg_add(a, buf);
+  }
+  snprintf(buf, sizeof buf, "runs/%s/mesh.msh", r->id);
+  bad |= arg_add(a, "-o");
+  bad |= arg_add(a, buf);
+  snprintf(buf, sizeof buf, "runs/%s/stats.json", r->id);
+  bad |= arg_add(a, "--stats");
+  bad |= arg_add(a, buf);
+  if (s->trace) {
+    snprintf(buf, sizeof buf, "runs/%s/trace.csv", r->id);
+    bad |= arg_add(a, "--trace");
+    bad |= arg_add(a, buf);
+  }
+  if (bad) return -1;
+  cmd[0] = '\0';
+  for (int i = 0; i < a->n; ++i) {
+    char q[2400];
+    pm_cmp_shell_quote(a->v[i], q, sizeof q);
+    if (strlen(cmd) + strlen(q) + 2 >= cmdlen) return -1;
+    if (i) strcat(cmd, " ");
+    strcat(cmd, q);
+  }
+  return 0;
+}
+
+/* ---- status.json --------------------------------------------------------------------------- */
+
+static pm_status write_status(const runner *R, const pm_cmp_row *r, pm_error *err) {
+  cJSON *o = cJSON_CreateObject();
+  if (!o) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  cJSON_AddStringToObject(o, "status", pm_cmp_status_name(r->status));
+  cJSON_AddStringToObject(o, "error", r->error);
+  cJSON_AddStringToObject(o, "command", r->command);
+  cJSON_AddNumberToObject(o, "wall_s", r->wall_s);
+  cJSON_AddNumberToObject(o, "nodes", (double)r->nodes);
+  cJSON_AddBoolToObject(o, "elements", r->elements_ok);
+  char *text = cJSON_Print(o);
+  cJSON_Delete(o);
+  if (!text) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  char path[4096];
+  row_path(R->st, r, "status.json", path, sizeof path);
+  pm_status s = pm_atomic_write(path, text, strlen(text), err);
+  free(text);
+  return s;
+}
+
+static pm_cmp_status status_of(const char *name) {
+  static const pm_cmp_status all[] = {PM_CMP_OK, PM_CMP_FAILED, PM_CMP_CRASHED, PM_CMP_TIMEOUT};
+  for (size_t i = 0; i < sizeof all / sizeof all[0]; ++i)
+    if (strcmp(name, pm_cmp_status_name(all[i])) == 0) return all[i];
+  return PM_CMP_PENDING;
+}
+
+/* Load the stats of an OK row into r->flat; nodes from them. */
+static pm_status load_stats(const runner *R, pm_cmp_row *r, pm_error *err) {
+  char path[4096];
+  row_path(R->st, r, "stats.json", path, sizeof path);
+  char *text = pm_cmp_read_file(path, NULL);
+  if (!text) return pm_error_setf(err, PM_ERR_IO, "the run wrote no stats (%s)", path);
+  pm_stats_flat_clear(&r->flat);
+  pm_status s = pm_stats_flatten_json(text, &r->flat, err);
+  free(text);
+  if (s) return s;
+  const pm_stats_item *it = pm_stats_flat_find(&r->flat, "nodes");
+  if (!it || it->is_text) return pm_error_setf(err, PM_ERR_PARSE, "stats without \"nodes\"");
+  r->nodes = (long)it->num;
+  return PM_OK;
+}
+
+/* A row finished by an earlier invocation with the same command: take its record. */
+static int try_reuse(runner *R, pm_cmp_row *r) {
+  char path[4096];
+  row_path(R->st, r, "status.json", path, sizeof path);
+  char *text = pm_cmp_read_file(path, NULL);
+  if (!text) return 0;
+  cJSON *o = cJSON_Parse(text);
+  free(text);
+  if (!o) return 0;
+  const cJSON *status = cJSON_GetObjectItemCaseSensitive(o, "status");
+  const cJSON *command = cJSON_GetObjectItemCaseSensitive(o, "command");
+  const cJSON *error = cJSON_GetObjectItemCaseSensitive(o, "error");
+  const cJSON *wall = cJSON_GetObjectItemCaseSensitive(o, "wall_s");
+  const cJSON *elements = cJSON_GetObjectItemCaseSensitive(o, "elements");
+  int ok = cJSON_IsString(status) && cJSON_IsString(command) &&
+           strcmp(command->valuestring, r->command) == 0;
+  pm_cmp_status s = ok ? status_of(status->valuestring) : PM_CMP_PENDING;
+  if (s == PM_CMP_PENDING || (s != PM_CMP_OK && R->o->retry_failed)) ok = 0;
+  if (ok) {
+    r->status = s;
+    snprintf(r->error, sizeof r->error, "%s", cJSON_IsString(error) ? error->valuestring : "");
+    r->wall_s = cJSON_IsNumber(wall) ? wall->valuedouble : 0;
+    r->elements_ok = cJSON_IsTrue(elements);
+    if (s == PM_CMP_OK && load_stats(R, r, NULL) != PM_OK) ok = 0;
+    if (r->elements_ok) {
+      row_path(R->st, r, "elements.csv", path, sizeof path);
+      r->elements_ok = file_exists(path);
+    }
+  }
+  cJSON_Delete(o);
+  if (!ok) {
+    r->status = PM_CMP_PENDING;
+    r->error[0] = '\0';
+    r->nodes = -1;
+    pm_stats_flat_clear(&r->flat);
+  }
+  r->reused = ok;
+  return ok;
+}
+
+/* ---- children ------------------------------------------------------------------------------ */
+
+/* Start argv in the study folder in a new process group. stdout to out_path (truncated, or
+ * appended), stderr to stdout or to err_path (appended). */
+static pid_t spawn(const char *exe, char *const argv[], const char *cwd, const char *out_path,
+                   int out_append, const char *err_path) {
+  fflush(NULL);
+  pid_t pid = fork();
+  if (pid < 0) return -1;
+  if (pid == 0) {
+    setpgid(0, 0);
+    /* The study's own handlers must not run in the child. */
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
+    if (chdir(cwd) != 0) _exit(126);
+    int fo = open(out_path, O_WRONLY | O_CREAT | (out_append ? O_APPEND : O_TRUNC), 0666);
+    int fe = err_path ? open(err_path, O_WRONLY | O_CREAT | O_APPEND, 0666) : fo;
+    int fi = open("/dev/null", O_RDONLY);
+    if (fo < 0 || fe < 0 || fi < 0) _exit(126);
+    dup2(fi, 0);
+    dup2(fo, 1);
+    dup2(fe, 2);
+    execv(exe, argv);
+    dprintf(2, "packmesh: cannot start %s: %s\n", exe, strerror(errno));
+    _exit(126);
+  }
+  setpgid(pid, pid); /* also here: whichever runs first, the group exists before a kill */
+  return pid;
+}
+
+/* ---- progress ------------------------------------------------------------------------------ */
+
+static void draw(runner *R, int running, int force) {
+  const pm_cmp_run_opts *o = R->o;
+  if (o->progress != 2) return;
+  double now = pm_seconds();
+  if (!force && now - R->last_draw < 0.5) return;
+  R->last_draw = now;
+  int el = (int)(now - R->t_start);
+  fprintf(o->log, "\r\033[K[%d/%d] %d:%02d %d running%s%s", R->ndone, R->st->nrow, el / 60,
+          el % 60, running, R->last[0] ? " | " : "", R->last);
+  fflush(o->log);
+}
+
+static void report_row(runner *R, const pm_cmp_row *r) {
+  char title[320];
+  pm_cmp_row_title(R->st, r, title, sizeof title);
+  char what[96];
+  if (r->status == PM_CMP_OK)
+    snprintf(what, sizeof what, "ok (%.1f s, %ld nodes)%s", r->wall_s, r->nodes,
+             r->reused ? " [earlier run]" : "");
+  else
+    snprintf(what, sizeof what, "%s%s", pm_cmp_status_name(r->status),
+             r->reused ? " [earlier run]" : "");
+  snprintf(R->last, sizeof R->last, "%s ... %s", title, what);
+  const pm_cmp_run_opts *o = R->o;
+  if (o->progress == 1) {
+    fprintf(o->log, "[%d/%d] %s ... %s%s%s\n", R->ndone, R->st->nrow, title, what,
+            r->status == PM_CMP_OK ? "" : ": ", r->status == PM_CMP_OK ? "" : r->error);
+    fflush(o->log);
+  } else if (o->progress == 2 && r->status != PM_CMP_OK && !r->reused) {
+    /* Failures stay on screen above the updating line. */
+    fprintf(o->log, "\r\033[K[%d/%d] %s ... %s: %s\n", R->ndone, R->st->nrow, title, what,
+            r->error);
+    fflush(o->log);
+  }
+}
+
+/* ---- the loop ------------------------------------------------------------------------------ */
+
+static void finish_row(runner *R, pm_cmp_row *r, pm_status *io, pm_error *err) {
+  R->state[r->index] = R_DONE;
+  R->ndone++;
+  if (!r->reused && r->status != PM_CMP_SKIPPED) {
+    pm_error e = {0};
+    if (write_status(R, r, &e) && *io == PM_OK) {
+      *io = e.code;
+      if (err) *err = e;
+    }
+  }
+  report_row(R, r);
+}
+
+static int start_mesh(runner *R, job *j, pm_cmp_row *r, pm_status *io, pm_error *err) {
+  const pm_cmp_study *st = R->st;
+  long target = 0;
+  if (r->ref_row >= 0) {
+    const pm_cmp_row *ref = &st->rows[r->ref_row];
+    if (ref->status != PM_CMP_OK) {
+      r->status = PM_CMP_SKIPPED;
+      snprintf(r->error, sizeof r->error, "not run: node counts are matched to %s, whose run %s",
+               st->suite.methods[ref->imethod].label,
+               ref->status == PM_CMP_SKIPPED ? "was skipped" : "failed");
+      r->command[0] = '\0';
+      finish_row(R, r, io, err);
+      return 0;
+    }
+    target = ref->nodes;
+  }
+  argvec a = {0};
+  if (build_command(R, r, target, &a, r->command, sizeof r->command)) {
+    arg_free(&a);
+    r->status = PM_CMP_FAILED;
+    snprintf(r->error, sizeof r->error, "command too long or out of memory");
+    finish_row(R, r, io, err);
+    return 0;
+  }
+  if (try_reuse(R, r)) {
+    arg_free(&a);
+    finish_row(R, r, io, err);
+    R->st->nreused++;
+    return 0;
+  }
+  char dir[4096], logp[4096];
+  snprintf(dir, sizeof dir, "%s/runs/%s", st->dir, r->id);
+  pm_error e = {0};
+  if (pm_cmp_mkdirs(dir, &e)) {
+    arg_free(&a);
+    if (*io == PM_OK) {
+      *io = e.code;
+      if (err) *err = e;
+    }
+    return -1;
+  }
+  /* Outputs of an earlier, different run of this row must not be taken for this one's. */
+  static const char *const old[] = {"status.json", "stats.json", "mesh.msh", "trace.csv",
+                                    "elements.csv", NULL};
+  for (int k = 0; old[k]; ++k) {
+    char p[4096];
+    row_path(st, r, old[k], p, sizeof p);
+    unlink(p);
+  }
+  row_path(st, r, "log.txt", logp, sizeof logp);
+  j->pid = spawn(st->exe, a.v, st->dir, logp, 0, NULL);
+  arg_free(&a);
+  if (j->pid < 0) {
+    r->status = PM_CMP_FAILED;
+    snprintf(r->error, sizeof r->error, "cannot start a process: %s", strerror(errno));
+    finish_row(R, r, io, err);
+    return 0;
+  }
+  j->row = r->index;
+  j->stage = 0;
+  j->t0 = pm_seconds();
+  j->timed_out = 0;
+  R->state[r->index] = R_RUNNING;
+  R->st->nrun++;
+  return 1;
+}
+
+static int start_quality(runner *R, job *j, pm_cmp_row *r) {
+  const pm_cmp_study *st = R->st;
+  char mesh[4096], part[4096], logp[4096];
+  snprintf(mesh, sizeof mesh, "runs/%s/mesh.msh", r->id);
+  row_path(st, r, "elements.csv.part", part, sizeof part);
+  row_path(st, r, "log.txt", logp, sizeof logp);
+  char *argv[] = {"packmesh", "quality", mesh, "--csv", NULL};
+  j->pid = spawn(st->exe, argv, st->dir, part, 0, logp);
+  if (j->pid < 0) return 0;
+  j->row = r->index;
+  j->stage = 1;
+  j->t0 = pm_seconds();
+  j->timed_out = 0;
+  return 1;
+}
+
+static void describe_signal(int sig, char *buf, size_t len) {
+  const char *name = strsignal(sig);
+  snprintf(buf, len, "crashed (signal %d, %s)", sig, name ? name : "unknown");
+}
+
+/* A child ended: set the row's status; returns 1 when the row needs its quality stage. */
+static int child_done(runner *R, job *j, int ws) {
+  pm_cmp_row *r = &R->st->rows[j->row];
+  double dt = pm_seconds() - j->t0;
+  char logp[4096];
+  row_path(R->st, r, "log.txt", logp, sizeof logp);
+  if (j->stage == 1) {
+    char part[4096], fin[4096];
+    row_path(R->st, r, "elements.csv.part", part, sizeof part);
+    row_path(R->st, r, "elements.csv", fin, sizeof fin);
+    struct stat sb;
+    if (!j->timed_out && WIFEXITED(ws) && WEXITSTATUS(ws) == 0 && stat(part, &sb) == 0 &&
+        sb.st_size > 0 && rename(part, fin) == 0) {
+      r->elements_ok = 1;
+    } else {
+      unlink(part);
+      FILE *f = fopen(logp, "a");
+      if (f) {
+        fprintf(f, "packmesh compare: no per-element measures (packmesh quality %s)\n",
+                j->timed_out ? "timed out" : "failed");
+        fclose(f);
+      }
+    }
+    return 0;
+  }
+  r->wall_s = dt;
+  if (j->timed_out) {
+    r->status = PM_CMP_TIMEOUT;
+    snprintf(r->error, sizeof r->error, "timed out after %g s", R->st->suite.timeout_s);
+  } else if (WIFSIGNALED(ws)) {
+    r->status = PM_CMP_CRASHED;
+    describe_signal(WTERMSIG(ws), r->error, sizeof r->error);
+  } else if (WIFEXITED(ws) && WEXITSTATUS(ws) != 0) {
+    r->status = PM_CMP_FAILED;
+    log_error(logp, r->error, sizeof r->error);
+    if (!r->error[0]) snprintf(r->error, sizeof r->error, "exit code %d", WEXITSTATUS(ws));
+  } else {
+    pm_error e = {0};
+    if (load_stats(R, r, &e)) {
+      r->status = PM_CMP_FAILED;
+      snprintf(r->error, sizeof r->error, "%s", e.msg);
+    } else {
+      r->status = PM_CMP_OK;
+      return 1;
+    }
+  }
+  return 0;
+}
+
+pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) {
+  runner R;
+  memset(&R, 0, sizeof R);
+  R.st = st;
+  R.o = o;
+  int jobs = o->jobs > 0 ? o->jobs : 1;
+  long cores = sysconf(_SC_NPROCESSORS_ONLN);
+  R.threads = st->suite.threads > 0 ? st->suite.threads
+                                     : (int)(cores / jobs > 0 ? cores / jobs : 1);
+  R.state = calloc((size_t)st->nrow + 1, sizeof *R.state);
+  job *slots = calloc((size_t)jobs, sizeof *slots);
+  if (!R.state || !slots) {
+    free(R.state);
+    free(slots);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int k = 0; k < jobs; ++k) slots[k].row = -1;
+  for (int i = 0; i < st->nrow; ++i) {
+    st->rows[i].status = PM_CMP_PENDING;
+    st->rows[i].reused = 0;
+    st->rows[i].elements_ok = 0;
+    st->rows[i].nodes = -1;
+    pm_stats_flat_clear(&st->rows[i].flat);
+  }
+  char runs[4096];
+  snprintf(runs, sizeof runs, "%s/runs", st->dir);
+  pm_status io = pm_cmp_mkdirs(runs, err);
+  if (io) {
+    free(R.state);
+    free(slots);
+    return io;
+  }
+
+  struct sigaction sa, old_int, old_term;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  interrupted = 0;
+  sigaction(SIGINT, &sa, &old_int);
+  sigaction(SIGTERM, &sa, &old_term);
+
+  R.t_start = pm_seconds();
+  int running = 0, next = 0, nq = 0, qnext = 0;
+  int *qrows = calloc((size_t)st->nrow + 1, sizeof *qrows);
+  if (!qrows) io = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  while (!io && !interrupted && (R.ndone < st->nrow || running > 0)) {
+    int progress = 0;
+    /* Reap. */
+    for (int k = 0; k < jobs; ++k) {
+      job *j = &slots[k];
+      if (j->row < 0) continue;
+      int ws = 0;
+      pid_t w = waitpid(j->pid, &ws, WNOHANG);
+      if (w == 0) {
+        double limit = st->suite.timeout_s;
+        if (!j->timed_out && pm_seconds() - j->t0 > limit) {
+          kill(-j->pid, SIGKILL);
+          kill(j->pid, SIGKILL);
+          j->timed_out = 1;
+        }
+        continue;
+      }
+      if (w < 0 && errno == EINTR) continue;
+      /* The group may still hold a grandchild (TetGen's helper): end it with its parent. */
+      kill(-j->pid, SIGKILL);
+      pm_cmp_row *r = &st->rows[j->row];
+      if (w < 0) {
+        r->status = PM_CMP_FAILED;
+        snprintf(r->error, sizeof r->error, "lost the child process: %s", strerror(errno));
+      } else if (child_done(&R, j, ws)) {
+        qrows[nq++] = r->index;
+      }
+      if (!(w > 0 && j->stage == 0 && r->status == PM_CMP_OK)) finish_row(&R, r, &io, err);
+      j->row = -1;
+      running--;
+      progress = 1;
+    }
+    /* Start: quality stages first (they finish rows), then new rows in order, each once its
+     * reference row is done. */
+    for (int k = 0; k < jobs && !io; ++k) {
+      job *j = &slots[k];
+      if (j->row >= 0) continue;
+      if (qnext < nq) {
+        pm_cmp_row *r = &st->rows[qrows[qnext++]];
+        if (start_quality(&R, j, r)) {
+          running++;
+        } else {
+          finish_row(&R, r, &io, err);
+        }
+        progress = 1;
+        continue;
+      }
+      /* The next row that can start: its reference (if any) is done. */
+      for (int i = next; i < st->nrow; ++i) {
+        pm_cmp_row *r = &st->rows[i];
+        if (R.state[i] != R_WAIT) continue;
+        if (r->ref_row >= 0 && R.state[r->ref_row] != R_DONE) continue;
+        if (start_mesh(&R, j, r, &io, err) > 0) running++;
+        progress = 1;
+        if (j->row >= 0 || io) break;
+      }
+      while (next < st->nrow && R.state[next] != R_WAIT) next++;
+    }
+    draw(&R, running, progress);
+    if (!progress) {
+      struct timespec ts = {0, 20 * 1000 * 1000};
+      nanosleep(&ts, NULL);
+    }
+  }
+  if (interrupted || io) {
+    for (int k = 0; k < jobs; ++k)
+      if (slots[k].row >= 0) {
+        kill(-slots[k].pid, SIGKILL);
+        kill(slots[k].pid, SIGKILL);
+        waitpid(slots[k].pid, NULL, 0);
+      }
+  }
+  if (o->progress == 2) {
+    draw(&R, 0, 1);
+    fputc('\n', o->log);
+    fflush(o->log);
+  }
+  sigaction(SIGINT, &old_int, NULL);
+  sigaction(SIGTERM, &old_term, NULL);
+  free(qrows);
+  free(R.state);
+  free(slots);
+  if (!io && interrupted)
+    io = pm_error_setf(err, PM_ERR_ARG,
+                       "interrupted (%s) with %d of %d runs finished; run the same command again "
+                       "to resume",
+                       interrupted == SIGINT ? "SIGINT" : "SIGTERM", R.ndone, st->nrow);
+  return io;
+}

@@ -1,0 +1,257 @@
+/* The comparison harness behind `packmesh compare` and `packmesh demo`: a suite (compare/README.md
+ * documents its JSON), the rows it expands to (one per case x method x seed x sweep value), and
+ * the functions of the harness, one concern per file:
+ *   compare_suite.c    read and check a suite, expand it into rows
+ *   compare_run.c      run the rows as child processes (parallel, time-limited, resumable)
+ *   compare_results.c  results.csv, elements.csv, per-row values for tables and plots
+ *   compare_plot.c     gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
+ *   compare_report.c   report.md and report.html
+ *   compare_sysinfo.c  library versions and the machine, for the report
+ *
+ * Every run is its own `packmesh mesh` process (the binary running the harness, found through
+ * /proc/self/exe), started in the study folder, so the command recorded for a row is exactly
+ * the one that made it, and a crash or hang of a library costs one row, never the study.
+ */
+#ifndef PM_COMPARE_STUDY_H
+#define PM_COMPARE_STUDY_H
+
+#include <packmesh/packmesh.h>
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include "common/stats.h"
+#include "common/versions.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- the suite ----------------------------------------------------------------------------- */
+
+typedef struct pm_cmp_case {
+  char *name;        /* short name used in tables, plots and row ids (owned) */
+  char *input;       /* the INPUT of packmesh mesh: "case:NAME" or an absolute path (owned) */
+  char *size;        /* --size text, or NULL: the input's own field / the method's default */
+  int volume;        /* 1: --volume */
+  char *ref_json;    /* the case's "reference" object (published figures) as JSON, or NULL */
+} pm_cmp_case;
+
+typedef struct pm_cmp_method {
+  char *label;       /* what tables and plots call it (owned; defaults to the method name) */
+  char *name;        /* --method (owned) */
+  char **sets;       /* [nset] "KEY=VALUE" for --set (owned) */
+  int nset;
+  char **only;       /* [nonly] case names this method runs on; nonly == 0: every case */
+  int nonly;
+} pm_cmp_method;
+
+typedef struct pm_cmp_suite {
+  char *path;        /* the suite file as given, or "" for a built-in suite (owned) */
+  char *text;        /* the suite's JSON text, verbatim (owned) */
+  char *name, *description; /* owned; description may be "" */
+  pm_cmp_case *cases;
+  int ncase;
+  pm_cmp_method *methods;
+  int nmethod;
+  long *seeds;
+  int nseed;
+  int match_nodes;   /* scale every other method's size until its node count matches the
+                        reference's (packmesh mesh --target-nodes: within 3%) */
+  int reference;     /* index into methods of the reference method */
+  double timeout_s;  /* time limit of one run */
+  int threads;       /* --threads of each run; 0: cores / jobs */
+  long max_nodes;    /* --max-nodes of each run; 0: packmesh mesh's default */
+  int trace;         /* 1: --trace for every run (convergence curves) */
+  char *sweep_key;   /* parameter swept (--set KEY=VALUE, or "size" for --size), or NULL */
+  char **sweep_values; /* [nsweep] texts of the values (owned) */
+  int nsweep;
+} pm_cmp_suite;
+
+/* Read the suite file at path (relative inputs are resolved against its folder). A malformed
+ * suite (not JSON, a missing or mistyped key, an unknown key, an empty list) is PM_ERR_PARSE or
+ * PM_ERR_ARG naming the key. Unknown methods, missing input files and bad sizes are not checked
+ * here: each becomes the error of its own rows. */
+pm_status pm_cmp_suite_load(const char *path, pm_cmp_suite *s, pm_error *err);
+
+/* The same from JSON text; base_dir resolves relative file inputs; path is recorded as given
+ * (may be ""). */
+pm_status pm_cmp_suite_parse(const char *text, const char *base_dir, const char *path,
+                             pm_cmp_suite *s, pm_error *err);
+
+void pm_cmp_suite_clear(pm_cmp_suite *s);
+
+/* ---- rows ---------------------------------------------------------------------------------- */
+
+typedef enum pm_cmp_status {
+  PM_CMP_PENDING = 0, /* not run yet */
+  PM_CMP_OK,          /* the run succeeded and its stats were read */
+  PM_CMP_FAILED,      /* packmesh mesh ended with an error (its message in error) */
+  PM_CMP_CRASHED,     /* killed by a signal */
+  PM_CMP_TIMEOUT,     /* over the time limit, killed */
+  PM_CMP_SKIPPED      /* not run: the reference run of its group failed (match_nodes) */
+} pm_cmp_status;
+
+const char *pm_cmp_status_name(pm_cmp_status s);
+
+typedef struct pm_cmp_row {
+  int index;
+  char id[192];        /* folder name under runs/, unique in the study */
+  int icase, imethod, isweep; /* isweep = -1 without a sweep */
+  long seed;
+  int ref_row;         /* row whose node count this row matches (-1: none) */
+
+  /* Filled by the runner (or read back from runs/ID/status.json when resuming). */
+  pm_cmp_status status;
+  char error[1024];
+  char command[8192];  /* shell form of the packmesh mesh command, run in the study folder */
+  double wall_s;       /* wall-clock seconds of the child process */
+  long nodes;          /* node count (from stats.json), -1 when unknown */
+  int elements_ok;     /* runs/ID/elements.csv holds the per-element measures */
+  int reused;          /* finished in an earlier invocation and not run again */
+  pm_stats_flat flat;  /* the flattened stats.json (empty unless status is OK) */
+} pm_cmp_row;
+
+typedef struct pm_cmp_study {
+  pm_cmp_suite suite;  /* owned */
+  char *dir;           /* output folder (absolute, owned) */
+  char *exe;           /* the packmesh binary (owned) */
+  pm_cmp_row *rows;
+  int nrow;
+  double wall_s;       /* duration of the whole invocation */
+  int nrun, nreused;   /* rows run now / taken from an earlier invocation */
+} pm_cmp_study;
+
+/* Expand the suite into rows (case-major, then seed, sweep value and method, the reference
+ * method first in each group) and set their ids. s is moved into the study. dir is created
+ * when missing. */
+pm_status pm_cmp_study_init(pm_cmp_study *st, pm_cmp_suite *s, const char *dir, pm_error *err);
+void pm_cmp_study_clear(pm_cmp_study *st);
+
+/* Labels for messages: "qi3 bubble seed 2 k0=30". */
+void pm_cmp_row_title(const pm_cmp_study *st, const pm_cmp_row *r, char *buf, size_t len);
+
+/* The sweep value text of a row ("" without a sweep). */
+const char *pm_cmp_row_sweep(const pm_cmp_study *st, const pm_cmp_row *r);
+
+/* ---- running ------------------------------------------------------------------------------- */
+
+typedef struct pm_cmp_run_opts {
+  int jobs;            /* parallel runs, >= 1 */
+  int retry_failed;    /* rerun rows that failed in an earlier invocation */
+  int progress;        /* 0 quiet, 1 lines, 2 one updating line (a terminal) */
+  FILE *log;           /* progress stream (stderr) */
+} pm_cmp_run_opts;
+
+/* Run every row that is not finished yet. A row is finished when runs/ID/status.json records a
+ * status for the same command (a changed suite reruns exactly the rows whose command changed).
+ * Returns PM_OK when every row has a status (failed rows included); PM_ERR_IO when the study
+ * folder cannot be written; PM_ERR_ARG when interrupted by SIGINT / SIGTERM (running children
+ * are killed; the next invocation resumes). */
+pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err);
+
+/* ---- results ------------------------------------------------------------------------------- */
+
+/* Read runs/ID/stats.json of every OK row into row->flat (done by the runner too). */
+pm_status pm_cmp_results_load(pm_cmp_study *st, pm_error *err);
+
+/* results.csv and elements.csv in the study folder (atomically). */
+pm_status pm_cmp_results_write(const pm_cmp_study *st, pm_error *err);
+
+/* A numeric stats value of a row (NaN when missing or not a number). */
+double pm_cmp_row_value(const pm_cmp_row *r, const char *key);
+
+/* The per-element values of one column ("aspect_ratio", ...) of one kind ("tri", "tet") in
+ * runs/ID/elements.csv, appended to *v (realloc'ed; *n and *cap updated). */
+pm_status pm_cmp_row_elements(const pm_cmp_study *st, const pm_cmp_row *r, const char *kind,
+                              const char *column, double **v, size_t *n, size_t *cap,
+                              pm_error *err);
+
+/* ---- figures and report --------------------------------------------------------------------- */
+
+typedef struct pm_cmp_figure {
+  char name[128];      /* file stem under plots/ */
+  char title[256];
+  char caption[1024];
+  int drawn;           /* gnuplot made the SVG, PNG and PDF */
+  char error[512];     /* why not, when !drawn */
+} pm_cmp_figure;
+
+typedef struct pm_cmp_figures {
+  pm_cmp_figure *fig;
+  int n;
+  int have_gnuplot;
+  char gnuplot_version[128];
+} pm_cmp_figures;
+
+/* Write the data and the gnuplot script of every figure under plots/ and run gnuplot on each
+ * (time-limited). A missing gnuplot or a failed figure is recorded, not an error; PM_ERR_IO when
+ * files cannot be written. */
+pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *err);
+void pm_cmp_figures_clear(pm_cmp_figures *figs);
+
+/* report.md and report.html. `invocation` is the command line that ran the study. */
+pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
+                        const char *invocation, pm_error *err);
+
+/* ---- environment --------------------------------------------------------------------------- */
+
+typedef struct pm_cmp_sysinfo {
+  pm_lib_versions lib;
+  char os[256];        /* uname: system, release, machine */
+  char cpu[256];       /* model name of /proc/cpuinfo */
+  int cores;           /* online processors */
+  double mem_gib;      /* MemTotal of /proc/meminfo */
+  char gnuplot[128];   /* `gnuplot --version`, "" when there is none */
+  char packages[2048]; /* Debian package versions of the libraries (dpkg-query), or "" */
+} pm_cmp_sysinfo;
+
+void pm_cmp_sysinfo_get(pm_cmp_sysinfo *si);
+
+/* ---- the whole study (cli_compare.c) ------------------------------------------------------ */
+
+typedef struct pm_cmp_options {
+  int jobs;            /* parallel runs; 0: the number of cores */
+  double timeout_s;    /* > 0: overrides the suite's time limit per run */
+  int retry_failed;    /* rerun rows that failed in an earlier invocation */
+  int quiet;           /* no progress */
+} pm_cmp_options;
+
+/* Run the suite (moved in: cleared on return) into dir: the runs, results.csv, elements.csv,
+ * plots/, report.md and report.html. `invocation` is the command line shown in the report.
+ * Prints progress and, at the end, where the report is. Returns the exit code: 0 when the
+ * study completed (whatever some runs did: their errors are in their rows), 1 when it could
+ * not (a folder that cannot be written, an interruption). */
+int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
+                   const char *invocation);
+
+/* ---- helpers shared by the files above ---------------------------------------------------- */
+
+/* Append text to a growing string (*buf malloc'ed); 0 on success, -1 out of memory. */
+int pm_cmp_strcat(char **buf, size_t *len, size_t *cap, const char *text);
+int pm_cmp_appendf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+
+/* Shell-quote one word ("abc" stays, "a b" -> 'a b'). */
+void pm_cmp_shell_quote(const char *word, char *out, size_t len);
+
+/* Read a whole file (NUL-terminated, malloc'ed); NULL when it cannot be read. */
+char *pm_cmp_read_file(const char *path, size_t *len);
+
+/* mkdir -p. */
+pm_status pm_cmp_mkdirs(const char *path, pm_error *err);
+
+/* Run argv (argv[0] a program name looked up in PATH, or a path) in cwd with a time limit;
+ * stdout to out_path (NULL: /dev/null), stderr to err_path (NULL: /dev/null). Returns the
+ * wait status in *wstatus and sets *timed_out. -1 when the program could not be started. */
+int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path,
+                       const char *err_path, double timeout_s, int *wstatus, int *timed_out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PM_COMPARE_STUDY_H */
