@@ -228,25 +228,39 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
   int block = 0, any = 0;
   int *blocks = calloc((size_t)nm, sizeof *blocks);
   if (!blocks) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  /* The five numbers of every (cluster, method) first; clusters without any data (a surface
+   * case in a tet figure) are left out of the axis. */
+  pm_summary *sum = calloc((size_t)ncl * nm + 1, sizeof *sum);
+  int *got = calloc((size_t)ncl * nm + 1, sizeof *got), *xpos = calloc((size_t)ncl + 1, sizeof *xpos);
+  if (!sum || !got || !xpos) {
+    free(sum), free(got), free(xpos), free(blocks);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  int nshown = 0;
+  for (int k = 0; k < ncl && !s; ++k) {
+    int c = sweep ? only_case : k, w = sweep ? k : -1, here = 0;
+    for (int m = 0; m < nm && !s; ++m)
+      if (has_elements(st, c, m, w))
+        here |= got[k * nm + m] = group_summary(st, c, m, w, b->kind, b->column, &sum[k * nm + m], err, &s);
+    xpos[k] = here ? nshown++ : -1;
+  }
   SB(&d, "# %s\n# one block per method (blocks separated by two blank lines, in the order of "
          "the plot command)\n# x  min  p25  median  p75  max  n  cluster\n",
      b->title);
   for (int m = 0; m < nm && !s; ++m) {
     int rows = 0;
-    for (int k = 0; k < ncl && !s; ++k) {
-      int c = sweep ? only_case : k, w = sweep ? k : -1;
-      if (!has_elements(st, c, m, w)) continue;
-      pm_summary sm;
-      if (!group_summary(st, c, m, w, b->kind, b->column, &sm, err, &s)) continue;
+    for (int k = 0; k < ncl; ++k) {
+      if (!got[k * nm + m]) continue;
+      const pm_summary *sm = &sum[k * nm + m];
       if (!rows) SB(&d, "# method %s\n", su->methods[m].label);
-      double x = k * (nm + 1) + m + 1;
+      double x = xpos[k] * (nm + 1) + m + 1;
       char cl[256];
-      snprintf(cl, sizeof cl, "%s", sweep ? su->sweep_values[k] : su->cases[c].name);
+      snprintf(cl, sizeof cl, "%s", sweep ? su->sweep_values[k] : su->cases[k].name);
       for (char *q = cl; *q; ++q)
         if (*q == ' ' || *q == '"') *q = '_';
-      SB(&d, "%g %.9g %.9g %.9g %.9g %.9g %lld %s\n", x, sm.min, sm.p25, sm.median, sm.p75,
-         sm.max, (long long)sm.n, cl);
-      if (sm.max > top) top = sm.max;
+      SB(&d, "%g %.9g %.9g %.9g %.9g %.9g %lld %s\n", x, sm->min, sm->p25, sm->median, sm->p75,
+         sm->max, (long long)sm->n, cl);
+      if (sm->max > top) top = sm->max;
       rows++;
     }
     if (rows) {
@@ -255,8 +269,11 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
       any = 1;
     }
   }
+  free(sum);
+  free(got);
   if (s || !any) {
     free(blocks);
+    free(xpos);
     free(d.s);
     return s;
   }
@@ -272,7 +289,7 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
     snprintf(name, sizeof name, "%s", b->name);
     snprintf(title, sizeof title, "%s", b->title);
   }
-  int width = 300 + 26 * ncl * (nm + 1);
+  int width = 300 + 26 * nshown * (nm + 1);
   if (width < 800) width = 800;
   if (width > 1800) width = 1800;
   script_head(&g, name, title,
@@ -287,21 +304,26 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
     gp_quote(su->sweep_key, q, sizeof q);
     SB(&g, "  set xlabel \"%s\"\n", q);
   }
-  SB(&g, "  set key outside top center horizontal\n");
+  SB(&g, "  set key outside right top\n");
   SB(&g, "  set boxwidth 0.7 absolute\n");
   SB(&g, "  set style fill solid 0.45 border -1\n");
   if (b->logscale) {
     SB(&g, "  set logscale y\n");
     SB(&g, "  set format y \"%%g\"\n");
+    /* No element goes below the ideal value (0.577 triangles, 0.612 tets): start near it. */
     if (top > ASPECT_AXIS_MAX)
-      SB(&g, "  set yrange [*:%g]  # degenerate elements (1e100) go beyond the top\n",
+      SB(&g, "  set yrange [0.5:%g]  # degenerate elements (1e100) go beyond the top\n",
          ASPECT_AXIS_MAX);
+    else
+      SB(&g, "  set yrange [0.5:*]\n");
   }
-  SB(&g, "  set xrange [0:%d]\n", ncl * (nm + 1));
+  SB(&g, "  set xrange [0:%d]\n", nshown * (nm + 1));
   SB(&g, "  set xtics (");
-  for (int k = 0; k < ncl; ++k) {
+  for (int k = 0, first = 1; k < ncl; ++k) {
+    if (xpos[k] < 0) continue;
     gp_quote(sweep ? su->sweep_values[k] : su->cases[k].name, q, sizeof q);
-    SB(&g, "%s\"%s\" %g", k ? ", " : "", q, k * (nm + 1) + (nm + 1) / 2.0);
+    SB(&g, "%s\"%s\" %g", first ? "" : ", ", q, xpos[k] * (nm + 1) + (nm + 1) / 2.0);
+    first = 0;
   }
   SB(&g, ") scale 0\n");
   if (b->ref > 0) {
@@ -335,6 +357,7 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
   free(d.s);
   free(g.s);
   free(blocks);
+  free(xpos);
   if (s) return s;
   char cap[1024];
   snprintf(cap, sizeof cap,
@@ -399,7 +422,7 @@ static pm_status time_bars(plotctx *P, pm_error *err) {
               width, 480);
   SB(&g, "  set title \"time of packmesh mesh per run (mean over seeds, bars: min to max)\"\n");
   SB(&g, "  set ylabel \"seconds\"\n  set logscale y\n  set format y \"%%g\"\n");
-  SB(&g, "  set key outside top center horizontal\n  set boxwidth 0.7 absolute\n");
+  SB(&g, "  set key outside right top\n  set boxwidth 0.7 absolute\n");
   SB(&g, "  set style fill solid 0.6 border -1\n  set xrange [0:%d]\n", ncl * (nm + 1));
   SB(&g, "  set xtics (");
   char q[512];
@@ -413,7 +436,7 @@ static pm_status time_bars(plotctx *P, pm_error *err) {
     if (!blocks[m]) continue;
     gp_quote(su->methods[m].label, q, sizeof q);
     SB(&g, "%s    data index %d using 1:2 with boxes lc rgb \"%s\" title \"%s\", \\\n"
-           "    data index %d using 1:2:3:4 with yerrorbars lc rgb \"black\" pt -1 notitle",
+           "    data index %d using 1:2:3:4 with yerrorbars lc rgb \"black\" pt 7 ps 0 notitle",
        first ? "" : ", \\\n", blocks[m] - 1, palette[m % NPALETTE], q, blocks[m] - 1);
     first = 0;
   }
@@ -598,9 +621,11 @@ static pm_status convergence(plotctx *P, int c, pm_error *err) {
   int npanel = have[0] + have[1] + have[2] + have[3];
   gp_quote(title, q, sizeof q);
   SB(&g, "  set multiplot layout %d,%d title \"%s\"\n", npanel > 2 ? 2 : 1, npanel > 1 ? 2 : 1, q);
-  SB(&g, "  set xlabel \"step\"\n  set key top right\n");
+  SB(&g, "  set xlabel \"step\"\n");
   for (int p = 0; p < 4; ++p) {
     if (!have[p]) continue;
+    /* The radius ratio rises: its key goes where its curves are not. */
+    SB(&g, "  set key %s right\n", p == 2 ? "bottom" : "top");
     SB(&g, "  set ylabel \"%s\"\n  plot \\\n", ylab[p]);
     int first = 1;
     for (int m = 0; m < su->nmethod; ++m) {

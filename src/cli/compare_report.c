@@ -474,9 +474,10 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
   strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S %Z", &tmv);
   char p[4096];
   snprintf(p, sizeof p,
-           "%d runs: %d succeeded, %d did not (listed below). Made on %s by the command below in "
-           "%.1f s (%d runs run now, %d finished by an earlier invocation and kept).",
-           st->nrow, nok, nbad, when, st->wall_s, st->nrun, st->nreused);
+           "%d runs: %d succeeded, %d did not%s. Made on %s by the command below in %.1f s; "
+           "runs made now: %d, kept from an earlier invocation: %d.",
+           st->nrow, nok, nbad, nbad ? " (listed below)" : "", when, st->wall_s, st->nrun,
+           st->nreused);
   doc_p(d, p);
   doc_code(d, invocation, "sh");
   doc_p(d, "Every run is one `packmesh mesh` command, listed at the end; results.csv holds one "
