@@ -15,7 +15,7 @@ typedef struct pm_lib_versions {
   char cgal[32];        /* CGAL_VERSION_STR */
   char tetgen[64];      /* TetGen has no version macro: the release of the tetgen.h used */
   char embree[32];      /* RTC_VERSION_STRING */
-  char muparser[32];    /* mupGetVersion */
+  char muparser[96];    /* mupGetVersion */
   char cjson[32];       /* cJSON_Version */
   char c_compiler[128]; /* __VERSION__ of the C compiler */
   char cxx_compiler[128]; /* __VERSION__ of the C++ compiler */

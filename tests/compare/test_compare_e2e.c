@@ -565,6 +565,40 @@ static void test_time_limit(void **state) {
   csv_free(&t);
 }
 
+/* A run killed by a signal is a "crashed" row with the signal named, and the others finish. The
+ * signal comes from a CPU-time limit every child inherits (ulimit -t): the fine run exceeds it
+ * and the kernel ends it (SIGXCPU, then SIGKILL at the hard limit), as a library crash would end
+ * it with SIGSEGV. */
+static void test_crash(void **state) {
+  (void)state;
+  if (navail == 0 || mesh_cli_broken) skip();
+  char suite[512], path[1024], dir[1024], p[1600];
+  snprintf(suite, sizeof suite,
+           "{\"cases\": [{\"input\": \"case:qi1\", \"name\": \"fine\", \"size\": 0.005},"
+           " {\"input\": \"case:qi1\", \"name\": \"coarse\", \"size\": 0.5}],"
+           " \"methods\": [\"%s\"], \"options\": {\"timeout_s\": 120}}",
+           avail[0]);
+  snprintf(path, sizeof path, "%s/crash.json", root);
+  write_file(path, suite);
+  snprintf(dir, sizeof dir, "%s/crash", root);
+  assert_int_equal(sh("ulimit -t 2 && '%s' compare '%s' -o '%s' --jobs 2 > /dev/null 2>&1", PM_CLI,
+                      path, dir),
+                   0);
+  csv t;
+  snprintf(p, sizeof p, "%s/results.csv", dir);
+  assert_true(csv_read(p, &t));
+  char id[256];
+  snprintf(id, sizeof id, "fine__%s__s1", avail[0]);
+  int r = find_row(&t, id);
+  assert_string_equal(get(&t, r, "status"), "crashed");
+  assert_true(strncmp(get(&t, r, "error"), "crashed (signal ", 16) == 0);
+  assert_string_equal(get(&t, r, "nodes"), "");
+  snprintf(id, sizeof id, "coarse__%s__s1", avail[0]);
+  r = find_row(&t, id);
+  assert_string_equal(get(&t, r, "status"), "ok");
+  csv_free(&t);
+}
+
 static void test_size_sweep(void **state) {
   (void)state;
   if (navail == 0 || mesh_cli_broken) skip();
@@ -622,6 +656,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_two_by_two), cmocka_unit_test(test_bad_entries),
       cmocka_unit_test(test_resume),     cmocka_unit_test(test_time_limit),
+      cmocka_unit_test(test_crash),
       cmocka_unit_test(test_size_sweep), cmocka_unit_test(test_bad_suites),
   };
   return cmocka_run_group_tests(tests, setup, teardown);
