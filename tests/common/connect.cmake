@@ -18,10 +18,10 @@ set(PM_CONNECT_CAD_LONG engine_block.stp solid56.step)
 foreach(f ${PM_CONNECT_CAD_FAST})
   add_test(NAME test_connect_cad_${f} COMMAND test_connect_cad ${PM_CAD_DIR}/${f})
   set_tests_properties(test_connect_cad_${f} PROPERTIES LABELS "backend" TIMEOUT 300
-    ENVIRONMENT "OMP_NUM_THREADS=2")
+    ENVIRONMENT "${PM_TEST_ENV}")
 endforeach()
 foreach(f ${PM_CONNECT_CAD_LONG})
   add_test(NAME test_connect_cad_${f} COMMAND test_connect_cad ${PM_CAD_DIR}/${f})
   set_tests_properties(test_connect_cad_${f} PROPERTIES LABELS "backend;long" TIMEOUT 1200
-    ENVIRONMENT "OMP_NUM_THREADS=2")
+    ENVIRONMENT "${PM_TEST_ENV}")
 endforeach()

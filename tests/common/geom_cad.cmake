@@ -2,6 +2,3 @@
 pm_add_test(test_geom_cad LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_geom_cad.c)
 pm_add_test(test_geom_cad_eval LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_geom_cad_eval.c)
 pm_add_test(test_geom_cad_loops LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_geom_cad_loops.c)
-# Sanitizer builds: OpenCASCADE's own leaks (see the file) are not ours.
-set_property(TEST test_geom_cad test_geom_cad_eval test_geom_cad_loops APPEND PROPERTY ENVIRONMENT
-  "LSAN_OPTIONS=suppressions=${CMAKE_CURRENT_LIST_DIR}/geom_cad_lsan.supp:print_suppressions=0")

@@ -5,9 +5,4 @@ pm_add_test(test_mesh_check LABELS unit backend SOURCES ${CMAKE_CURRENT_LIST_DIR
 pm_add_test(test_mesh_io LABELS unit backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh_io.c)
 pm_add_test(test_stats LABELS unit SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_stats.c)
 target_link_libraries(test_stats PRIVATE cjson)
-# Sanitizer builds: gmsh's own leaks on rejected files (see the file) are not ours.
-set_property(TEST test_mesh_io APPEND PROPERTY ENVIRONMENT
-  "LSAN_OPTIONS=suppressions=${CMAKE_CURRENT_LIST_DIR}/mesh_io_lsan.supp:print_suppressions=0")
 pm_add_test(test_mesh_check_cad LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh_check_cad.c)
-set_property(TEST test_mesh_check_cad APPEND PROPERTY ENVIRONMENT
-  "LSAN_OPTIONS=suppressions=${CMAKE_SOURCE_DIR}/tests/cli/cli_lsan.supp:print_suppressions=0")
