@@ -22,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
@@ -305,8 +306,14 @@ static void draw(runner *R, int running, int force) {
   if (!force && now - R->last_draw < 0.5) return;
   R->last_draw = now;
   int el = (int)(now - R->t_start);
-  fprintf(o->log, "\r\033[K[%d/%d] %d:%02d %d running%s%s", R->ndone, R->st->nrow, el / 60,
-          el % 60, running, R->last[0] ? " | " : "", R->last);
+  char line[1200];
+  snprintf(line, sizeof line, "[%d/%d] %d:%02d %d running%s%s", R->ndone, R->st->nrow, el / 60,
+           el % 60, running, R->last[0] ? " | " : "", R->last);
+  /* One screen line: a wrapped line could not be rewritten by the carriage return. */
+  struct winsize ws;
+  int width = ioctl(fileno(o->log), TIOCGWINSZ, &ws) == 0 && ws.ws_col > 10 ? ws.ws_col : 80;
+  if ((int)strlen(line) > width - 1) line[width - 1] = '\0';
+  fprintf(o->log, "\r\033[K%s", line);
   fflush(o->log);
 }
 

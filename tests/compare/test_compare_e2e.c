@@ -628,6 +628,33 @@ static void test_size_sweep(void **state) {
   check_figure(dir, "aspect_tri_qi1");
 }
 
+/* Without gnuplot on the PATH the study still completes: the scripts and data are written, the
+ * report says why there are no drawings. */
+static void test_no_gnuplot(void **state) {
+  (void)state;
+  const char *m = navail ? avail[0] : "no-such-method";
+  char suite[512], path[1024], dir[1024], p[1600];
+  snprintf(suite, sizeof suite,
+           "{\"cases\": [{\"input\": \"case:qi1\", \"size\": 0.5}], \"methods\": [\"%s\"]}", m);
+  snprintf(path, sizeof path, "%s/nognuplot.json", root);
+  write_file(path, suite);
+  snprintf(dir, sizeof dir, "%s/nognuplot", root);
+  assert_int_equal(sh("PATH=/nonexistent '%s' compare '%s' -o '%s' > '%s.out' 2>&1", PM_CLI, path,
+                      dir, dir),
+                   0);
+  snprintf(p, sizeof p, "%s/report.md", dir);
+  char *md = slurp(p);
+  assert_non_null(md);
+  assert_non_null(strstr(md, "gnuplot is not installed"));
+  free(md);
+  if (navail && !mesh_cli_broken) {
+    snprintf(p, sizeof p, "%s/plots/aspect_tri.gp", dir);
+    assert_int_equal(access(p, R_OK), 0);
+    snprintf(p, sizeof p, "%s/plots/aspect_tri.png", dir);
+    assert_int_equal(access(p, F_OK), -1);
+  }
+}
+
 static void test_bad_suites(void **state) {
   (void)state;
   char dir[1024], p[1600];
@@ -656,7 +683,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_two_by_two), cmocka_unit_test(test_bad_entries),
       cmocka_unit_test(test_resume),     cmocka_unit_test(test_time_limit),
-      cmocka_unit_test(test_crash),
+      cmocka_unit_test(test_crash),      cmocka_unit_test(test_no_gnuplot),
       cmocka_unit_test(test_size_sweep), cmocka_unit_test(test_bad_suites),
   };
   return cmocka_run_group_tests(tests, setup, teardown);
