@@ -1,0 +1,230 @@
+/* Helpers shared by the peers (see peer_common.h). */
+#include "peers/peer_common.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/geom_cad.h"
+#include "common/vec3.h"
+
+int peer_is_planar_domain(const pm_model *m) {
+  if (!m || pm_cad_gmsh_model(m) != NULL) return 0;
+  if (m->count[PM_VOLUME] != 0 || m->count[PM_FACE] != 1) return 0;
+  if (m->box[2] != 0 || m->box[5] != 0) return 0;
+  const pm_cell *f = &m->cells[PM_FACE][0];
+  if (!f->cls || !f->cls->name || strcmp(f->cls->name, "plane") != 0) return 0;
+  for (int32_t i = 0; i < m->count[PM_CURVE]; ++i) {
+    const pm_cell *c = &m->cells[PM_CURVE][i];
+    if (!c->cls || !c->cls->name) return 0;
+    if (strcmp(c->cls->name, "segment") != 0 && strcmp(c->cls->name, "arc") != 0) return 0;
+  }
+  /* The face must be the identity map (u, v) -> (u, v, 0): check the corners and the centre of
+   * its parameter box exactly (the analytic plane evaluates without rounding). */
+  for (int k = 0; k < 5; ++k) {
+    double uv[2] = {k == 4 ? 0.5 * (f->lo[0] + f->hi[0]) : (k & 1 ? f->hi[0] : f->lo[0]),
+                    k == 4 ? 0.5 * (f->lo[1] + f->hi[1]) : (k & 2 ? f->hi[1] : f->lo[1])};
+    pm_face_point fp;
+    pm_face_eval(f, uv, 0, &fp);
+    if (fp.p[0] != uv[0] || fp.p[1] != uv[1] || fp.p[2] != 0) return 0;
+  }
+  return 1;
+}
+
+pm_status peer_default_size(const pm_model *m, const void *params, uint64_t seed, int threads,
+                            pm_sizing **out, pm_error *err) {
+  (void)params, (void)seed, (void)threads;
+  *out = NULL;
+  if (!(m->diagonal > 0) || !isfinite(m->diagonal))
+    return pm_error_setf(err, PM_ERR_GEOM, "model '%s' has no extent: no default size",
+                         m->name);
+  return pm_sizing_constant(PEER_DEFAULT_SIZE_FRACTION * m->diagonal, out, err);
+}
+
+/* One cell of a face's parameter box in the adaptive estimate. */
+typedef struct est_cell {
+  double u, v, du, dv; /* lower corner and extent */
+  int depth;
+} est_cell;
+
+#define EST_TOP 16      /* top grid: EST_TOP x EST_TOP cells per face */
+#define EST_DEPTH 14    /* subdivisions below the top grid at most */
+
+pm_status peer_estimate_surface_nodes(const pm_model *m, const pm_sizing *s, double stop,
+                                      double *estimate, pm_error *err) {
+  /* Area per node of the equilateral lattice of edge d: two triangles of area sqrt(3)/4 d^2. */
+  const double per_node = sqrt(3.0) / 2.0;
+  double total = 0;
+  size_t cap = 4 * EST_TOP * EST_TOP + 4 * EST_DEPTH + 16;
+  est_cell *stack = malloc(sizeof *stack * cap);
+  if (!stack) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  pm_status st = PM_OK;
+  for (int32_t f = 0; f < m->count[PM_FACE] && !st && total <= stop; ++f) {
+    const pm_cell *c = &m->cells[PM_FACE][f];
+    double du = (c->hi[0] - c->lo[0]) / EST_TOP, dv = (c->hi[1] - c->lo[1]) / EST_TOP;
+    if (!(du > 0) || !(dv > 0)) continue;
+    size_t n = 0;
+    for (int i = 0; i < EST_TOP; ++i)
+      for (int j = 0; j < EST_TOP; ++j)
+        stack[n++] = (est_cell){c->lo[0] + i * du, c->lo[1] + j * dv, du, dv, 0};
+    while (n > 0 && total <= stop) {
+      est_cell e = stack[--n];
+      double uv[2] = {e.u + 0.5 * e.du, e.v + 0.5 * e.dv};
+      if (!pm_face_inside(c, uv)) continue;
+      pm_face_point fp;
+      pm_face_eval(c, uv, 1, &fp);
+      double d = pm_sizing_eval(s, fp.p);
+      if (!(d > 0) || !isfinite(d)) {
+        st = pm_error_setf(err, PM_ERR_ARG,
+                           "the size field is %g at (%g, %g, %g) on face %d, not > 0", d,
+                           fp.p[0], fp.p[1], fp.p[2], c->tag);
+        break;
+      }
+      double h = fmax(pm_v3_norm(fp.su) * e.du, pm_v3_norm(fp.sv) * e.dv);
+      if (d < h && e.depth < EST_DEPTH && n + 4 <= cap) {
+        /* The field varies on a scale finer than the cell: split it (a stack of depth-first
+         * splits holds at most 3 siblings per level above the top grid). */
+        double hu = 0.5 * e.du, hv = 0.5 * e.dv;
+        stack[n++] = (est_cell){e.u, e.v, hu, hv, e.depth + 1};
+        stack[n++] = (est_cell){e.u + hu, e.v, hu, hv, e.depth + 1};
+        stack[n++] = (est_cell){e.u, e.v + hv, hu, hv, e.depth + 1};
+        stack[n++] = (est_cell){e.u + hu, e.v + hv, hu, hv, e.depth + 1};
+        continue;
+      }
+      double nrm[3];
+      pm_v3_cross(nrm, fp.su, fp.sv);
+      double dA = pm_v3_norm(nrm) * e.du * e.dv;
+      if (isfinite(dA)) total += dA / (per_node * d * d);
+    }
+  }
+  free(stack);
+  *estimate = total;
+  return st;
+}
+
+pm_status peer_check_budget(const pm_model *m, const pm_sizing *s, int64_t max_nodes,
+                            const char *method, pm_error *err) {
+  double stop = max_nodes > 0 ? 1.5 * (double)max_nodes : INFINITY, est = 0;
+  pm_status st = peer_estimate_surface_nodes(m, s, stop, &est, err);
+  if (st) return pm_error_prefix(err, "%s", method);
+  if (est > stop)
+    return pm_error_setf(err, PM_ERR_LIMIT,
+                         "%s: the size field would need more than %.3g surface nodes, over the "
+                         "node cap %lld",
+                         method, est, (long long)max_nodes);
+  return PM_OK;
+}
+
+/* ---- tag map ---------------------------------------------------------------------------- */
+
+pm_status peer_tagmap_add(peer_tagmap *t, int dim, int tag, int32_t cell, pm_error *err) {
+  int32_t n = t->n[dim];
+  /* Grow by doubling: capacity is the next power of two above n. */
+  if ((n & (n - 1)) == 0) {
+    int32_t cap = n ? 2 * n : 4;
+    int *nt = realloc(t->tag[dim], sizeof(int) * (size_t)cap);
+    if (nt) t->tag[dim] = nt;
+    int32_t *nc = realloc(t->cell[dim], sizeof(int32_t) * (size_t)cap);
+    if (nc) t->cell[dim] = nc;
+    if (!nt || !nc) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  t->tag[dim][n] = tag;
+  t->cell[dim][n] = cell;
+  t->n[dim] = n + 1;
+  return PM_OK;
+}
+
+pm_status peer_tagmap_finish(peer_tagmap *t, pm_error *err) {
+  for (int d = 0; d < 4; ++d) {
+    /* Insertion sort: maps are small (one entry per model cell) and mostly in order. */
+    for (int32_t i = 1; i < t->n[d]; ++i) {
+      int tg = t->tag[d][i];
+      int32_t c = t->cell[d][i], j = i - 1;
+      while (j >= 0 && t->tag[d][j] > tg) {
+        t->tag[d][j + 1] = t->tag[d][j];
+        t->cell[d][j + 1] = t->cell[d][j];
+        --j;
+      }
+      t->tag[d][j + 1] = tg;
+      t->cell[d][j + 1] = c;
+    }
+    for (int32_t i = 1; i < t->n[d]; ++i)
+      if (t->tag[d][i] == t->tag[d][i - 1])
+        return pm_error_setf(err, PM_ERR_INTERNAL, "entity (%d, %d) maps to two cells", d,
+                             t->tag[d][i]);
+  }
+  return PM_OK;
+}
+
+int32_t peer_tagmap_find(const peer_tagmap *t, int dim, int tag) {
+  if (dim < 0 || dim > 3) return -1;
+  int32_t lo = 0, hi = t->n[dim] - 1;
+  while (lo <= hi) {
+    int32_t mid = lo + (hi - lo) / 2;
+    if (t->tag[dim][mid] == tag) return t->cell[dim][mid];
+    if (t->tag[dim][mid] < tag) lo = mid + 1;
+    else hi = mid - 1;
+  }
+  return -1;
+}
+
+void peer_tagmap_free(peer_tagmap *t) {
+  if (!t) return;
+  for (int d = 0; d < 4; ++d) {
+    free(t->tag[d]);
+    free(t->cell[d]);
+  }
+  memset(t, 0, sizeof *t);
+}
+
+/* ---- orientation ------------------------------------------------------------------------ */
+
+int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh) {
+  int32_t nf = m->count[PM_FACE];
+  int64_t *vote = calloc((size_t)nf + 1, sizeof(int64_t));
+  if (!vote) return 0;
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    int32_t f = mesh->tri_cell[t];
+    if (f < 0 || f >= nf) continue;
+    const int32_t *v = &mesh->tri[3 * t];
+    int32_t at = -1;
+    for (int q = 0; q < 3 && at < 0; ++q)
+      if (mesh->node_dim[v[q]] == PM_FACE && mesh->node_cell[v[q]] == f) at = v[q];
+    if (at < 0) continue;
+    const pm_cell *fc = &m->cells[PM_FACE][f];
+    pm_face_point fp;
+    pm_face_eval(fc, &mesh->node_par[2 * at], 1, &fp);
+    double N[3], ab[3], ac[3], n[3];
+    pm_v3_cross(N, fp.su, fp.sv);
+    pm_v3_sub(ab, &mesh->xyz[3 * v[1]], &mesh->xyz[3 * v[0]]);
+    pm_v3_sub(ac, &mesh->xyz[3 * v[2]], &mesh->xyz[3 * v[0]]);
+    pm_v3_cross(n, ab, ac);
+    double d = pm_v3_dot(n, N);
+    if (d > 0) vote[f]++;
+    else if (d < 0) vote[f]--;
+  }
+  int32_t turned = 0;
+  uint8_t *flip = calloc((size_t)nf + 1, 1);
+  if (!flip) {
+    free(vote);
+    return 0;
+  }
+  for (int32_t f = 0; f < nf; ++f) {
+    int want = pm_face_mesh_sign(m, f);
+    if ((want > 0 && vote[f] < 0) || (want < 0 && vote[f] > 0)) flip[f] = 1, ++turned;
+  }
+  for (int32_t t = 0; t < mesh->ntri && turned; ++t) {
+    int32_t f = mesh->tri_cell[t];
+    if (f < 0 || f >= nf || !flip[f]) continue;
+    int32_t x = mesh->tri[3 * t + 1];
+    mesh->tri[3 * t + 1] = mesh->tri[3 * t + 2];
+    mesh->tri[3 * t + 2] = x;
+  }
+  free(flip);
+  free(vote);
+  return turned;
+}
+
+void peer_stats_time(pm_stats *stats, const char *phase, double seconds) {
+  if (stats) pm_stats_set_time(stats, phase, seconds, NULL);
+}

@@ -1,0 +1,72 @@
+/* What the peers share: recognising a planar analytic domain, the default size, a node-count
+ * estimate that refuses hopeless size fields before a backend runs out of memory, the map from
+ * a backend's entity tags to our cell indices, and the orientation rule of geom.h applied to a
+ * backend's triangles. Internal to src/peers.
+ */
+#ifndef PM_PEER_COMMON_H
+#define PM_PEER_COMMON_H
+
+#include <packmesh/packmesh.h>
+
+#include <stdint.h>
+
+#include "common/geom.h"
+#include "common/mesh.h"
+#include "common/sizing.h"
+#include "common/stats.h"
+
+/* 1 when m is a planar analytic domain (geom_analytic.h): no gmsh model behind it, no volume,
+ * one face in the plane z = 0 parametrized by S(u, v) = (u, v, 0), curves of the analytic kinds
+ * "segment" and "arc". The CGAL peer and the planar path of the gmsh peers take these. */
+int peer_is_planar_domain(const pm_model *m);
+
+/* The peers' default size field: a constant 1/30 of the model's bounding-box diagonal. The
+ * signature is pm_method.default_size's. */
+#define PEER_DEFAULT_SIZE_FRACTION (1.0 / 30.0)
+pm_status peer_default_size(const pm_model *m, const void *params, uint64_t seed, int threads,
+                            pm_sizing **out, pm_error *err);
+
+/* Estimated node count of a surface mesh of m under field s: the integral over every face of
+ * dA / (sqrt(3)/2 d^2) (the area per node of a lattice of equilateral triangles of edge d), by
+ * the midpoint rule on each face's parameter box: a 16 x 16 grid of cells, a cell split in four
+ * while the field is finer than the cell (d at its centre below the cell's extent in space), 14
+ * times at most, cells whose centre lies outside the trimming loops left out. Boundary effects
+ * make real meshes some 5-20% larger. The integration stops once the sum exceeds `stop` (a field
+ * that tends to 0 somewhere would otherwise run on). A value of d that is not finite and > 0 at
+ * a sample inside a face is PM_ERR_ARG naming the point. */
+pm_status peer_estimate_surface_nodes(const pm_model *m, const pm_sizing *s, double stop,
+                                      double *estimate, pm_error *err);
+
+/* Refuse a run the field makes hopeless before a backend spends its time and memory on it:
+ * PM_ERR_LIMIT when the estimate exceeds 1.5 x max_nodes (the mesh would exceed the cap for
+ * certain), PM_ERR_ARG for a field that is not > 0 inside a face; messages start with the
+ * method's name. */
+pm_status peer_check_budget(const pm_model *m, const pm_sizing *s, int64_t max_nodes,
+                            const char *method, pm_error *err);
+
+/* Entity tags of a backend (gmsh) to cell indices, per dimension. */
+typedef struct peer_tagmap {
+  int32_t n[4];
+  int *tag[4];      /* [n[d]] sorted ascending, owned */
+  int32_t *cell[4]; /* [n[d]] the cell of each tag, owned */
+} peer_tagmap;
+
+/* Add a (tag, cell) pair (unsorted); peer_tagmap_finish sorts. PM_ERR_NOMEM on failure. */
+pm_status peer_tagmap_add(peer_tagmap *t, int dim, int tag, int32_t cell, pm_error *err);
+/* Sort; a tag given twice in one dimension is PM_ERR_INTERNAL. */
+pm_status peer_tagmap_finish(peer_tagmap *t, pm_error *err);
+/* The cell of (dim, tag), or -1. */
+int32_t peer_tagmap_find(const peer_tagmap *t, int dim, int tag);
+void peer_tagmap_free(peer_tagmap *t);
+
+/* Orient each face's triangles by geom.h's rule (pm_face_mesh_sign: out of the face's first
+ * volume, else along Su x Sv): a face whose triangles mostly disagree with Su x Sv at their
+ * nodes classified on the face (times the sign) has all its triangles turned over. A backend
+ * orients a face's triangles consistently, so the vote only decides the face's side. Faces
+ * without interior nodes keep the backend's orientation. Returns the number of faces turned. */
+int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh);
+
+/* Add a phase time to out's stats when present (errors ignored: timings are informational). */
+void peer_stats_time(pm_stats *stats, const char *phase, double seconds);
+
+#endif /* PM_PEER_COMMON_H */
