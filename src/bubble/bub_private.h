@@ -1,0 +1,239 @@
+/* Internal interface of the bubble method: the state of a run (the bubbles and their
+ * neighbour lists) and the functions of each stage, one file per concern:
+ *   bub_force.c       the inter-bubble force (003 eq. 10-11, 004 eq. 2.1) and its potential
+ *   bub_state.c       the bubble arrays, the cell relations of 000 section 4.2.2, the grid
+ *   bub_place.c       initial placement by hierarchical spatial subdivision (003 section 3.2,
+ *                     000 section 4.1.1, 004 section 2.3)
+ *   bub_neighbors.c   the per-bubble neighbour lists (Verlet lists over the shared grid)
+ *   bub_dynamics.c    the equation of motion, RK4 / RK2 with per-stage confinement
+ *                     (003 eq. 12-15, 000 section 5.5, 004 section 2.2)
+ *   bub_overlap.c     the overlap ratio (003 eq. 16, 000 section 3.1.3) and the layer of outside
+ *                     bubbles (000 section 4.2.1)
+ *   bub_population.c  adaptive population control (000 sections 4.2.3-4.2.5)
+ *   bub_size.c        the default size rule
+ *   bub_run.c         the run: relaxation rounds, stopping, trace, frames, connection
+ * Tests include this header to drive the stages on hand-made configurations.
+ */
+#ifndef BUB_PRIVATE_H
+#define BUB_PRIVATE_H
+
+#include "bubble/bubble.h"
+#include "common/grid.h"
+
+#include <stdint.h>
+
+/* What a bubble lives on. Bubbles are kept sorted by (kind, cell) outside population control,
+ * so the bubbles of one kind, and of one cell, are contiguous. */
+enum {
+  BUB_KVERTEX = 0, /* on a vertex: fixed (000 section 4.2.2 a) */
+  BUB_KCURVE = 1,  /* on a curve, parameter t */
+  BUB_KFACE = 2,   /* on a face, parameters (u, v) */
+  BUB_KOUT = 3     /* outside-layer bubble of face `cell`: overlap only (000 section 4.2.1) */
+};
+
+/* Per-bubble flags. */
+enum {
+  BUB_FDEAD = 1, /* removed during the current population control */
+  BUB_FNEW = 2,  /* inserted during the current population control */
+  BUB_FODD = 4,  /* next to an insertion or deletion: damped with zeta_odd for a round (004) */
+  BUB_FDONE = 8  /* open bubble already given its insertion attempt in this control */
+};
+
+/* ---- the force (bub_force.c) ---------------------------------------------------------------- */
+
+/* Qi et al.'s normalized force f(lambda) = k0 (5/4 lambda^3 - 19/8 lambda^2 + 9/8) for
+ * 0 <= lambda <= 1.5, 0 beyond (004 eq. 2.1). */
+double bub_force_normalized(double k0, double lambda);
+
+/* The force between two bubbles at distance l with stable distance l0 (003 eq. 10-11), positive
+ * when repulsive: F(l) = l0 f(l / l0). In these units F(l0) = F(1.5 l0) = 0, F'(0) = 0 and
+ * F'(l0) = -k0 exactly as 003 eq. 11 states them, so k0 is a spring constant in force per length
+ * for every bubble size. */
+double bub_force(double k0, double l, double l0);
+
+/* The potential of the pair: U(l) = integral from l to 1.5 l0 of F, 0 beyond 1.5 l0. */
+double bub_potential(double k0, double l, double l0);
+
+/* ---- the state (bub_state.c) ---------------------------------------------------------------- */
+
+typedef struct bub_state {
+  const pm_model *model; /* borrowed */
+  const pm_sizing *size; /* borrowed */
+  bub_params p;
+  int threads;           /* >= 1 */
+  uint64_t seed;
+
+  int32_t n, cap;        /* bubbles held, allocated */
+  double *x;             /* [3n] position */
+  double *v;             /* [3n] velocity (object space, kept tangent to the cell) */
+  double *par;           /* [2n] parameters on the cell (curve: t; face: u, v) */
+  double *der;           /* [6n] first derivatives at par (curve: C'; face: Su, Sv) */
+  double *d;             /* [n] diameter d(x) (the desired edge length at x) */
+  double *alpha;         /* [n] overlap ratio (valid during population control) */
+  int8_t *kind;          /* [n] BUB_K* */
+  int32_t *cell;         /* [n] index of the cell in its dimension */
+  uint8_t *flags;        /* [n] BUB_F* */
+
+  /* Ranges of the sorted arrays: vertices [0, nv), curves [nv, nc), faces [nc, nf), outside
+   * bubbles [nf, n) (only during population control). */
+  int32_t nv, nc, nf;
+
+  pm_grid *grid;         /* every bubble, radius d (the overlap boundary of 000 section 3.1.3) */
+  int grid_valid;        /* the grid holds ids 0..n-1 at the current x, d */
+
+  /* Neighbour lists of the curve and face bubbles (bub_neighbors.c): nb[nb_off[i] ..
+   * nb_off[i+1]) are the bubbles i feels, sorted by id, within the list radius at build time. */
+  int32_t *nb_off;       /* [n+1] */
+  int32_t *nb;           /* [nb_cap] */
+  int64_t nb_cap;
+  double *x_build;       /* [3n] positions at the last build */
+  double *d_build;       /* [n] diameters at the last build */
+  int lists_valid;
+  int64_t list_builds;   /* statistics */
+
+  /* Cell relations (000 section 4.2.2): the sorted keys (bub_key) of the cells in the closure of
+   * each curve and face (their boundary cells and embedded cells, recursively). */
+  int32_t *clo_off[3];   /* [count[dim] + 1] for dim 1, 2 */
+  uint32_t *clo[3];
+  uint8_t *seam;         /* [ncurve] 1 when the curve is used twice by one face (a seam) */
+
+  /* Dynamics scratch (bub_dynamics.c), [3n] / [6n] / [2n] each. */
+  double *xs, *vs, *as, *ders, *pars, *sumv, *suma, *x0;
+  double *pot;           /* [n] potential per bubble (half of each pair it feels) */
+  double *disp;          /* [n] displacement of the last step, relative to d */
+  int32_t *deg;          /* [n] neighbours within 1.3 l0 at the step start (eps_t) */
+  int scratch_cap;
+
+  /* Run bookkeeping. */
+  int64_t step;          /* steps taken */
+  int64_t round;         /* population controls done */
+  int steps_in_round;
+  int odd_active;        /* the odd-bubble damping is in use (004 section 2.2) */
+  int64_t insertions, deletions; /* totals */
+  int64_t failed_insertions;
+  int32_t last_ins, last_del; /* of the last control */
+} bub_state;
+
+/* Cell key for the relation tables. */
+static inline uint32_t bub_key(int dim, int32_t cell) { return ((uint32_t)dim << 28) | (uint32_t)cell; }
+
+/* Threads for a loop over n items: the run's threads, or 1 below BUB_PARALLEL_MIN items (a
+ * parallel region costs a few microseconds, more than a small loop, and much more on a loaded
+ * machine). Results never depend on it. */
+#define BUB_PARALLEL_MIN 2048
+static inline int bub_threads_for(const bub_state *s, int64_t n) {
+  return n >= BUB_PARALLEL_MIN ? s->threads : 1;
+}
+
+/* Create a state for a model and size field (both borrowed) with checked parameters. */
+pm_status bub_state_create(const pm_model *m, const pm_sizing *size, const bub_params *p,
+                           int threads, uint64_t seed, bub_state **out, pm_error *err);
+void bub_state_destroy(bub_state *s);
+
+/* Append a bubble on cell (kind, cell) at parameters par (NULL for a vertex; ignored for an
+ * outside bubble, which is placed at xyz with diameter d). Evaluates position, derivatives and
+ * diameter (except for outside bubbles). Writes the new index to *id when not NULL. Does not
+ * touch the grid. */
+pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
+                        const double *xyz, double d, int32_t *id, pm_error *err);
+
+/* Evaluate position and derivatives of bubble i at its par (curves, faces). */
+void bub_state_eval(const bub_state *s, int32_t i);
+
+/* The diameter d(x) at a point, checked: PM_ERR_ARG when not finite and > 0. */
+pm_status bub_size_at(const bub_state *s, const double x[3], double *d, pm_error *err);
+
+/* Remove dead bubbles (BUB_FDEAD) and outside bubbles, clear the per-control flags, sort by
+ * (kind, cell, old index) and recompute the ranges. Invalidates grid and lists. */
+pm_status bub_state_compact(bub_state *s, pm_error *err);
+
+/* Put every bubble into the grid at its x with radius d (rebuilding it). */
+pm_status bub_state_grid_rebuild(bub_state *s, pm_error *err);
+
+/* 1 when bubble i (a curve or face bubble) feels bubble j in its dynamics and overlap ratio:
+ * j is on the same cell or on a cell of the closure of i's cell (000 section 4.2.2: curve
+ * bubbles feel vertex and curve bubbles, face bubbles all of them, each only those of its own
+ * cell and of that cell's boundary). Outside bubbles are never related here. */
+int bub_related(const bub_state *s, int32_t i, int32_t j);
+
+/* The same test for a hypothetical bubble on (kind, cell) against bubble j. */
+int bub_related_cell(const bub_state *s, int kind, int32_t cell, int32_t j);
+
+/* ---- placement (bub_place.c) ---------------------------------------------------------------- */
+
+/* Bubbles on every vertex, every curve, every face (003 section 3.2, 000 section 4.1.1). */
+pm_status bub_place(bub_state *s, pm_error *err);
+
+/* Binary subdivision of one curve: the parameters of its interior bubbles, sorted, written to a
+ * malloc'ed *t (count *nt). */
+pm_status bub_place_curve(const bub_state *s, int32_t curve, double **t, int32_t *nt,
+                          pm_error *err);
+
+/* Arc length of a curve between t1 and t2 (Gauss-Legendre). */
+double bub_curve_length(const pm_cell *c, double t1, double t2);
+
+/* ---- neighbour lists (bub_neighbors.c) ------------------------------------------------------ */
+
+/* Skin of the lists: the list radius is (1 + skin) x 1.5 l0. */
+#define BUB_SKIN 0.3
+
+/* Build the lists if they are invalid or some bubble moved too far since the last build. */
+pm_status bub_neighbors_update(bub_state *s, pm_error *err);
+
+/* ---- dynamics (bub_dynamics.c) -------------------------------------------------------------- */
+
+/* The time step in time units: dt x T0 (dt = 0: the automatic choice of the integrator). */
+double bub_time_step(const bub_params *p);
+
+/* The damping ratio of a normal bubble at the current point of the schedule. */
+double bub_zeta_now(const bub_state *s);
+
+typedef struct bub_step_info {
+  double kinetic, potential;  /* at the start of the step */
+  double mean_disp, max_disp; /* object-space displacement of the step */
+  double max_rel_disp;        /* max displacement / d */
+  double eps_t;               /* mean |neighbours within 1.3 l0 - 6| over face bubbles */
+} bub_step_info;
+
+/* One step of the equation of motion for every curve and face bubble. */
+pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err);
+
+/* ---- overlap ratio (bub_overlap.c) ---------------------------------------------------------- */
+
+/* The overlap ratio (003 eq. 16) of a bubble of diameter d at x on (kind, cell), against the
+ * bubbles in the grid, leaving out bubble `self` (-1: none). Needs a valid grid. */
+double bub_alpha_at(const bub_state *s, const double x[3], double d, int kind, int32_t cell,
+                    int32_t self);
+
+/* The overlap ratio of bubble i. */
+double bub_alpha(const bub_state *s, int32_t i);
+
+/* Compute alpha of every curve and face bubble (needs a valid grid). */
+void bub_alpha_all(bub_state *s);
+
+/* Replace the outside layer: remove the outside bubbles (from arrays and grid) and place new
+ * ones outside the borders of every face (000 section 4.2.1). Needs a valid grid. */
+pm_status bub_outside_layer(bub_state *s, pm_error *err);
+
+/* ---- population control (bub_population.c) -------------------------------------------------- */
+
+typedef struct bub_control_info {
+  int32_t removed, inserted, failed; /* bubbles removed, inserted, insertions that found no place */
+  int32_t before, after;             /* curve + face bubbles before and after */
+} bub_control_info;
+
+/* One population control (000 section 4.2.5): remove curve excess, remove face excess, insert
+ * around open curve bubbles, insert around open face bubbles, remove excess again; then compact.
+ * `cap` limits the total number of bubbles. */
+pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *info,
+                                 pm_error *err);
+
+/* ---- default size (bub_size.c) -------------------------------------------------------------- */
+
+/* bub_default_size is declared in bubble.h. The exact rule as a callback field, for bub_run:
+ * *rule must be released with bub_size_rule_free after the field is destroyed. */
+pm_status bub_size_rule_create(const pm_model *m, const bub_params *p, pm_sizing **field,
+                               void **rule, pm_error *err);
+void bub_size_rule_free(void *rule);
+
+#endif /* BUB_PRIVATE_H */

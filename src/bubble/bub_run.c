@@ -1,0 +1,232 @@
+/* A run of the bubble method: placement, relaxation rounds with population control, stopping,
+ * trace and frames, connection (papers/003 section 3.1, papers/000 section 4.1, papers/004
+ * section 2).
+ *
+ * Rounds. A population control (bub_population.c) follows at least control_steps relaxation
+ * steps (000 section 4.2.6: 20), and only when the system is relatively calm (003 section 3.5:
+ * "only when the maximum velocity of all bubbles is within a small value"): when no bubble
+ * moved more than `calm` of its diameter in the last step. A system that does not calm down
+ * within 4 x control_steps steps is controlled anyway (our choice: oscillations that never settle
+ * below `calm` must not stop the population from adapting). The steps between two controls are
+ * a round (004's "round of simulation").
+ *
+ * Stopping, whichever comes first (the run reports it in out->stop_reason):
+ *   - the self-adaptive stop (004 section 2.4): the count of curve and face bubbles changed by at
+ *     most stop_change of itself in stop_rounds consecutive controls; then population control
+ *     ends and up to final_steps relaxation steps follow (until the displacement tolerance);
+ *   - the displacement tolerance (003 section 3.4: "the distance moved by the bubbles during one
+ *     time-step in any d.o.f becomes less than a given small value"): no bubble moved more than
+ *     disp_tol of its diameter in a step, and the last control changed nothing (or population
+ *     control is off);
+ *   - max_steps;
+ *   - the bubble cap (max_bubbles, and the run's max_nodes): reached by insertions, it ends
+ *     population control like the adaptive stop; an initial placement above it is PM_ERR_LIMIT.
+ *
+ * Nodes for the connection: vertex bubbles (dim 0), curve bubbles (dim 1, t) and face bubbles
+ * (dim 2, (u, v)); outside-layer bubbles exist only during a control and are never nodes. With
+ * in->volume the surface mesh is filled with TetGen's quality tets (PM_VOLUME_REFINE): bubble
+ * volumes are not implemented, so the volume nodes are TetGen's.
+ */
+#include "bubble/bub_private.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/clock.h"
+#include "common/connect.h"
+
+static const char *const trace_cols[] = {"step",     "bubbles",  "kinetic",   "potential",
+                                         "mean_disp", "max_disp", "insertions", "deletions",
+                                         "eps_t",    "zeta",     "max_rel_disp", "round"};
+#define NCOL ((int)(sizeof trace_cols / sizeof trace_cols[0]))
+
+static pm_status snapshot(bub_state *s, pm_frames *fr, pm_error *err) {
+  if (!fr || s->n == 0) return PM_OK;
+  double *r = malloc(sizeof(double) * (size_t)s->n);
+  int8_t *dim = malloc((size_t)s->n);
+  if (!r || !dim) {
+    free(r), free(dim);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int32_t i = 0; i < s->n; ++i) r[i] = 0.5 * s->d[i], dim[i] = s->kind[i];
+  pm_status st = pm_frames_add(fr, s->step, s->n, s->x, r, dim, err);
+  free(r), free(dim);
+  return st;
+}
+
+static pm_status connect_nodes(const bub_state *s, const pm_run_input *in, pm_mesh **out,
+                               pm_error *err) {
+  pm_mesh *mesh = pm_mesh_create();
+  if (!mesh) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  pm_status st = pm_mesh_reserve(mesh, s->n, 0, 0, 0, err);
+  for (int32_t i = 0; i < s->n && !st; ++i) {
+    if (s->kind[i] == BUB_KOUT || (s->flags[i] & BUB_FDEAD)) continue;
+    st = pm_mesh_add_node(mesh, &s->x[3 * i], s->kind[i], s->cell[i], &s->par[2 * i], NULL, err);
+  }
+  if (!st) {
+    pm_connect_params cp;
+    pm_connect_params_init(&cp);
+    if (in->volume) {
+      cp.volume = PM_VOLUME_REFINE;
+      cp.max_nodes = in->max_nodes > 0 && in->max_nodes < INT32_MAX ? (int32_t)in->max_nodes : 0;
+    }
+    st = pm_connect(s->model, mesh, &cp, NULL, err);
+    if (st) pm_error_prefix(err, "bubble: connecting %d nodes", (int)mesh->nnode);
+  }
+  if (st) {
+    pm_mesh_destroy(mesh);
+    return st;
+  }
+  *out = mesh;
+  return PM_OK;
+}
+
+pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out, pm_error *err) {
+  bub_params defaults;
+  const bub_params *p = params;
+  if (!p) {
+    bub_params_init(&defaults);
+    p = &defaults;
+  }
+  out->mesh = NULL;
+  out->iterations = 0;
+  snprintf(out->stop_reason, sizeof out->stop_reason, "failed");
+  if (!in || !in->model) return pm_error_setf(err, PM_ERR_ARG, "bubble: no model");
+  pm_status st = bub_params_check(p, err);
+  if (st) return st;
+  const pm_model *m = in->model;
+  if (m->count[PM_CURVE] == 0 && m->count[PM_FACE] == 0)
+    return pm_error_setf(err, PM_ERR_GEOM, "bubble: model %s has no curves or faces to mesh", m->name);
+
+  double t0 = pm_seconds();
+  const pm_sizing *size = in->size;
+  pm_sizing *own_size = NULL;
+  void *rule = NULL;
+  if (!size) {
+    st = bub_size_rule_create(m, p, &own_size, &rule, err);
+    if (st) return st;
+    size = own_size;
+  }
+  int64_t cap = (int64_t)fmin(p->max_bubbles, 2e9);
+  if (in->max_nodes > 0 && in->max_nodes < cap) cap = in->max_nodes;
+  bub_params q = *p;
+  q.max_bubbles = (double)cap;
+
+  bub_state *s = NULL;
+  st = bub_state_create(m, size, &q, in->threads, in->seed, &s, err);
+  if (!st) st = bub_place(s, err);
+  if (!st && s->n > cap)
+    st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the initial placement has %d bubbles, above the cap of %lld",
+                       (int)s->n, (long long)cap);
+  double t_place = pm_seconds();
+  int32_t initial = s ? s->nf : 0;
+  if (!st && in->trace) st = pm_trace_columns(in->trace, NCOL, trace_cols, err);
+  if (!st) st = snapshot(s, in->frames, err);
+
+  /* ---- relaxation rounds ---- */
+  int settled = 0, final_phase = 0, final_left = 0;
+  char reason[128] = "";
+  int32_t last_change = -1; /* bubbles changed by the last control (-1: none yet) */
+  while (!st) {
+    if (s->step >= p->max_steps) {
+      snprintf(reason, sizeof reason, "max steps (%d)", p->max_steps);
+      break;
+    }
+    bub_step_info info;
+    st = bub_dynamics_step(s, &info, err);
+    if (st) break;
+    bub_control_info ci = {0};
+    int controlled = 0;
+    if (p->population && !final_phase && s->steps_in_round >= p->control_steps &&
+        (info.max_rel_disp <= p->calm || s->steps_in_round >= 4 * p->control_steps)) {
+      st = bub_population_control(s, cap, &ci, err);
+      if (st) break;
+      controlled = 1;
+      s->round++;
+      s->steps_in_round = 0;
+      last_change = ci.inserted + ci.removed;
+      int32_t delta = ci.after > ci.before ? ci.after - ci.before : ci.before - ci.after;
+      if (ci.before > 0 && delta <= p->stop_change * ci.before)
+        ++settled;
+      else
+        settled = 0;
+      if (p->adaptive_stop && settled >= p->stop_rounds) {
+        final_phase = 1, final_left = p->final_steps;
+        snprintf(reason, sizeof reason,
+                 "converged: bubble count changed by <= %g%% in %d consecutive rounds",
+                 100 * p->stop_change, p->stop_rounds);
+      } else if (s->nf >= cap) {
+        final_phase = 1, final_left = p->final_steps;
+        snprintf(reason, sizeof reason, "bubble cap (%lld) reached", (long long)cap);
+      }
+    }
+    if (in->trace) {
+      double row[NCOL] = {(double)s->step, (double)(s->nf - s->nv), info.kinetic, info.potential,
+                          info.mean_disp, info.max_disp, ci.inserted, ci.removed, info.eps_t,
+                          bub_zeta_now(s), info.max_rel_disp, (double)s->round};
+      st = pm_trace_add(in->trace, row, err);
+      if (st) break;
+    }
+    if (in->frames && s->step % p->frame_every == 0 && (st = snapshot(s, in->frames, err))) break;
+    if (final_phase) {
+      if (p->final_steps == 0 || --final_left <= 0 || (info.max_rel_disp <= p->disp_tol && !controlled))
+        break;
+    } else if (info.max_rel_disp <= p->disp_tol &&
+               (!p->population || (controlled && last_change == 0))) {
+      snprintf(reason, sizeof reason,
+               "converged: no bubble moved more than %g of its diameter in a step", p->disp_tol);
+      break;
+    }
+  }
+  double t_relax = pm_seconds();
+  if (!st && in->frames && s->step % p->frame_every != 0) st = snapshot(s, in->frames, err);
+  if (!st && in->frames) st = pm_frames_finish(in->frames, err);
+
+  pm_mesh *mesh = NULL;
+  if (!st) st = connect_nodes(s, in, &mesh, err);
+  double t_end = pm_seconds();
+  if (!st) {
+    out->mesh = mesh;
+    out->iterations = s->step;
+    snprintf(out->stop_reason, sizeof out->stop_reason, "%s", reason);
+    if (out->stats) {
+      pm_stats *S = out->stats;
+      pm_error e = {0};
+      pm_stats_set_time(S, "place", t_place - t0, &e);
+      pm_stats_set_time(S, "relax", t_relax - t_place, &e);
+      pm_stats_set_time(S, "connect", t_end - t_relax, &e);
+      pm_stats_add_number(S, "bubble.initial", initial, &e);
+      pm_stats_add_number(S, "bubble.final", s->nf, &e);
+      pm_stats_add_number(S, "bubble.steps", (double)s->step, &e);
+      pm_stats_add_number(S, "bubble.rounds", (double)s->round, &e);
+      pm_stats_add_number(S, "bubble.insertions", (double)s->insertions, &e);
+      pm_stats_add_number(S, "bubble.deletions", (double)s->deletions, &e);
+      pm_stats_add_number(S, "bubble.failed_insertions", (double)s->failed_insertions, &e);
+      pm_stats_add_number(S, "bubble.list_builds", (double)s->list_builds, &e);
+      pm_stats_add_number(S, "bubble.time_step", bub_time_step(p), &e);
+      pm_stats_add_text(S, "bubble.stop", reason, &e);
+      pm_stats_add_text(S, "bubble.size", pm_sizing_describe(size), &e);
+    }
+  }
+  bub_state_destroy(s);
+  pm_sizing_destroy(own_size);
+  bub_size_rule_free(rule);
+  return st;
+}
+
+static void params_init(void *p) { bub_params_init(p); }
+
+const pm_method bub_method = {
+    .name = "bubble",
+    .description = "Shimada's bubble mesh: packed bubbles by damped dynamics with population "
+                   "control (papers/003, 000, 004), connected by constrained Delaunay",
+    .params = &bub_params_table,
+    .params_size = sizeof(bub_params),
+    .params_init = params_init,
+    .run = bub_run,
+    .planar_only = 0,
+    .needs_size = 0,
+    .default_size = bub_default_size,
+};

@@ -1,0 +1,326 @@
+/* The bubble arrays, the cell relations between bubbles (papers/000 section 4.2.2) and the
+ * neighbour grid.
+ *
+ * Relations. 000 section 4.2.2 gives each bubble active neighbours (felt in the dynamics and in
+ * the overlap ratio), overlap-only neighbours (the outside layer) and passive ones (neither):
+ * vertex bubbles feel nothing (they are fixed), edge bubbles feel vertex and edge bubbles, face
+ * bubbles feel all of them. The thesis deals with one face; on a model with many cells we read
+ * "vertex and edge bubbles" as those of the bubble's own closure: a curve bubble feels the
+ * bubbles of its curve and of its two end vertices, a face bubble those of its face, of the
+ * curves and vertices on the face's boundary and of the cells embedded in it. Bubbles of a
+ * neighbouring face across a shared curve are never felt: the connection step triangulates each
+ * face from its own nodes and its boundary chains only, and a bubble of another face pulling at
+ * a sharp edge would only open gaps along it.
+ */
+#include "bubble/bub_private.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/vec3.h"
+
+/* ---- closure tables ----------------------------------------------------------------------- */
+
+typedef struct keyvec {
+  uint32_t *k;
+  int32_t n, cap;
+} keyvec;
+
+static int keyvec_push(keyvec *v, uint32_t key) {
+  if (v->n == v->cap) {
+    int32_t nc = v->cap ? 2 * v->cap : 16;
+    uint32_t *nk = realloc(v->k, sizeof(uint32_t) * (size_t)nc);
+    if (!nk) return 0;
+    v->k = nk, v->cap = nc;
+  }
+  v->k[v->n++] = key;
+  return 1;
+}
+
+static int cmp_u32(const void *a, const void *b) {
+  uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+  return (x > y) - (x < y);
+}
+
+/* Add the closure of cell (dim, idx) (the cell itself excluded) to v. */
+static int closure_add(const pm_model *m, int dim, int32_t idx, keyvec *v, int depth) {
+  if (depth > 8) return 1; /* models are at most 3 levels deep; guards a malformed one */
+  const pm_cell *c = pm_model_cell(m, dim, idx);
+  if (dim == PM_CURVE) {
+    for (int32_t k = 0; k < c->nbound; ++k)
+      if (!keyvec_push(v, bub_key(PM_VERTEX, c->bound[k].cell))) return 0;
+  } else if (dim == PM_FACE) {
+    for (int32_t k = 0; k < c->nbound; ++k) {
+      if (!keyvec_push(v, bub_key(PM_CURVE, c->bound[k].cell))) return 0;
+      if (!closure_add(m, PM_CURVE, c->bound[k].cell, v, depth + 1)) return 0;
+    }
+  }
+  for (int32_t k = 0; k < c->nembed; ++k) {
+    const pm_cellref *e = &c->embed[k];
+    if (e->dim >= dim) continue;
+    if (!keyvec_push(v, bub_key(e->dim, e->index))) return 0;
+    if (!closure_add(m, e->dim, e->index, v, depth + 1)) return 0;
+  }
+  return 1;
+}
+
+static pm_status build_closures(bub_state *s, pm_error *err) {
+  const pm_model *m = s->model;
+  for (int dim = 1; dim <= 2; ++dim) {
+    int32_t nc = m->count[dim];
+    s->clo_off[dim] = calloc((size_t)nc + 1, sizeof(int32_t));
+    if (!s->clo_off[dim]) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    keyvec all = {0}, one = {0};
+    for (int32_t c = 0; c < nc; ++c) {
+      one.n = 0;
+      if (!closure_add(m, dim, c, &one, 0)) goto nomem;
+      qsort(one.k, (size_t)one.n, sizeof(uint32_t), cmp_u32);
+      int32_t w = 0;
+      for (int32_t k = 0; k < one.n; ++k)
+        if (w == 0 || one.k[k] != one.k[w - 1]) one.k[w++] = one.k[k];
+      for (int32_t k = 0; k < w; ++k)
+        if (!keyvec_push(&all, one.k[k])) goto nomem;
+      s->clo_off[dim][c + 1] = all.n;
+    }
+    free(one.k);
+    s->clo[dim] = all.k ? all.k : malloc(sizeof(uint32_t));
+    if (!s->clo[dim]) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    continue;
+  nomem:
+    free(one.k), free(all.k);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  /* Seams: a curve used twice by one face. */
+  int32_t ncur = m->count[PM_CURVE];
+  s->seam = calloc((size_t)ncur + 1, 1);
+  if (!s->seam) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t f = 0; f < m->count[PM_FACE]; ++f) {
+    const pm_cell *fc = pm_model_cell(m, PM_FACE, f);
+    for (int32_t a = 0; a < fc->nbound; ++a)
+      for (int32_t b = a + 1; b < fc->nbound; ++b)
+        if (fc->bound[a].cell == fc->bound[b].cell) s->seam[fc->bound[a].cell] = 1;
+  }
+  return PM_OK;
+}
+
+static int in_closure(const bub_state *s, int dim, int32_t cell, uint32_t key) {
+  if (dim < 1 || dim > 2) return 0;
+  const uint32_t *k = s->clo[dim];
+  int32_t lo = s->clo_off[dim][cell], hi = s->clo_off[dim][cell + 1];
+  while (lo < hi) {
+    int32_t mid = (lo + hi) >> 1;
+    if (k[mid] < key)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo < s->clo_off[dim][cell + 1] && k[lo] == key;
+}
+
+int bub_related_cell(const bub_state *s, int kind, int32_t cell, int32_t j) {
+  int kj = s->kind[j];
+  if (kj == BUB_KOUT || kind == BUB_KVERTEX || kind == BUB_KOUT) return 0;
+  if (kj == kind) return s->cell[j] == cell;
+  if (kj > kind) return 0;
+  return in_closure(s, kind, cell, bub_key(kj, s->cell[j]));
+}
+
+int bub_related(const bub_state *s, int32_t i, int32_t j) {
+  return i != j && bub_related_cell(s, s->kind[i], s->cell[i], j);
+}
+
+/* ---- arrays ------------------------------------------------------------------------------- */
+
+static pm_status grow(bub_state *s, int32_t need, pm_error *err) {
+  if (need <= s->cap) return PM_OK;
+  int32_t nc = s->cap ? s->cap : 256;
+  while (nc < need) nc = nc > (INT32_MAX / 2) ? INT32_MAX : 2 * nc;
+#define GROW(ptr, per)                                                                  \
+  do {                                                                                  \
+    void *np = realloc(s->ptr, sizeof(*s->ptr) * (size_t)(per) * (size_t)nc);         \
+    if (!np) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory (%d bubbles)", nc); \
+    s->ptr = np;                                                                        \
+  } while (0)
+  GROW(x, 3);
+  GROW(v, 3);
+  GROW(par, 2);
+  GROW(der, 6);
+  GROW(d, 1);
+  GROW(alpha, 1);
+  GROW(kind, 1);
+  GROW(cell, 1);
+  GROW(flags, 1);
+#undef GROW
+  s->cap = nc;
+  return PM_OK;
+}
+
+pm_status bub_state_create(const pm_model *m, const pm_sizing *size, const bub_params *p,
+                           int threads, uint64_t seed, bub_state **out, pm_error *err) {
+  *out = NULL;
+  bub_state *s = calloc(1, sizeof *s);
+  if (!s) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  s->model = m, s->size = size, s->p = *p;
+  s->threads = threads >= 1 ? threads : 1;
+  s->seed = seed;
+  pm_status st = build_closures(s, err);
+  /* hmin of the grid: far below any bubble (it only affects speed). */
+  if (!st) st = pm_grid_create(1e-6 * (m->diagonal > 0 ? m->diagonal : 1), &s->grid, err);
+  if (!st) st = grow(s, 256, err);
+  if (st) {
+    bub_state_destroy(s);
+    return st;
+  }
+  *out = s;
+  return PM_OK;
+}
+
+void bub_state_destroy(bub_state *s) {
+  if (!s) return;
+  free(s->x), free(s->v), free(s->par), free(s->der), free(s->d), free(s->alpha);
+  free(s->kind), free(s->cell), free(s->flags);
+  pm_grid_destroy(s->grid);
+  free(s->nb_off), free(s->nb), free(s->x_build), free(s->d_build);
+  for (int k = 0; k < 3; ++k) free(s->clo_off[k]), free(s->clo[k]);
+  free(s->seam);
+  free(s->xs), free(s->vs), free(s->as), free(s->ders), free(s->pars), free(s->sumv);
+  free(s->suma), free(s->x0), free(s->pot), free(s->disp), free(s->deg);
+  free(s);
+}
+
+void bub_state_eval(const bub_state *s, int32_t i) {
+  const pm_cell *c = pm_model_cell(s->model, s->kind[i], s->cell[i]);
+  if (s->kind[i] == BUB_KCURVE) {
+    pm_curve_point cp;
+    pm_curve_eval(c, s->par[2 * i], 1, &cp);
+    pm_v3_copy(&s->x[3 * i], cp.p);
+    pm_v3_copy(&s->der[6 * i], cp.d1);
+    pm_v3_zero(&s->der[6 * i + 3]);
+  } else if (s->kind[i] == BUB_KFACE) {
+    pm_face_point fp;
+    pm_face_eval(c, &s->par[2 * i], 1, &fp);
+    pm_v3_copy(&s->x[3 * i], fp.p);
+    pm_v3_copy(&s->der[6 * i], fp.su);
+    pm_v3_copy(&s->der[6 * i + 3], fp.sv);
+  }
+}
+
+pm_status bub_size_at(const bub_state *s, const double x[3], double *d, pm_error *err) {
+  double v = pm_sizing_eval(s->size, x);
+  if (!(v > 0) || !isfinite(v)) {
+    *d = 0;
+    return pm_error_setf(err, PM_ERR_ARG,
+                         "the size field is %g at (%g, %g, %g) on the model: it must be finite "
+                         "and > 0",
+                         v, x[0], x[1], x[2]);
+  }
+  *d = v;
+  return PM_OK;
+}
+
+pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
+                        const double *xyz, double d, int32_t *id, pm_error *err) {
+  pm_status st = grow(s, s->n + 1, err);
+  if (st) return st;
+  int32_t i = s->n;
+  s->kind[i] = (int8_t)kind, s->cell[i] = cell, s->flags[i] = 0, s->alpha[i] = 0;
+  s->par[2 * i] = par && kind >= BUB_KCURVE && kind <= BUB_KFACE ? par[0] : 0;
+  s->par[2 * i + 1] = par && kind == BUB_KFACE ? par[1] : 0;
+  pm_v3_zero(&s->v[3 * i]);
+  for (int k = 0; k < 6; ++k) s->der[6 * i + k] = 0;
+  s->n++;
+  if (kind == BUB_KVERTEX) {
+    pm_v3_copy(&s->x[3 * i], pm_model_cell(s->model, PM_VERTEX, cell)->xyz);
+  } else if (kind == BUB_KOUT) {
+    pm_v3_copy(&s->x[3 * i], xyz);
+    s->d[i] = d;
+  } else {
+    bub_state_eval(s, i);
+  }
+  if (kind != BUB_KOUT) {
+    st = bub_size_at(s, &s->x[3 * i], &s->d[i], err);
+    if (st) {
+      s->n--;
+      return st;
+    }
+  }
+  if (id) *id = i;
+  s->grid_valid = 0;
+  s->lists_valid = 0;
+  return PM_OK;
+}
+
+/* ---- compaction ----------------------------------------------------------------------------- */
+
+typedef struct sort_key {
+  int8_t kind;
+  int32_t cell;
+  int32_t idx;
+} sort_key;
+
+static int cmp_key(const void *a, const void *b) {
+  const sort_key *x = a, *y = b;
+  if (x->kind != y->kind) return x->kind - y->kind;
+  if (x->cell != y->cell) return (x->cell > y->cell) - (x->cell < y->cell);
+  return (x->idx > y->idx) - (x->idx < y->idx);
+}
+
+pm_status bub_state_compact(bub_state *s, pm_error *err) {
+  int32_t n = 0;
+  sort_key *keys = malloc(sizeof(sort_key) * ((size_t)s->n + 1));
+  if (!keys) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t i = 0; i < s->n; ++i)
+    if (!(s->flags[i] & BUB_FDEAD) && s->kind[i] != BUB_KOUT)
+      keys[n++] = (sort_key){s->kind[i], s->cell[i], i};
+  qsort(keys, (size_t)n, sizeof(sort_key), cmp_key);
+  /* Permute through a copy of each array. */
+  size_t need = (size_t)(n ? n : 1);
+  double *buf = malloc(sizeof(double) * 6 * need);
+  if (!buf) {
+    free(keys);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+#define PERMUTE(ptr, per, type)                                                  \
+  do {                                                                           \
+    type *tmp = (type *)buf;                                                     \
+    for (int32_t k = 0; k < n; ++k)                                              \
+      memcpy(&tmp[(size_t)(per) * k], &s->ptr[(size_t)(per) * keys[k].idx],     \
+             sizeof(type) * (size_t)(per));                                      \
+    memcpy(s->ptr, tmp, sizeof(type) * (size_t)(per) * (size_t)n);               \
+  } while (0)
+  PERMUTE(x, 3, double);
+  PERMUTE(v, 3, double);
+  PERMUTE(par, 2, double);
+  PERMUTE(der, 6, double);
+  PERMUTE(d, 1, double);
+  PERMUTE(alpha, 1, double);
+  PERMUTE(kind, 1, int8_t);
+  PERMUTE(cell, 1, int32_t);
+  PERMUTE(flags, 1, uint8_t);
+#undef PERMUTE
+  free(buf);
+  free(keys);
+  s->n = n;
+  s->nv = s->nc = s->nf = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    s->flags[i] &= (uint8_t)~(BUB_FNEW | BUB_FDONE);
+    if (s->kind[i] <= BUB_KVERTEX) s->nv = i + 1;
+    if (s->kind[i] <= BUB_KCURVE) s->nc = i + 1;
+    if (s->kind[i] <= BUB_KFACE) s->nf = i + 1;
+  }
+  if (s->nc < s->nv) s->nc = s->nv;
+  if (s->nf < s->nc) s->nf = s->nc;
+  s->grid_valid = 0;
+  s->lists_valid = 0;
+  return PM_OK;
+}
+
+pm_status bub_state_grid_rebuild(bub_state *s, pm_error *err) {
+  pm_grid_clear(s->grid);
+  pm_status st = pm_grid_reserve(s->grid, s->n, err);
+  for (int32_t i = 0; i < s->n && !st; ++i)
+    if (!(s->flags[i] & BUB_FDEAD)) st = pm_grid_insert(s->grid, i, &s->x[3 * i], s->d[i], err);
+  s->grid_valid = !st;
+  return st;
+}

@@ -1,0 +1,125 @@
+/* The bubble mesher: Shimada & Gossard's bubble mesh (papers/003), with the details of Saini's
+ * thesis (papers/000) and the accelerations of Qi, Nie & Zhang (papers/004), on vertices, curves
+ * and faces (planar domains and trimmed CAD surfaces).
+ *
+ *   1. bubbles on every vertex, binary subdivision on curves, a rhombic (60 degree) quadtree on
+ *      faces (003 section 3.2, 000 section 4.1.1, 004 section 2.3: weights w1, w2);
+ *   2. the cubic inter-bubble force (003 eq. 10-11, 004 eq. 2.1);
+ *   3. damped dynamics m x'' + c x' = f integrated by RK4 (or the second-order scheme of 004),
+ *      every stage confined to the bubble's cell by geom.h's shared displacement rule
+ *      (003 eq. 12-15, 000 section 5.5);
+ *   4. adaptive population control by the overlap ratio (003 eq. 16, 000 sections 3.1.3,
+ *      4.1.2, 4.2.1-4.2.6);
+ *   5. the accelerations of 004 (saw-tooth viscosity with c_odd, w1/w2, the self-adaptive stop);
+ *   6. connection by pm_connect (DESIGN.md, "Connecting nodes").
+ *
+ * Every parameter is a field of bub_params, described once in bub_params_table (defaults,
+ * --set, --help, range checks). The method is exported to the command line as bub_method.
+ */
+#ifndef BUB_BUBBLE_H
+#define BUB_BUBBLE_H
+
+#include <packmesh/packmesh.h>
+
+#include "common/method.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Integrators of the equation of motion. */
+enum { BUB_RK4 = 0, BUB_RK2 = 1 };
+/* Viscosity schedules. */
+enum { BUB_VISC_CONSTANT = 0, BUB_VISC_SAWTOOTH = 1 };
+
+/* The parameters of the bubble method. Defaults are set in exactly one place, the table in
+ * bub_params.c (bub_params_init); the doc line of every field gives its meaning, range, default
+ * and source, and `packmesh mesh --method bubble --help` prints the same from the table. */
+typedef struct bub_params {
+  /* ---- force and dynamics (003 eq. 10-14, 004 eq. 2.1-2.2) ---- */
+  double k0;        /* spring constant of the force at l0: f'(l0) = -k0; (0, 1e6], default 30
+                       (000 section 6.4: best near 30 with m = 1, zeta = 0.7) */
+  double mass;      /* bubble mass m; (0, 1e6], default 1 (000 section 6.4) */
+  double zeta;      /* damping ratio zeta = c / (2 sqrt(m k0)) (003 eq. 14); (0, 10], default 0.7 */
+  double dt;        /* time step as a fraction of the natural period T0 = 2 pi sqrt(m / k0);
+                       (0, 0.2], default 0.1 (our choice, see bub_dynamics.c) */
+  int integrator;   /* BUB_RK4 (003 section 3.4) or BUB_RK2 (004 section 1, Heun's second-order
+                       scheme); default rk4 */
+  /* ---- viscosity schedule (004 section 2.2) ---- */
+  int viscosity;    /* BUB_VISC_CONSTANT (zeta throughout, classic) or BUB_VISC_SAWTOOTH (zeta
+                       rising within and across rounds); default sawtooth */
+  double zeta_k1;   /* saw-tooth: rise of the damping ratio per step within a round; [0, 1],
+                       default 0.05 */
+  double zeta_k2;   /* saw-tooth: rise of the damping ratio per round (0 <= k2 < k1 x steps of a
+                       round); [0, 1], default 0.02 */
+  double zeta_max;  /* saw-tooth: cap of the damping ratio; [0.1, 10], default 1.5 */
+  double zeta_odd;  /* damping ratio of "odd" bubbles, next to an insertion or deletion, for the
+                       round after it (004: c_odd = 1 with m = k0 = 1 is zeta 0.5); (0, 10],
+                       default 0.5 */
+  double odd_from;  /* the odd-bubble scheme starts once a control changes the count by at most
+                       this fraction (004: 0.05%); [0, 1], default 0.0005 */
+  /* ---- initial placement (003 section 3.2, 000 section 4.1.1, 004 section 2.3) ---- */
+  double w1;        /* curve insertion weight: split while w1 |P1P2| > r1 + r2; (0, 4],
+                       default 1 */
+  double w2;        /* face insertion weight (004: 0.5..0.8); (0, 1], default 0.5 (a sparse
+                       start that insertions fill ends nearer the ideal count than a dense one
+                       that removals thin: see bub_place.c) */
+  /* ---- population control (003 eq. 16, 000 sections 4.1.2, 4.2) ---- */
+  int population;   /* adaptive population control on/off; default on */
+  double face_open;   /* face bubble is open below this overlap ratio; default 5 (000 4.1.2) */
+  double face_excess; /* face bubble is excess above this overlap ratio; default 8 (000 4.1.2) */
+  double curve_open;  /* curve bubble open below; default 5/3 (our choice: the face cut-offs
+                         scaled by 2/6) */
+  double curve_excess; /* curve bubble excess above; default 8/3 (same rule) */
+  double insert_k;  /* insertion distance factor k (a new face bubble at k r); default 1.8
+                       (000 section 4.2.4) */
+  int control_steps; /* relaxation steps between two population controls; [1, 100000],
+                        default 20 (000 section 4.2.6) */
+  double calm;      /* control only when every bubble moved less than calm x its diameter in the
+                       last step (003 section 3.5); (0, 1], default 0.02 */
+  int outside_layer; /* the layer of overlap-only bubbles outside face borders; default on
+                        (000 section 4.2.1) */
+  /* ---- stopping (003 section 3.4, 004 section 2.4) ---- */
+  int adaptive_stop; /* stop when the count changes by at most stop_change in stop_rounds
+                        consecutive rounds (004 section 2.4); default on */
+  double stop_change; /* default 0.005 (004: 0.5%) */
+  int stop_rounds;  /* default 2 (004: twice) */
+  double disp_tol;  /* stop when no bubble moves more than disp_tol x its diameter in a step and
+                       the last control changed nothing (003 section 3.4); [0, 1], default 1e-3 */
+  int final_steps;  /* relaxation steps after the population has settled; default 60 */
+  int max_steps;    /* cap on steps; default 3000 */
+  double max_bubbles; /* cap on bubbles (also min with the run's max_nodes); default 1e7 */
+  /* ---- default size rule (bub_size.c) ---- */
+  double size_div;  /* default size: bounding-box diagonal / size_div; default 30 */
+  double size_grade; /* growth rate of the default size away from small features; default 0.3 */
+  /* ---- output ---- */
+  int frame_every;  /* --frames: a snapshot every this many steps; default 10 */
+} bub_params;
+
+/* The table that describes every field (params.h). */
+extern const pm_param_table bub_params_table;
+
+/* Write the defaults into p. */
+void bub_params_init(bub_params *p);
+
+/* Range checks of the table plus the relations between fields (open < excess, the damping cap
+ * within the time step's stability bound, ...). PM_ERR_ARG with a one-line message. */
+pm_status bub_params_check(const bub_params *p, pm_error *err);
+
+/* The default size field for a model without one: the bounding-box diagonal / size_div, reduced
+ * near curves and faces too short, thin or curved for it (rule in bub_size.c). *out is owned by
+ * the caller (pm_sizing_destroy). */
+pm_status bub_default_size(const pm_model *model, const void *params, uint64_t seed, int threads,
+                           pm_sizing **out, pm_error *err);
+
+/* Run the method (the run function of bub_method). */
+pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out, pm_error *err);
+
+/* The method descriptor for the command line ("bubble"). */
+extern const pm_method bub_method;
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* BUB_BUBBLE_H */

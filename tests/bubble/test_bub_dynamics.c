@@ -1,0 +1,251 @@
+/* The dynamics of papers/003 eq. 12-15: two bubbles relax to l0, a chain on a straight curve to
+ * uniform spacing d, the step is the same for every k0 (stable over the thesis's [0.1, 150]),
+ * RK2 works too, forces are thread-count independent, a clipped bubble stays in its face. */
+#include "bub_test_util.h"
+
+#include "common/sizing.h"
+
+static pm_sizing *const_size(double d) {
+  pm_sizing *s = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(d, &s, &e), e);
+  return s;
+}
+
+static double dist(const bub_state *s, int32_t i, int32_t j) {
+  return pm_v3_dist(&s->x[3 * i], &s->x[3 * j]);
+}
+
+static void two_bubbles_with(int integrator) {
+  pm_model *m = bt_square(0, 0, 10);
+  pm_sizing *size = const_size(1.0);
+  bub_params p = bt_params();
+  p.integrator = integrator;
+  bub_state *s = bt_state(m, size, &p, 1);
+  bt_face_bubble(s, 4.5, 5.0);
+  bt_face_bubble(s, 5.3, 5.1);
+  pm_error e = {0};
+  PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  assert_true(dist(s, 0, 1) < 0.9);
+  bub_step_info info = bt_steps(s, 400);
+  /* l0 = (d_i + d_j) / 2 = 1 (003 eq. 10). */
+  PM_ASSERT_NEAR(dist(s, 0, 1), 1.0, 1e-7);
+  assert_true(info.max_disp < 1e-8);
+  /* Momentum: the pair's centre does not drift. */
+  PM_ASSERT_NEAR(0.5 * (s->x[0] + s->x[3]), 4.9, 1e-9);
+  PM_ASSERT_NEAR(0.5 * (s->x[1] + s->x[4]), 5.05, 1e-9);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+static void two_bubbles_rk4(void **state) {
+  (void)state;
+  two_bubbles_with(BUB_RK4);
+}
+
+static void two_bubbles_rk2(void **state) {
+  (void)state;
+  two_bubbles_with(BUB_RK2);
+}
+
+/* Five curve bubbles between the two end vertices of a straight edge of length 6 with d = 1:
+ * the chain relaxes to six gaps of exactly d. */
+static void chain_uniform(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 6);
+  pm_sizing *size = const_size(1.0);
+  bub_params p = bt_params();
+  bub_state *s = bt_state(m, size, &p, 1);
+  const pm_cell *c = pm_model_cell(m, PM_CURVE, 0);
+  pm_error e = {0};
+  PM_ASSERT_OK(bub_state_add(s, BUB_KVERTEX, c->bound[0].cell, NULL, NULL, 0, NULL, &e), e);
+  PM_ASSERT_OK(bub_state_add(s, BUB_KVERTEX, c->bound[1].cell, NULL, NULL, 0, NULL, &e), e);
+  const double t0[5] = {0.4, 3.9, 1.1, 2.2, 5.5};
+  for (int k = 0; k < 5; ++k) {
+    double t = c->lo[0] + (c->hi[0] - c->lo[0]) * t0[k] / 6;
+    PM_ASSERT_OK(bub_state_add(s, BUB_KCURVE, 0, &t, NULL, 0, NULL, &e), e);
+  }
+  PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  bt_steps(s, 800);
+  /* Sort the x coordinates of all seven bubbles (they lie on y = 0). */
+  double x[7];
+  for (int i = 0; i < 7; ++i) {
+    x[i] = s->x[3 * i];
+    PM_ASSERT_NEAR(s->x[3 * i + 1], 0, 1e-12);
+  }
+  for (int i = 0; i < 7; ++i)
+    for (int j = i + 1; j < 7; ++j)
+      if (x[j] < x[i]) {
+        double t = x[i];
+        x[i] = x[j], x[j] = t;
+      }
+  for (int i = 0; i < 6; ++i) PM_ASSERT_NEAR(x[i + 1] - x[i], 1.0, 1e-6);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* The time step is h = dt 2 pi sqrt(m / k0) and c = 2 zeta sqrt(m k0): the discrete trajectory is
+ * the same for every k0 and m (bub_dynamics.c), so k0 = 0.1 and k0 = 150 (the ends of the
+ * thesis's stable range, 000 section 6.4) and beyond relax alike. */
+static void k0_invariance(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 10);
+  pm_sizing *size = const_size(0.5);
+  const double k0s[4] = {0.1, 30, 150, 1e4}, masses[4] = {1, 1, 1, 7};
+  double ref[6] = {0};
+  for (int k = 0; k < 4; ++k) {
+    bub_params p = bt_params();
+    p.k0 = k0s[k], p.mass = masses[k];
+    pm_error e = {0};
+    PM_ASSERT_OK(bub_params_check(&p, &e), e);
+    bub_state *s = bt_state(m, size, &p, 1);
+    bt_face_bubble(s, 5.0, 5.0);
+    bt_face_bubble(s, 5.1, 5.05);
+    bt_face_bubble(s, 4.9, 5.2);
+    PM_ASSERT_OK(bub_state_compact(s, &e), e);
+    bt_steps(s, 30);
+    for (int q = 0; q < 3; ++q) {
+      if (k == 0)
+        ref[2 * q] = s->x[3 * q], ref[2 * q + 1] = s->x[3 * q + 1];
+      else {
+        PM_ASSERT_NEAR(s->x[3 * q], ref[2 * q], 1e-9);
+        PM_ASSERT_NEAR(s->x[3 * q + 1], ref[2 * q + 1], 1e-9);
+      }
+    }
+    bt_steps(s, 400);
+    /* Relaxed: all three pairs at l0 = 0.5 (an equilateral triangle). */
+    for (int a = 0; a < 3; ++a)
+      for (int b = a + 1; b < 3; ++b) PM_ASSERT_NEAR(dist(s, a, b), 0.5, 1e-6);
+    bub_state_destroy(s);
+  }
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* A disordered patch (more bubbles than BUB_PARALLEL_MIN, so that 2 threads are used): positions
+ * after 30 steps are bitwise identical with 1 and 2 threads. */
+static void thread_independence(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 10);
+  pm_sizing *size = const_size(0.12);
+  double *xs[2] = {NULL, NULL};
+  int32_t n = 0;
+  for (int T = 1; T <= 2; ++T) {
+    bub_params p = bt_params();
+    bub_state *s = bt_state(m, size, &p, T);
+    pm_rng r;
+    pm_rng_init(&r, 3, 0);
+    for (int k = 0; k < 2 * BUB_PARALLEL_MIN; ++k)
+      bt_face_bubble(s, pm_rng_range(&r, 2, 8), pm_rng_range(&r, 2, 8));
+    pm_error e = {0};
+    PM_ASSERT_OK(bub_state_compact(s, &e), e);
+    bt_steps(s, 30);
+    n = s->n;
+    xs[T - 1] = malloc(sizeof(double) * 3 * (size_t)n);
+    memcpy(xs[T - 1], s->x, sizeof(double) * 3 * (size_t)n);
+    bub_state_destroy(s);
+  }
+  assert_memory_equal(xs[0], xs[1], sizeof(double) * 3 * (size_t)n);
+  free(xs[0]), free(xs[1]);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* Two bubbles on top of each other (distance 0) separate along a seeded direction. */
+static void coincident_pair(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 10);
+  pm_sizing *size = const_size(1.0);
+  bub_params p = bt_params();
+  bub_state *s = bt_state(m, size, &p, 1);
+  bt_face_bubble(s, 5, 5);
+  bt_face_bubble(s, 5, 5);
+  pm_error e = {0};
+  PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  bt_steps(s, 400);
+  PM_ASSERT_NEAR(dist(s, 0, 1), 1.0, 1e-6);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* A face bubble squeezed against the border by a dense patch never leaves the face (the shared
+ * clip rule), and the vertex bubbles never move. */
+static void stays_in_face(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 2);
+  pm_sizing *size = const_size(1.0);
+  bub_params p = bt_params();
+  bub_state *s = bt_state(m, size, &p, 1);
+  pm_error e = {0};
+  for (int32_t v = 0; v < 4; ++v) PM_ASSERT_OK(bub_state_add(s, BUB_KVERTEX, v, NULL, NULL, 0, NULL, &e), e);
+  for (int k = 0; k < 12; ++k) bt_face_bubble(s, 0.6 + 0.07 * k, 0.4 + 0.09 * (k % 5));
+  PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  double vx[12];
+  memcpy(vx, s->x, sizeof vx);
+  for (int k = 0; k < 300; ++k) {
+    bt_steps(s, 1);
+    for (int32_t i = s->nc; i < s->nf; ++i) assert_true(pm_face_inside(pm_model_cell(m, PM_FACE, 0), &s->par[2 * i]));
+  }
+  assert_memory_equal(vx, s->x, sizeof vx);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* Bad parameters: one-line errors. */
+static void bad_parameters(void **state) {
+  (void)state;
+  bub_params p;
+  bub_params_init(&p);
+  pm_error e = {0};
+  assert_int_equal(pm_params_set(&bub_params_table, &p, "k0", "0", &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "k0"));
+  assert_int_equal(pm_params_set(&bub_params_table, &p, "k0", "-3", &e), PM_ERR_ARG);
+  assert_int_equal(pm_params_set(&bub_params_table, &p, "zeta", "0", &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "zeta"));
+  assert_int_equal(pm_params_set(&bub_params_table, &p, "w2", "1.5", &e), PM_ERR_ARG);
+  assert_int_equal(pm_params_set(&bub_params_table, &p, "w2", "0", &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "w2"));
+  assert_int_equal(pm_params_set(&bub_params_table, &p, "w2", "1", &e), PM_OK);
+  assert_int_equal(pm_params_set(&bub_params_table, &p, "nonsense", "1", &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "unknown"));
+  assert_null(strchr(e.msg, '\n'));
+  assert_int_equal(pm_params_set(&bub_params_table, &p, "integrator", "euler", &e), PM_ERR_ARG);
+  /* Relations between fields. */
+  bub_params_init(&p);
+  p.face_open = 9;
+  assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "face_open"));
+  bub_params_init(&p);
+  p.integrator = BUB_RK2, p.dt = 0.15;
+  assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "unstable"));
+  p.dt = 0; /* automatic: stable */
+  PM_ASSERT_OK(bub_params_check(&p, &e), e);
+  bub_params_init(&p);
+  p.zeta_max = 6;
+  assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
+  bub_params_init(&p);
+  PM_ASSERT_OK(bub_params_check(&p, &e), e);
+  /* The defaults are in the table. */
+  const pm_param_desc *d = pm_params_find(&bub_params_table, "k0");
+  assert_non_null(d);
+  PM_ASSERT_NEAR(d->def, 30, 0);
+  PM_ASSERT_NEAR(p.face_excess, 8, 0);
+  PM_ASSERT_NEAR(p.face_open, 5, 0);
+  PM_ASSERT_NEAR(p.zeta, 0.7, 0);
+  assert_int_equal(p.control_steps, 20);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(two_bubbles_rk4),  cmocka_unit_test(two_bubbles_rk2),
+      cmocka_unit_test(chain_uniform),    cmocka_unit_test(k0_invariance),
+      cmocka_unit_test(thread_independence), cmocka_unit_test(coincident_pair),
+      cmocka_unit_test(stays_in_face),    cmocka_unit_test(bad_parameters),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}

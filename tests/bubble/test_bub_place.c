@@ -1,0 +1,131 @@
+/* Initial placement (papers/003 section 3.2, papers/000 section 4.1.1, papers/004 section 2.3):
+ * the binary subdivision of curves with w1, the rhombic quadtree of faces with w2, holes,
+ * determinism. */
+#include "bub_test_util.h"
+
+#include "common/cases.h"
+#include "common/sizing.h"
+
+static pm_sizing *const_size(double d) {
+  pm_sizing *s = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(d, &s, &e), e);
+  return s;
+}
+
+/* A side of length 10 with d = 1: split while w1 L > (d1 + d2) / 2 = 1. With w1 = 1 the pieces
+ * halve down to 10/16 (16 pieces, 15 bubbles); with w1 = 0.5 down to 10/8 (7 bubbles). */
+static void curve_subdivision(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 10);
+  pm_sizing *size = const_size(1.0);
+  const double w1s[3] = {1.0, 0.5, 2.0};
+  const int expect[3] = {15, 7, 31};
+  for (int k = 0; k < 3; ++k) {
+    bub_params p = bt_params();
+    p.w1 = w1s[k];
+    bub_state *s = bt_state(m, size, &p, 1);
+    double *t = NULL;
+    int32_t nt = 0;
+    pm_error e = {0};
+    PM_ASSERT_OK(bub_place_curve(s, 0, &t, &nt, &e), e);
+    assert_int_equal(nt, expect[k]);
+    const pm_cell *c = pm_model_cell(m, PM_CURVE, 0);
+    for (int32_t q = 0; q < nt; ++q)
+      PM_ASSERT_NEAR(t[q], c->lo[0] + (c->hi[0] - c->lo[0]) * (q + 1) / (nt + 1), 1e-12);
+    free(t);
+    bub_state_destroy(s);
+  }
+  /* Arc length of a straight side. */
+  const pm_cell *c = pm_model_cell(m, PM_CURVE, 0);
+  PM_ASSERT_NEAR(bub_curve_length(c, c->lo[0], c->hi[0]), 10, 1e-12);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* The face of a square with d = 1 and w2 = 1: the rhombic quadtree splits uniformly, so interior
+ * face bubbles form a 60-degree lattice: each has 6 neighbours at one distance, at most d. */
+static void rhombic_lattice(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 8);
+  pm_sizing *size = const_size(1.0);
+  bub_params p = bt_params();
+  p.w2 = 1;
+  bub_state *s = bt_state(m, size, &p, 1);
+  pm_error e = {0};
+  PM_ASSERT_OK(bub_place(s, &e), e);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  int checked = 0;
+  double lattice = -1;
+  for (int32_t i = s->nc; i < s->nf; ++i) {
+    assert_int_equal(s->kind[i], BUB_KFACE);
+    assert_true(pm_face_inside(f, &s->par[2 * i]));
+    /* Away from boundary bubbles by at least half the stable distance. */
+    for (int32_t j = 0; j < s->nc; ++j) assert_true(pm_v3_dist(&s->x[3 * i], &s->x[3 * j]) >= 0.5);
+    const double *x = &s->x[3 * i];
+    if (x[0] < 2.5 || x[0] > 5.5 || x[1] < 2.5 || x[1] > 5.5) continue;
+    double dmin = INFINITY;
+    for (int32_t j = s->nc; j < s->nf; ++j)
+      if (j != i) dmin = fmin(dmin, pm_v3_dist(x, &s->x[3 * j]));
+    int nb = 0;
+    for (int32_t j = s->nc; j < s->nf; ++j)
+      if (j != i && pm_v3_dist(x, &s->x[3 * j]) < dmin * (1 + 1e-9)) ++nb;
+    assert_int_equal(nb, 6);
+    if (lattice < 0) lattice = dmin;
+    PM_ASSERT_NEAR(dmin, lattice, 1e-9);
+    ++checked;
+  }
+  assert_true(checked > 10);
+  assert_true(lattice <= 1.0 && lattice > 0.5);
+  /* A smaller w2 splits less: fewer face bubbles (004 section 2.3, Table 3). */
+  int32_t nface1 = s->nf - s->nc;
+  bub_state_destroy(s);
+  p.w2 = 0.5;
+  s = bt_state(m, size, &p, 1);
+  PM_ASSERT_OK(bub_place(s, &e), e);
+  assert_true(s->nf - s->nc < nface1 / 2);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* qi2 (a square with a round hole, d = r / 8): every face bubble inside the face, none in the
+ * hole; the hole's circle (one closed curve) is subdivided; placement is deterministic. */
+static void hole_and_determinism(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("qi2", &m, &size, &e), e);
+  bub_params p = bt_params();
+  bub_state *a = bt_state(m, size, &p, 1), *b = bt_state(m, size, &p, 2);
+  PM_ASSERT_OK(bub_place(a, &e), e);
+  PM_ASSERT_OK(bub_place(b, &e), e);
+  assert_int_equal(a->n, b->n);
+  assert_memory_equal(a->x, b->x, sizeof(double) * 3 * (size_t)a->n);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  int on_circle = 0;
+  for (int32_t i = 0; i < a->n; ++i) {
+    double r = hypot(a->x[3 * i], a->x[3 * i + 1]);
+    if (a->kind[i] == BUB_KFACE) {
+      assert_true(pm_face_inside(f, &a->par[2 * i]));
+      assert_true(r > 0.2);
+    }
+    if (a->kind[i] == BUB_KCURVE && fabs(r - 0.2) < 1e-12) ++on_circle;
+  }
+  /* Circumference 1.257 at d = 0.025: split down to pieces of at most d. */
+  assert_true(on_circle >= 40);
+  bub_state_destroy(a);
+  bub_state_destroy(b);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(curve_subdivision),
+      cmocka_unit_test(rhombic_lattice),
+      cmocka_unit_test(hole_and_determinism),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,291 @@
+/* Whole runs of the bubble method on planar cases: a valid mesh of good quality (pm_mesh_check on
+ * every mesh), the same mesh for the same seed and for 1 or 2 threads, trace and frames, the
+ * classic settings and RK2, the default size rule, caps and bad input. */
+#include "bub_test_util.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "common/cases.h"
+#include "common/frames.h"
+#include "common/mesh_check.h"
+#include "common/quality.h"
+#include "common/sizing.h"
+#include "common/stats.h"
+#include "common/trace.h"
+
+static pm_mesh *run(const pm_model *m, const pm_sizing *size, const bub_params *p, int threads,
+                    pm_trace *tr, pm_frames *fr, pm_run_output *out) {
+  pm_run_input in = {m, size, 11, threads, 0, PM_DEFAULT_MAX_NODES, tr, fr};
+  pm_error e = {0};
+  memset(out, 0, sizeof *out);
+  PM_ASSERT_OK(bub_run(&in, p, out, &e), e);
+  assert_non_null(out->mesh);
+  return out->mesh;
+}
+
+static void check_valid(const pm_mesh *mesh, const pm_model *m) {
+  pm_check_report r;
+  memset(&r, 0, sizeof r);
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_mesh_check(mesh, m, &r, &e), e);
+  for (int i = 0; i < r.nproblem; ++i) print_error("problem: %s\n", r.problem[i]);
+  assert_true(r.valid);
+  pm_check_report_clear(&r);
+}
+
+/* qi4 (papers/004 section 3.4): valid, well shaped, converged by the self-adaptive stop. */
+static void qi4_quality(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("qi4", &m, &size, &e), e);
+  bub_params p;
+  bub_params_init(&p);
+  pm_run_output out;
+  pm_stats st;
+  pm_stats_init(&st);
+  pm_run_input in = {m, size, 11, 2, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  memset(&out, 0, sizeof out);
+  out.stats = &st;
+  PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
+  check_valid(out.mesh, m);
+  pm_quality q;
+  PM_ASSERT_OK(pm_quality_compute(out.mesh, size, &q, &e), e);
+  assert_true(q.tri.s_radius_ratio.mean >= 0.95);
+  assert_true(q.tri.s_min_angle.min >= 25);
+  /* Edges as long as the size field asks (within 5%). */
+  assert_true(fabs(q.tri.size_ratio.mean - 1) < 0.05);
+  assert_true(out.mesh->nnode > 450 && out.mesh->nnode < 700);
+  assert_non_null(strstr(out.stop_reason, "converged"));
+  assert_true(out.iterations > 20);
+  /* Phase times and extras. */
+  pm_stats_flat fl;
+  PM_ASSERT_OK(pm_stats_flatten(&st, &fl, &e), e);
+  assert_non_null(pm_stats_flat_find(&fl, "time_s.place"));
+  assert_non_null(pm_stats_flat_find(&fl, "time_s.connect"));
+  const pm_stats_item *it = pm_stats_flat_find(&fl, "bubble.steps");
+  assert_non_null(it);
+  PM_ASSERT_NEAR(it->num, (double)out.iterations, 0);
+  pm_stats_flat_clear(&fl);
+  pm_stats_clear(&st);
+  pm_quality_clear(&q);
+  pm_mesh_destroy(out.mesh);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+static int same_mesh(const pm_mesh *a, const pm_mesh *b) {
+  return a->nnode == b->nnode && a->ntri == b->ntri && a->nseg == b->nseg &&
+         !memcmp(a->xyz, b->xyz, sizeof(double) * 3 * (size_t)a->nnode) &&
+         !memcmp(a->tri, b->tri, sizeof(int32_t) * 3 * (size_t)a->ntri);
+}
+
+/* Same seed: the identical mesh twice, and with 1 or 2 threads (qi1 at d = 0.06: about 2600
+ * bubbles, above BUB_PARALLEL_MIN, so the second run does use 2 threads). */
+static void determinism(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("qi1", &m, NULL, &e), e);
+  PM_ASSERT_OK(pm_sizing_constant(0.06, &size, &e), e);
+  bub_params p;
+  bub_params_init(&p);
+  p.max_steps = 45; /* a few controls are enough to exercise everything */
+  p.w2 = 1;         /* start dense: above BUB_PARALLEL_MIN from the first step */
+  pm_run_output o1, o2, o3;
+  pm_mesh *a = run(m, size, &p, 1, NULL, NULL, &o1);
+  pm_mesh *b = run(m, size, &p, 1, NULL, NULL, &o2);
+  pm_mesh *c = run(m, size, &p, 2, NULL, NULL, &o3);
+  assert_true(same_mesh(a, b));
+  assert_true(same_mesh(a, c));
+  assert_int_equal(o1.iterations, o3.iterations);
+  assert_true(a->nnode > BUB_PARALLEL_MIN);
+  check_valid(a, m);
+  pm_mesh_destroy(a), pm_mesh_destroy(b), pm_mesh_destroy(c);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+static int file_exists(const char *path) { return access(path, R_OK) == 0; }
+
+/* --trace: one row per step with the documented columns; --frames: .vtu, .svg and the .pvd. */
+static void trace_and_frames(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 1);
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(0.1, &size, &e), e);
+  char dir[] = "/tmp/bub_frames_XXXXXX";
+  assert_non_null(mkdtemp(dir));
+  pm_trace *tr = NULL;
+  pm_frames *fr = NULL;
+  PM_ASSERT_OK(pm_trace_create(&tr, &e), e);
+  PM_ASSERT_OK(pm_frames_create(dir, m, &fr, &e), e);
+  bub_params p;
+  bub_params_init(&p);
+  pm_run_output out;
+  run(m, size, &p, 1, tr, fr, &out);
+  check_valid(out.mesh, m);
+  assert_int_equal(pm_trace_nrow(tr), out.iterations);
+  const char *want[] = {"step", "bubbles", "kinetic", "potential", "mean_disp", "max_disp",
+                        "insertions", "deletions", "eps_t"};
+  for (int k = 0; k < 9; ++k) assert_string_equal(pm_trace_column(tr, k), want[k]);
+  /* Steps count up; the bubble count is the count of curve and face bubbles. */
+  for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) PM_ASSERT_NEAR(pm_trace_row(tr, r)[0], r + 1, 0);
+  char path[512];
+  snprintf(path, sizeof path, "%s/frames.pvd", dir);
+  assert_true(file_exists(path));
+  snprintf(path, sizeof path, "%s/frame_000000.vtu", dir);
+  assert_true(file_exists(path));
+  snprintf(path, sizeof path, "%s/frame_000000.svg", dir);
+  assert_true(file_exists(path));
+  assert_true(pm_frames_count(fr) >= 2);
+  for (int32_t k = 0; k < pm_frames_count(fr); ++k) {
+    snprintf(path, sizeof path, "%s/frame_%06d.vtu", dir, (int)k);
+    unlink(path);
+    snprintf(path, sizeof path, "%s/frame_%06d.svg", dir, (int)k);
+    unlink(path);
+  }
+  snprintf(path, sizeof path, "%s/frames.pvd", dir);
+  unlink(path);
+  rmdir(dir);
+  pm_frames_destroy(fr);
+  pm_trace_destroy(tr);
+  pm_mesh_destroy(out.mesh);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* The classic settings (constant damping, w2 = 1, no adaptive stop) and Heun's RK2 both give
+ * valid meshes; the classic run ends on the displacement tolerance or the step cap. */
+static void classic_and_rk2(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("qi4", &m, &size, &e), e);
+  bub_params p;
+  bub_params_init(&p);
+  p.viscosity = BUB_VISC_CONSTANT, p.w2 = 1, p.adaptive_stop = 0, p.max_steps = 400;
+  pm_run_output out;
+  run(m, size, &p, 2, NULL, NULL, &out);
+  check_valid(out.mesh, m);
+  assert_true(strstr(out.stop_reason, "max steps") || strstr(out.stop_reason, "moved more than"));
+  pm_mesh_destroy(out.mesh);
+  bub_params_init(&p);
+  p.integrator = BUB_RK2;
+  run(m, size, &p, 2, NULL, NULL, &out);
+  check_valid(out.mesh, m);
+  pm_quality q;
+  PM_ASSERT_OK(pm_quality_compute(out.mesh, size, &q, &e), e);
+  assert_true(q.tri.s_radius_ratio.mean >= 0.94);
+  pm_quality_clear(&q);
+  pm_mesh_destroy(out.mesh);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* The default size rule on a square with a short notch edge: D/30 far away, the edge's length at
+ * the edge, growth 0.3 per unit distance in between; a run without a size uses it. */
+static void default_size(void **state) {
+  (void)state;
+  /* A 4 x 4 square with a 0.05-wide, 0.05-deep notch in its bottom side at x = 2. */
+  const pm_planar_piece pc[8] = {
+      {PM_PIECE_LINE, {0, 0}, {0, 0}, 0},    {PM_PIECE_LINE, {2, 0}, {0, 0}, 0},
+      {PM_PIECE_LINE, {2, 0.05}, {0, 0}, 0}, {PM_PIECE_LINE, {2.05, 0.05}, {0, 0}, 0},
+      {PM_PIECE_LINE, {2.05, 0}, {0, 0}, 0}, {PM_PIECE_LINE, {4, 0}, {0, 0}, 0},
+      {PM_PIECE_LINE, {4, 4}, {0, 0}, 0},    {PM_PIECE_LINE, {0, 4}, {0, 0}, 0}};
+  pm_planar_loop lp = {8, pc};
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_planar_model("notch", 1, &lp, &m, &e), e);
+  bub_params p;
+  bub_params_init(&p);
+  pm_sizing *exact = NULL;
+  void *rule = NULL;
+  PM_ASSERT_OK(bub_size_rule_create(m, &p, &exact, &rule, &e), e);
+  double D = m->diagonal, far[3] = {0.5, 3.5, 0}, at[3] = {2.025, 0.05, 0}, mid[3] = {2.025, 1.05, 0};
+  PM_ASSERT_NEAR(pm_sizing_eval(exact, far), D / 30, 1e-12);
+  PM_ASSERT_NEAR(pm_sizing_eval(exact, at), 0.05, 1e-9);
+  /* One unit above the notch's top edge: 0.05 + 0.3 x 1 (below D / 30 = 0.189? no: 0.35 > 0.189). */
+  PM_ASSERT_NEAR(pm_sizing_eval(exact, mid), D / 30, 1e-12);
+  double near[3] = {2.025, 0.3, 0};
+  PM_ASSERT_NEAR(pm_sizing_eval(exact, near), 0.05 + 0.3 * 0.25, 1e-9);
+  /* g-Lipschitz along a line. */
+  double prev = -1;
+  for (int k = 0; k <= 400; ++k) {
+    double x[3] = {k * 0.01, 0.2, 0}, v = pm_sizing_eval(exact, x);
+    if (prev >= 0) assert_true(fabs(v - prev) <= 0.3 * 0.01 * (1 + 1e-9));
+    prev = v;
+  }
+  /* bub_default_size: the same rule sampled on a triangulation; within 10% of the exact one on
+   * the face. */
+  pm_sizing *sampled = NULL;
+  PM_ASSERT_OK(bub_default_size(m, &p, 1, 1, &sampled, &e), e);
+  for (int k = 0; k < 50; ++k) {
+    double x[3] = {0.1 + 0.076 * k, 0.02 + 0.079 * k, 0};
+    double a = pm_sizing_eval(exact, x), b = pm_sizing_eval(sampled, x);
+    assert_true(fabs(a - b) <= 0.1 * a);
+  }
+  /* A run without a size field. */
+  pm_run_output out;
+  pm_mesh *mesh = run(m, NULL, &p, 2, NULL, NULL, &out);
+  check_valid(mesh, m);
+  pm_quality q;
+  PM_ASSERT_OK(pm_quality_compute(mesh, exact, &q, &e), e);
+  assert_true(q.tri.s_min_angle.min >= 20);
+  assert_true(fabs(q.tri.size_ratio.mean - 1) < 0.1);
+  pm_quality_clear(&q);
+  pm_mesh_destroy(mesh);
+  pm_sizing_destroy(sampled);
+  pm_sizing_destroy(exact);
+  bub_size_rule_free(rule);
+  pm_model_destroy(m);
+}
+
+/* Caps and bad input: one-line errors, no mesh. */
+static void caps_and_errors(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 1);
+  pm_sizing *size = NULL, *neg = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(0.05, &size, &e), e);
+  bub_params p;
+  bub_params_init(&p);
+  pm_run_output out;
+  memset(&out, 0, sizeof out);
+  pm_run_input in = {m, size, 1, 1, 0, 100, NULL, NULL};
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
+  assert_null(out.mesh);
+  assert_null(strchr(e.msg, '\n'));
+  /* The method's own cap ends the run instead when it is reached by insertions only. */
+  in.max_nodes = PM_DEFAULT_MAX_NODES;
+  p.k0 = 0;
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "k0"));
+  bub_params_init(&p);
+  p.w2 = 2;
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "w2"));
+  bub_params_init(&p);
+  PM_ASSERT_OK(pm_sizing_expression("x - 5", &neg, &e), e); /* negative on the square */
+  in.size = neg;
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "size"));
+  assert_null(out.mesh);
+  pm_sizing_destroy(neg);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(qi4_quality),      cmocka_unit_test(determinism),
+      cmocka_unit_test(trace_and_frames), cmocka_unit_test(classic_and_rk2),
+      cmocka_unit_test(default_size),     cmocka_unit_test(caps_and_errors),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,120 @@
+/* The bubble method on curved CAD faces (gmsh-built solids): bubbles stay on a torus over 1000
+ * steps (papers/003 eq. 15 through geom.h's shared displacement), whole runs on the sphere and on
+ * the cylinder with the default size rule and tets (--volume). */
+#include "bub_test_util.h"
+
+#include "common/cases.h"
+#include "common/geom_cad.h"
+#include "common/mesh_check.h"
+#include "common/quality.h"
+#include "common/sizing.h"
+
+static void check_valid(const pm_mesh *mesh, const pm_model *m) {
+  pm_check_report r;
+  memset(&r, 0, sizeof r);
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_mesh_check(mesh, m, &r, &e), e);
+  for (int i = 0; i < r.nproblem; ++i) print_error("problem: %s\n", r.problem[i]);
+  assert_true(r.valid);
+  pm_check_report_clear(&r);
+}
+
+/* R = 1, r = 0.35 (cad case "torus"): distance of a point from the torus surface. */
+static double torus_dist(const double x[3]) {
+  double q = hypot(x[0], x[1]) - 1.0;
+  return fabs(hypot(q, x[2]) - 0.35);
+}
+
+static void torus_confinement(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_case("torus", &m, &e), e);
+  const double d = 0.2;
+  PM_ASSERT_OK(pm_sizing_constant(d, &size, &e), e);
+  bub_params p = bt_params();
+  p.w2 = 1; /* dense start: the bubbles keep moving for a while */
+  bub_state *s = bt_state(m, size, &p, 1);
+  PM_ASSERT_OK(bub_place(s, &e), e);
+  assert_true(s->nf - s->nc > 100);
+  double moved = 0;
+  for (int k = 0; k < 1000; ++k) {
+    bub_step_info info = bt_steps(s, 1);
+    if (k < 10) moved = fmax(moved, info.max_disp);
+    for (int32_t i = 0; i < s->n; ++i) {
+      if (torus_dist(&s->x[3 * i]) > 1e-9 * d) fail_msg("bubble %d off the torus by %g at step %d", (int)i, torus_dist(&s->x[3 * i]), k);
+    }
+  }
+  assert_true(moved > 1e-3 * d); /* they did move */
+  /* Positions are the surface at the bubbles' parameters. */
+  for (int32_t i = s->nc; i < s->nf; ++i) {
+    double x[3];
+    pm_cell_point(pm_model_cell(m, PM_FACE, s->cell[i]), &s->par[2 * i], x);
+    assert_true(pm_v3_dist(x, &s->x[3 * i]) <= 1e-12);
+  }
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* A whole run on the sphere with the case's size: valid and well shaped. */
+static void sphere_run(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("sphere", &m, &size, &e), e);
+  bub_params p;
+  bub_params_init(&p);
+  pm_run_input in = {m, size, 3, 2, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_output out;
+  memset(&out, 0, sizeof out);
+  PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
+  check_valid(out.mesh, m);
+  pm_quality q;
+  PM_ASSERT_OK(pm_quality_compute(out.mesh, size, &q, &e), e);
+  assert_true(q.tri.s_radius_ratio.mean > 0.93);
+  assert_true(fabs(q.tri.size_ratio.mean - 1) < 0.1);
+  for (int32_t i = 0; i < out.mesh->nnode; ++i)
+    PM_ASSERT_NEAR(pm_v3_norm(&out.mesh->xyz[3 * i]), 1.0, 1e-9);
+  pm_quality_clear(&q);
+  pm_mesh_destroy(out.mesh);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+/* The cylinder without a size (the default rule) and with --volume: tets from TetGen's quality
+ * refinement of the bubble surface mesh. */
+static void cylinder_default_size_volume(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("cylinder", &m, NULL, &e), e);
+  bub_params p;
+  bub_params_init(&p);
+  pm_run_input in = {m, NULL, 3, 2, 1, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_output out;
+  memset(&out, 0, sizeof out);
+  PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
+  check_valid(out.mesh, m);
+  assert_true(out.mesh->ntet > 0);
+  assert_true(out.mesh->ntri > 0);
+  /* The default size: diagonal / 30 (radius 0.5, height 2: no smaller feature). */
+  pm_sizing *ds = NULL;
+  PM_ASSERT_OK(bub_default_size(m, &p, 3, 1, &ds, &e), e);
+  double x[3] = {0.5, 0, 0};
+  PM_ASSERT_NEAR(pm_sizing_eval(ds, x), m->diagonal / 30, 1e-9 * m->diagonal);
+  pm_sizing_destroy(ds);
+  pm_mesh_destroy(out.mesh);
+  pm_model_destroy(m);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(torus_confinement),
+      cmocka_unit_test(sphere_run),
+      cmocka_unit_test(cylinder_default_size_volume),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
