@@ -310,12 +310,15 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
   if (b->logscale) {
     SB(&g, "  set logscale y\n");
     SB(&g, "  set format y \"%%g\"\n");
+    /* A narrow log range has one decade tic at most: label the usual values. */
+    SB(&g, "  set ytics (0.5, 0.6, 0.7, 0.8, 0.9, 1, 1.2, 1.5, 2, 3, 5, 10, 20, 50, 100, 1000, "
+           "1e4, 1e5, 1e6)\n");
     /* No element goes below the ideal value (0.577 triangles, 0.612 tets): start near it. */
     if (top > ASPECT_AXIS_MAX)
       SB(&g, "  set yrange [0.5:%g]  # degenerate elements (1e100) go beyond the top\n",
          ASPECT_AXIS_MAX);
-    else
-      SB(&g, "  set yrange [0.5:*]\n");
+    else /* just above the largest whisker, not the next decade */
+      SB(&g, "  set yrange [0.5:%.3g]\n", top * 1.25 > 1 ? top * 1.25 : 1);
   }
   SB(&g, "  set xrange [0:%d]\n", nshown * (nm + 1));
   SB(&g, "  set xtics (");
@@ -326,15 +329,6 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
     first = 0;
   }
   SB(&g, ") scale 0\n");
-  if (b->ref > 0) {
-    SB(&g, "  set arrow from graph 0, first %.9g to graph 1, first %.9g nohead dt 2 lc rgb "
-           "\"#888888\"\n",
-       b->ref, b->ref);
-    gp_quote(b->ref_label, q, sizeof q);
-    SB(&g, "  set label \"%s\" at graph 1, first %.9g right offset -0.5,0.6 tc rgb \"#666666\" "
-           "font \",10\"\n",
-       q, b->ref);
-  }
   SB(&g, "  plot \\\n");
   int first = 1;
   for (int m = 0; m < nm; ++m) {
@@ -345,6 +339,12 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
            "    data index %d using 1:4:4:4:4 with candlesticks lc rgb \"black\" lw 2.5 notitle",
        first ? "" : ", \\\n", blocks[m] - 1, palette[m % NPALETTE], q, blocks[m] - 1);
     first = 0;
+  }
+  /* The ideal value as a dashed line named in the key (a label on the plot would sit on the
+   * boxes). */
+  if (b->ref > 0) {
+    gp_quote(b->ref_label, q, sizeof q);
+    SB(&g, ", \\\n    %.9g with lines dt 2 lc rgb \"#888888\" title \"%s\"", b->ref, q);
   }
   SB(&g, "\n");
   script_tail(&g);
