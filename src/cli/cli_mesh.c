@@ -76,21 +76,26 @@ static int parse(int argc, char **argv, mesh_opts *o) {
   o->seed = 1;
   o->threads = omp_get_max_threads();
   o->max_nodes = PM_DEFAULT_MAX_NODES;
-  for (int i = 1; i < argc; ++i) {
+  /* pm_cli_option advances i past an option and its value; every other branch advances it
+   * explicitly. */
+  for (int i = 1; i < argc;) {
     const char *v = NULL;
     int r;
     const char *a = argv[i];
     if (pm_cli_flag(a, "help") || strcmp(a, "-h") == 0) {
       o->help = 1;
+      ++i;
       continue;
     }
     if (pm_cli_flag(a, "volume")) {
       o->volume = 1;
+      ++i;
       continue;
     }
     if (strcmp(a, "-o") == 0) {
       if (i + 1 >= argc) return pm_cli_usage("mesh", "-o needs a file name");
-      o->out = argv[++i];
+      o->out = argv[i + 1];
+      i += 2;
       continue;
     }
 #define OPT(name, field)                                                         \
@@ -145,6 +150,7 @@ static int parse(int argc, char **argv, mesh_opts *o) {
     if (a[0] == '-' && a[1]) return pm_cli_usage("mesh", "unknown option '%s'", a);
     if (o->input) return pm_cli_usage("mesh", "more than one INPUT ('%s' and '%s')", o->input, a);
     o->input = a;
+    ++i;
   }
   return PM_EXIT_OK;
 }

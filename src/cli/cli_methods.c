@@ -3,8 +3,16 @@
 
 #include <string.h>
 
+#include "bubble/bubble.h"
+#include "peers/peers.h"
+
+/* In the order `packmesh mesh --help` lists them: ours first, then the classic peers. */
 static const pm_method *const methods[] = {
-    NULL, /* filled in as the meshers are linked in */
+    &bub_method,
+    &peer_gmsh_frontal,
+    &peer_gmsh_delaunay,
+    &peer_gmsh_meshadapt,
+    &peer_cgal,
 };
 
 static int count(void) {
