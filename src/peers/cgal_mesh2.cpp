@@ -458,6 +458,9 @@ extern "C" pm_status peer_mesh2_run(const peer_mesh2_input *in, peer_mesh2_resul
   try {
     run(in, out);
     return PM_OK;
+  } catch (const CDT::Intersection_of_constraints_exception &) {
+    peer_mesh2_result_free(out);
+    return pm_error_setf(err, PM_ERR_GEOM, "CGAL Mesh_2: two boundary segments cross");
   } catch (const Limit_reached &) {
     peer_mesh2_result_free(out);
     return pm_error_setf(err, PM_ERR_LIMIT,

@@ -28,8 +28,10 @@
  * is the same from run to run; they stop at the iteration cap or at convergence.
  *
  * Failures: PM_ERR_ARG for bad input (counts, indices, non-finite coordinates, bounds out of
- * range), PM_ERR_LIMIT when refinement would exceed max_points, PM_ERR_NOMEM, PM_ERR_BACKEND for
- * any CGAL exception (with its message). No C++ exception crosses this header.
+ * range), PM_ERR_GEOM when two constraint edges cross other than at a shared end point (the
+ * boundary polylines of a coarsely sampled curved domain can), PM_ERR_LIMIT when refinement
+ * would exceed max_points, PM_ERR_NOMEM, PM_ERR_BACKEND for any other CGAL exception (with its
+ * message). No C++ exception crosses this header.
  */
 #ifndef PM_CGAL_MESH2_H
 #define PM_CGAL_MESH2_H

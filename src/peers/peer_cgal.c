@@ -7,7 +7,11 @@
  *      edges of length d that fit), the curve gets n = max(1, round(F(end))) segments (3 for a
  *      closed curve), with nodes where F = j F(end) / n. F is integrated by the trapezoid rule on
  *      steps of at most a quarter of the local d (and 1/64 of the curve), and inverted by linear
- *      interpolation. The polylines (vertex nodes shared) are Mesh_2's constraints;
+ *      interpolation. The polylines (vertex nodes shared) are Mesh_2's constraints. Chords of
+ *      arcs sampled that coarsely can cross another boundary polyline although the curves do
+ *      not meet (two circles at a field coarser than their gap): then the arcs alone are sampled
+ *      2, 4, ... 64 times finer until the polylines are disjoint (stats key
+ *      "cgal_arc_refinement": the factor's exponent);
  *   2. Mesh_2 refines (the criteria of cgal_mesh2.h with the size field and the parameters),
  *      optionally followed by Lloyd or ODT smoothing;
  *   3. classification: boundary nodes lie on our curves (t from the sampling) and vertices;
@@ -131,7 +135,7 @@ static int bnd_cons(bnd *b, int32_t p, int32_t q, int32_t curve) {
 /* Sample curve c so that its segments have length ~ d (see the file comment); append its inner
  * points and its constraint chain. */
 static pm_status discretize_curve(const pm_model *m, const pm_cell *c, size_ctx *sc,
-                                  int64_t max_nodes, bnd *b, pm_error *err) {
+                                  int64_t max_nodes, int refine, bnd *b, pm_error *err) {
   double lo = c->lo[0], hi = c->hi[0];
   int32_t v0 = c->bound[0].sense < 0 ? c->bound[0].cell : c->bound[1].cell;
   int32_t v1 = c->bound[0].sense < 0 ? c->bound[1].cell : c->bound[0].cell;
@@ -181,6 +185,13 @@ static pm_status discretize_curve(const pm_model *m, const pm_cell *c, size_ctx 
   }
   long n = lround(F);
   if (n < (closed ? 3 : 1)) n = closed ? 3 : 1;
+  if (refine > 0 && strcmp(c->cls->name, "segment") != 0) n <<= refine;
+  if (n > max_nodes) {
+    s = pm_error_setf(err, PM_ERR_LIMIT,
+                      "cgal: curve %d needs more than %lld boundary nodes (the node cap)", c->tag,
+                      (long long)max_nodes);
+    goto done;
+  }
   int32_t prev = v0;
   size_t k = 1;
   for (long j = 1; j < n; ++j) {
@@ -263,7 +274,6 @@ static pm_status cgal_run(const pm_run_input *in, const void *params_v, pm_run_o
     return s;
   }
 
-  double t0 = pm_seconds();
   size_ctx sc = {size, 0, {0, 0}, 0};
   bnd b = {0};
   peer_mesh2_result res = {0};
@@ -271,13 +281,18 @@ static pm_status cgal_run(const pm_run_input *in, const void *params_v, pm_run_o
   double *chord = NULL;
   uint8_t *moved = NULL;
   int32_t chord_left = 0;
-  for (int32_t v = 0; v < m->count[PM_VERTEX] && !s; ++v)
-    if (bnd_point(&b, m->cells[PM_VERTEX][v].xyz, PM_VERTEX, v, 0) < 0)
-      s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  for (int32_t c = 0; c < m->count[PM_CURVE] && !s; ++c)
-    s = discretize_curve(m, &m->cells[PM_CURVE][c], &sc, in->max_nodes, &b, err);
-  double t_boundary = pm_seconds() - t0;
-  if (!s) {
+  double t_boundary = 0;
+  int refine = 0;
+  for (;; ++refine) {
+    double tb = pm_seconds();
+    for (int32_t v = 0; v < m->count[PM_VERTEX] && !s; ++v)
+      if (bnd_point(&b, m->cells[PM_VERTEX][v].xyz, PM_VERTEX, v, 0) < 0)
+        s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    for (int32_t c = 0; c < m->count[PM_CURVE] && !s; ++c)
+      s = discretize_curve(m, &m->cells[PM_CURVE][c], &sc, in->max_nodes, refine, &b, err);
+    t_boundary += pm_seconds() - tb;
+    if (s) break;
+
     peer_mesh2_input mi;
     memset(&mi, 0, sizeof mi);
     mi.npts = b.n, mi.xy = b.xy;
@@ -291,6 +306,16 @@ static pm_status cgal_run(const pm_run_input *in, const void *params_v, pm_run_o
     mi.opt_iterations = p->opt_iterations;
     mi.max_points = in->max_nodes > INT32_MAX ? INT32_MAX : (int32_t)in->max_nodes;
     s = peer_mesh2_run(&mi, &res, err);
+    if (s != PM_ERR_GEOM) break;
+    if (refine == 6) {
+      pm_error_setf(err, PM_ERR_GEOM,
+                    "cgal: the boundary polylines of '%s' cross even with its arcs sampled 64 "
+                    "times finer than the size field asks; the field is too coarse for the domain",
+                    m->name);
+      break;
+    }
+    s = PM_OK;
+    b.n = 0, b.ncons = 0;
   }
   if (!s && sc.bad)
     s = pm_error_setf(err, PM_ERR_ARG, "cgal: the size field is %g at (%g, %g), not > 0",
@@ -352,6 +377,7 @@ static pm_status cgal_run(const pm_run_input *in, const void *params_v, pm_run_o
       pm_stats_add_number(out->stats, "cgal_boundary_nodes", b.n, NULL);
       pm_stats_add_number(out->stats, "cgal_chord_nodes", chord_left, NULL);
       pm_stats_add_number(out->stats, "cgal_hole_seeds", res.nseeds, NULL);
+      pm_stats_add_number(out->stats, "cgal_arc_refinement", refine, NULL);
     }
     snprintf(out->stop_reason, sizeof out->stop_reason, "CGAL Mesh_2 refinement done%s%s",
              p->optimizer == PEER_CGAL_OPT_NONE ? ""

@@ -9,9 +9,9 @@
  *      afterwards. The size field governs alone: the size callback returns d(x), and
  *      Mesh.MeshSizeFromPoints = 0, Mesh.MeshSizeFromCurvature = 0,
  *      Mesh.MeshSizeExtendFromBoundary = 0, Mesh.MeshSizeMin = 0, Mesh.MeshSizeMax = 1e22,
- *      Mesh.MeshSizeFactor = 1 switch off every other source and bound. gmsh's floor of
- *      Mesh.MinimumCirclePoints = 7 (and Mesh.MinimumCurvePoints = 3) nodes on a closed curve is
- *      left at its default: it matters only for fields coarser than a seventh of a circle;
+ *      Mesh.MeshSizeFactor = 1 switch off every other source and bound; gmsh's floor of 7 nodes
+ *      per circle (Mesh.MinimumCirclePoints) is lowered to 3, the least a closed curve needs (and
+ *      what the CGAL peer and the connection step use), and Mesh.MinimumCurvePoints is 3;
  *   3. gmshModelMeshGenerate(2) with Mesh.Algorithm = 1 / 5 / 6; with --volume and volume=gmsh,
  *      gmshModelMeshGenerate(3) with Mesh.Algorithm3D = 1 (Delaunay);
  *   4. the mesh becomes a pm_mesh classified on our cells (node dimension, cell, parameters;
@@ -89,7 +89,7 @@ typedef struct gopt {
 
 enum {
   O_ALGO, O_ALGO3D, O_EXTEND, O_POINTS, O_CURV, O_MIN, O_MAX, O_FACTOR, O_SMOOTH, O_OPT,
-  O_NETGEN, O_ORDER, O_RECOMB, O_SUBDIV, O_THR1, O_THR2, O_THR3, O_COUNT
+  O_NETGEN, O_ORDER, O_RECOMB, O_SUBDIV, O_THR1, O_THR2, O_THR3, O_CIRC, O_CURVE, O_COUNT
 };
 
 static void options_init(gopt *o, int algorithm, const peer_gmsh_params *p) {
@@ -99,9 +99,9 @@ static void options_init(gopt *o, int algorithm, const peer_gmsh_params *p) {
       "Mesh.MeshSizeMax", "Mesh.MeshSizeFactor", "Mesh.Smoothing", "Mesh.Optimize",
       "Mesh.OptimizeNetgen", "Mesh.ElementOrder", "Mesh.RecombineAll",
       "Mesh.SubdivisionAlgorithm", "Mesh.MaxNumThreads1D", "Mesh.MaxNumThreads2D",
-      "Mesh.MaxNumThreads3D"};
+      "Mesh.MaxNumThreads3D", "Mesh.MinimumCirclePoints", "Mesh.MinimumCurvePoints"};
   const double values[O_COUNT] = {algorithm, 1, 0, 0, 0, 0, 1e22, 1, p->smoothing, p->optimize,
-                                  0, 1, 0, 0, 1, 1, 1};
+                                  0, 1, 0, 0, 1, 1, 1, 3, 3};
   for (int i = 0; i < O_COUNT; ++i) o[i] = (gopt){names[i], values[i], 0, 0};
 }
 
@@ -208,6 +208,8 @@ static pm_status convert_nodes(const pm_model *m, const peer_tagmap *map, int pl
   node_key *keys = NULL;
   size_t nkeys = 0, cap = 0;
   pm_status s = PM_OK;
+  uint8_t *stray = peer_stray_vertices(m);
+  if (!stray) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   for (int dim = 0; dim <= maxdim && !s; ++dim) {
     int ierr = 0, *dt = NULL;
     size_t ndt = 0;
@@ -229,6 +231,8 @@ static pm_status convert_nodes(const pm_model *m, const peer_tagmap *map, int pl
         if (cell < 0)
           s = pm_error_setf(err, PM_ERR_INTERNAL, "gmsh entity (%d, %d) is no cell of model '%s'",
                             dim, tag, m->name);
+        /* A stray point's node would duplicate another vertex's; no element uses it. */
+        if (!s && dim == PM_VERTEX && stray[cell]) nn = 0;
         if (!s && nkeys + nn > cap) {
           size_t ncap = cap ? cap : 1024;
           while (ncap < nkeys + nn) ncap *= 2;
@@ -250,6 +254,7 @@ static pm_status convert_nodes(const pm_model *m, const peer_tagmap *map, int pl
     }
     if (dt) gmshFree(dt);
   }
+  free(stray);
   if (!s && nkeys) qsort(keys, nkeys, sizeof *keys, cmp_node_key);
   if (s) {
     free(keys);

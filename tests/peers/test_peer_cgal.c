@@ -197,6 +197,42 @@ static void holes_and_arcs(void **state) {
   }
 }
 
+/* qi4 at d = 2: three chords per circle would cross (the inner circle's triangle pokes out of
+ * the outer one's), so the arcs are sampled finer until the polylines are disjoint; the mesh is
+ * valid and the stats say how much finer. At d = 0.7 no refinement is needed. */
+static void coarse_arcs(void **state) {
+  (void)state;
+  pm_model *md = NULL;
+  peer_test_case("qi4", &md, NULL);
+  const double sizes[2] = {2, 0.7};
+  const double refined[2] = {1, 0};
+  for (int k = 0; k < 2; ++k) {
+    pm_sizing *sz = NULL;
+    pm_error e = {0};
+    PM_ASSERT_OK(pm_sizing_constant(sizes[k], &sz, &e), e);
+    pm_stats st;
+    pm_stats_init(&st);
+    peer_cgal_params p;
+    peer_cgal_params_init(&p);
+    pm_run_input in = {md, sz, 1, 1, 0, 1000000, NULL, NULL};
+    pm_run_output out;
+    memset(&out, 0, sizeof out);
+    out.stats = &st;
+    PM_ASSERT_OK(peer_cgal.run(&in, &p, &out, &e), e);
+    peer_test_expect_valid(out.mesh, md);
+    pm_stats_flat flat;
+    PM_ASSERT_OK(pm_stats_flatten(&st, &flat, &e), e);
+    const pm_stats_item *it = pm_stats_flat_find(&flat, "cgal_arc_refinement");
+    assert_non_null(it);
+    assert_true(it->num == refined[k]);
+    pm_stats_flat_clear(&flat);
+    pm_stats_clear(&st);
+    pm_mesh_destroy(out.mesh);
+    pm_sizing_destroy(sz);
+  }
+  pm_model_destroy(md);
+}
+
 /* Same input twice: the identical mesh (Mesh_2 and the optimizers are deterministic). */
 static void determinism(void **state) {
   (void)state;
@@ -310,7 +346,8 @@ static void default_size(void **state) {
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(uniform_and_graded), cmocka_unit_test(optimizers_and_shape),
-      cmocka_unit_test(holes_and_arcs),     cmocka_unit_test(determinism),
+      cmocka_unit_test(holes_and_arcs),     cmocka_unit_test(coarse_arcs),
+      cmocka_unit_test(determinism),
       cmocka_unit_test(bad_input),          cmocka_unit_test(default_size),
   };
   if (getenv("PM_TEST_FILTER")) cmocka_set_test_filter(getenv("PM_TEST_FILTER"));

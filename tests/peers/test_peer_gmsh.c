@@ -166,7 +166,7 @@ static void arcs_of_every_kind(void **state) {
   pm_model_destroy(md);
 }
 
-/* Holes of the built-in cases (full circles): valid meshes, hole boundaries on their circles. */
+/* Holes of the built-in cases (full circles): valid meshes, mean edge length near d. */
 static void qi2_qi4_holes(void **state) {
   (void)state;
   static const char *const names[2] = {"qi2", "qi4"};
@@ -186,6 +186,24 @@ static void qi2_qi4_holes(void **state) {
     pm_sizing_destroy(sz);
     pm_model_destroy(md);
   }
+  /* A field coarser than the circles: the field governs, not gmsh's floor of 7 nodes per
+   * circle (qi4's circles of length 2 pi and pi get 3 or 4 segments at d = 2). */
+  pm_model *md = NULL;
+  pm_sizing *sz = NULL;
+  pm_error e = {0};
+  peer_test_case("qi4", &md, NULL);
+  PM_ASSERT_OK(pm_sizing_constant(2, &sz, &e), e);
+  pm_mesh *m = NULL;
+  PM_ASSERT_OK(peer_test_run(&peer_gmsh_frontal, md, sz, 0, NULL, &m, &e), e);
+  peer_test_expect_valid(m, md);
+  for (int32_t c = 0; c < md->count[PM_CURVE]; ++c) {
+    int32_t nseg = 0;
+    for (int32_t s = 0; s < m->nseg; ++s) nseg += m->seg_cell[s] == c;
+    assert_true(nseg >= 3 && nseg <= 4);
+  }
+  pm_mesh_destroy(m);
+  pm_sizing_destroy(sz);
+  pm_model_destroy(md);
 }
 
 /* Solids and a shared CAD model: valid meshes with closed, outward shells of the right Euler
