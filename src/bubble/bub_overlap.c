@@ -94,16 +94,20 @@ static int cmp_tid(const void *a, const void *b) {
   return (x->id > y->id) - (x->id < y->id);
 }
 
-pm_status bub_outside_layer(bub_state *s, pm_error *err) {
+/* A border chord of a face: consecutive boundary bubbles A, B along one of its loops (in loop
+ * order, face on the left in (u, v)); e the unit chord direction, w the unit outward direction
+ * in the face's tangent plane, len the chord length. */
+typedef struct chord {
+  int32_t face, A, B;
+  double e[3], w[3], len;
+} chord;
+
+typedef pm_status (*chord_fn)(bub_state *s, const chord *c, void *user, pm_error *err);
+
+/* Call fn for every border chord of every face (seams and degenerate curves are not borders). */
+static pm_status for_each_chord(bub_state *s, chord_fn fn, void *user, pm_error *err) {
   const pm_model *m = s->model;
   pm_status st = PM_OK;
-  for (int32_t i = 0; i < s->n && !st; ++i)
-    if (s->kind[i] == BUB_KOUT && !(s->flags[i] & BUB_FDEAD)) {
-      s->flags[i] |= BUB_FDEAD;
-      st = pm_grid_remove(s->grid, i, err);
-    }
-  if (st) return st;
-
   /* Live curve bubbles per curve, sorted by t; the bubble of each vertex. */
   int32_t nc = m->count[PM_CURVE], nv = m->count[PM_VERTEX];
   int32_t *coff = calloc((size_t)nc + 2, sizeof(int32_t));
@@ -163,7 +167,8 @@ pm_status bub_outside_layer(bub_state *s, pm_error *err) {
             chain[len - 1 - k] = ti, chain_t[len - 1 - k] = tt;
           }
         for (int32_t k = 0; k + 1 < len && !st; ++k) {
-          int32_t A = chain[k], B = chain[k + 1];
+          chord c;
+          c.face = f, c.A = chain[k], c.B = chain[k + 1];
           double uva[2], uvb[2];
           pm_face_curve_uv(fc, use, chain_t[k], uva);
           pm_face_curve_uv(fc, use, chain_t[k + 1], uvb);
@@ -171,28 +176,106 @@ pm_status bub_outside_layer(bub_state *s, pm_error *err) {
           pm_face_point fp;
           pm_face_eval(fc, uvm, 1, &fp);
           /* Loops keep the face on their left in (u, v): outward is the right normal. */
-          double du = uvb[0] - uva[0], dv = uvb[1] - uva[1], w[3], e[3], nrm[3];
-          for (int q = 0; q < 3; ++q) w[q] = fp.su[q] * dv - fp.sv[q] * du;
-          pm_v3_sub(e, &s->x[3 * B], &s->x[3 * A]);
-          double len_ab = pm_v3_normalize(e);
-          if (!(len_ab > 0)) continue;
+          double du = uvb[0] - uva[0], dv = uvb[1] - uva[1], nrm[3];
+          for (int q = 0; q < 3; ++q) c.w[q] = fp.su[q] * dv - fp.sv[q] * du;
+          pm_v3_sub(c.e, &s->x[3 * c.B], &s->x[3 * c.A]);
+          c.len = pm_v3_normalize(c.e);
+          if (!(c.len > 0)) continue;
           pm_v3_cross(nrm, fp.su, fp.sv);
-          if (pm_v3_normalize(nrm) > 0) pm_v3_axpy(w, w, -pm_v3_dot(w, nrm), nrm);
-          pm_v3_axpy(w, w, -pm_v3_dot(w, e), e);
-          if (!(pm_v3_normalize(w) > 0)) continue;
-          double apex[3], mid[3];
-          pm_v3_add(mid, &s->x[3 * A], &s->x[3 * B]);
-          pm_v3_scale(mid, mid, 0.5);
-          pm_v3_axpy(apex, mid, 0.86602540378443865 * len_ab, w);
-          int32_t id;
-          st = bub_state_add(s, BUB_KOUT, f, NULL, apex, 0.5 * (s->d[A] + s->d[B]), &id, err);
-          if (!st) st = pm_grid_insert(s->grid, id, apex, s->d[id], err);
+          if (pm_v3_normalize(nrm) > 0) pm_v3_axpy(c.w, c.w, -pm_v3_dot(c.w, nrm), nrm);
+          pm_v3_axpy(c.w, c.w, -pm_v3_dot(c.w, c.e), c.e);
+          if (!(pm_v3_normalize(c.w) > 0)) continue;
+          st = fn(s, &c, user, err);
         }
       }
     }
   }
   free(chain), free(chain_t);
   free(coff), free(vb), free(ct);
+  return st;
+}
+
+static pm_status add_outside(bub_state *s, const chord *c, void *user, pm_error *err) {
+  (void)user;
+  double apex[3], mid[3];
+  pm_v3_add(mid, &s->x[3 * c->A], &s->x[3 * c->B]);
+  pm_v3_scale(mid, mid, 0.5);
+  pm_v3_axpy(apex, mid, 0.86602540378443865 * c->len, c->w);
+  int32_t id;
+  pm_status st = bub_state_add(s, BUB_KOUT, c->face, NULL, apex, 0.5 * (s->d[c->A] + s->d[c->B]), &id, err);
+  if (!st) st = pm_grid_insert(s->grid, id, apex, s->d[id], err);
+  return st;
+}
+
+pm_status bub_outside_layer(bub_state *s, pm_error *err) {
+  pm_status st = PM_OK;
+  for (int32_t i = 0; i < s->n && !st; ++i)
+    if (s->kind[i] == BUB_KOUT && !(s->flags[i] & BUB_FDEAD)) {
+      s->flags[i] |= BUB_FDEAD;
+      st = pm_grid_remove(s->grid, i, err);
+    }
+  if (!st) st = for_each_chord(s, add_outside, NULL, err);
   s->grid_valid = !st; /* bub_state_add marks it invalid; the grid was updated alongside */
+  return st;
+}
+
+/* ---- face bubbles on the border --------------------------------------------------------------- */
+
+typedef struct border_ctx {
+  pm_idbuf buf;
+  int32_t dropped;
+} border_ctx;
+
+static pm_status drop_near_chord(bub_state *s, const chord *c, void *user, pm_error *err) {
+  border_ctx *bc = user;
+  const double *xa = &s->x[3 * c->A];
+  double mid[3];
+  pm_v3_axpy(mid, xa, 0.5 * c->len, c->e);
+  pm_status st = pm_grid_query_ball(s->grid, mid, 0.5 * c->len + 0.5 * (s->d[c->A] + s->d[c->B]), &bc->buf, err);
+  for (int32_t k = 0; k < bc->buf.n && !st; ++k) {
+    int32_t i = bc->buf.ids[k];
+    if (s->kind[i] != BUB_KFACE || s->cell[i] != c->face || (s->flags[i] & BUB_FDEAD)) continue;
+    double r[3];
+    pm_v3_sub(r, &s->x[3 * i], xa);
+    double t = pm_v3_dot(r, c->e) / c->len, o = pm_v3_dot(r, c->w);
+    double l0 = 0.5 * (s->d[i] + 0.5 * (s->d[c->A] + s->d[c->B]));
+    if (t < 0 || t > 1 || o < -0.25 * l0 || o > l0) continue;
+    s->flags[i] |= BUB_FDEAD;
+    st = pm_grid_remove(s->grid, i, err);
+    bc->dropped++;
+  }
+  return st;
+}
+
+/* A face bubble closer than half the stable distance to a vertex or curve bubble it feels: one
+ * the packing squeezed against a corner (a cone's apex, a pole) that no chord covers. */
+static pm_status drop_near_boundary_bubbles(bub_state *s, border_ctx *bc, pm_error *err) {
+  pm_status st = PM_OK;
+  for (int32_t i = s->nc; i < s->nf && !st; ++i) {
+    if (s->kind[i] != BUB_KFACE || (s->flags[i] & BUB_FDEAD)) continue;
+    st = pm_grid_query_overlap(s->grid, &s->x[3 * i], 0, &bc->buf, err);
+    for (int32_t k = 0; k < bc->buf.n && !st; ++k) {
+      int32_t j = bc->buf.ids[k];
+      if (s->kind[j] > BUB_KCURVE || !bub_related(s, i, j)) continue;
+      if (pm_v3_dist(&s->x[3 * i], &s->x[3 * j]) < 0.25 * (s->d[i] + s->d[j])) {
+        s->flags[i] |= BUB_FDEAD;
+        st = pm_grid_remove(s->grid, i, err);
+        bc->dropped++;
+        break;
+      }
+    }
+  }
+  return st;
+}
+
+pm_status bub_border_cleanup(bub_state *s, int32_t *dropped, pm_error *err) {
+  *dropped = 0;
+  pm_status st = bub_state_grid_rebuild(s, err);
+  border_ctx bc = {PM_IDBUF_INIT, 0};
+  if (!st) st = for_each_chord(s, drop_near_chord, &bc, err);
+  if (!st) st = drop_near_boundary_bubbles(s, &bc, err);
+  pm_idbuf_free(&bc.buf);
+  *dropped = bc.dropped;
+  if (!st && bc.dropped) st = bub_state_compact(s, err);
   return st;
 }

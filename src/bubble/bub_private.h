@@ -69,6 +69,7 @@ typedef struct bub_state {
   double *par;           /* [2n] parameters on the cell (curve: t; face: u, v) */
   double *der;           /* [6n] first derivatives at par (curve: C'; face: Su, Sv) */
   double *d;             /* [n] diameter d(x) (the desired edge length at x) */
+  double *dmoved;        /* [n] distance moved since d was last evaluated (bub_dynamics.c) */
   double *alpha;         /* [n] overlap ratio (valid during population control) */
   int8_t *kind;          /* [n] BUB_K* */
   int32_t *cell;         /* [n] index of the cell in its dimension */
@@ -214,6 +215,13 @@ void bub_alpha_all(bub_state *s);
 /* Replace the outside layer: remove the outside bubbles (from arrays and grid) and place new
  * ones outside the borders of every face (000 section 4.2.1). Needs a valid grid. */
 pm_status bub_outside_layer(bub_state *s, pm_error *err);
+
+/* Before the connection: remove the face bubbles that lie on a border chord of their face (the
+ * segment between two consecutive boundary bubbles) or beyond it, within a quarter of the stable
+ * distance, and those closer than half the stable distance to a vertex or curve bubble of their
+ * face (bub_overlap.c). Such a bubble, squeezed against the border where no force pushes it back
+ * inside, would make a flat triangle. *dropped receives their number. */
+pm_status bub_border_cleanup(bub_state *s, int32_t *dropped, pm_error *err);
 
 /* ---- population control (bub_population.c) -------------------------------------------------- */
 

@@ -184,6 +184,8 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   if (!st && in->frames && s->step % p->frame_every != 0) st = snapshot(s, in->frames, err);
   if (!st && in->frames) st = pm_frames_finish(in->frames, err);
 
+  int32_t border_dropped = 0;
+  if (!st) st = bub_border_cleanup(s, &border_dropped, err);
   pm_mesh *mesh = NULL;
   if (!st) st = connect_nodes(s, in, &mesh, err);
   double t_end = pm_seconds();
@@ -205,6 +207,7 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
       pm_stats_add_number(S, "bubble.deletions", (double)s->deletions, &e);
       pm_stats_add_number(S, "bubble.failed_insertions", (double)s->failed_insertions, &e);
       pm_stats_add_number(S, "bubble.list_builds", (double)s->list_builds, &e);
+      pm_stats_add_number(S, "bubble.border_dropped", border_dropped, &e);
       pm_stats_add_number(S, "bubble.time_step", bub_time_step(p), &e);
       pm_stats_add_text(S, "bubble.stop", reason, &e);
       pm_stats_add_text(S, "bubble.size", pm_sizing_describe(size), &e);

@@ -62,7 +62,10 @@ typedef struct size_rule {
 } size_rule;
 
 static int feat_push(size_rule *r, const double a[3], const double b[3], double h) {
-  if (!(h > 0) || !(h < r->d0)) return 1;
+  if (!(h < r->d0)) return 1;
+  /* A floor: no feature asks for less than 1e-3 of the base size (a guard against measurements
+   * that go to zero, a curvature at a singular point, touching curves). */
+  if (!(h > 1e-3 * r->d0)) h = 1e-3 * r->d0;
   for (int k = 0; k < 3; ++k)
     if (!isfinite(a[k]) || !isfinite(b[k])) return 1; /* a failed evaluation: no feature */
   if (r->nf == r->capf) {
@@ -275,6 +278,7 @@ static pm_status build_rule(const pm_model *m, const bub_params *p, size_rule *r
           if (cb == ca) continue;
           const pm_cell *cvb = pm_model_cell(m, PM_CURVE, cb);
           if (cvb->degenerate || poff[cb + 1] - poff[cb] < 2) continue;
+          /* Curves that share a vertex are sides meeting at a corner: not a width. */
           int adj = 0;
           for (int32_t u = 0; u < cva->nbound; ++u)
             for (int32_t v = 0; v < cvb->nbound; ++v) adj |= cva->bound[u].cell == cvb->bound[v].cell;
@@ -307,17 +311,23 @@ static pm_status build_rule(const pm_model *m, const bub_params *p, size_rule *r
     double h = kmx > 0 ? (M_PI / 4) / kmx : INFINITY;
     if (!(h < r->d0)) continue;
     double Lu = su * (fc->hi[0] - fc->lo[0]), Lv = sv * (fc->hi[1] - fc->lo[1]);
+    /* Not below a tenth of the face's smaller extent: the curvature of a cone grows without
+     * bound towards its apex (8 edges per turn at every radius would refine forever), while a
+     * cylinder or a fillet of radius R, whose smaller extent is its arc, still gets 0.785 R. */
+    double hfloor = 0.1 * fmin(Lu, Lv);
     int nu = (int)fmin(fmax(ceil(Lu / (2 * h)), 3), 64), nv = (int)fmin(fmax(ceil(Lv / (2 * h)), 3), 64);
-    for (int a = 0; a <= nu && ok; ++a)
-      for (int b = 0; b <= nv && ok; ++b) {
-        double uv[2] = {fc->lo[0] + (fc->hi[0] - fc->lo[0]) * a / nu,
-                        fc->lo[1] + (fc->hi[1] - fc->lo[1]) * b / nv};
+    /* Cell-centred samples: never on a singular side (a pole, an apex), where the curvature is
+     * unbounded. */
+    for (int a = 0; a < nu && ok; ++a)
+      for (int b = 0; b < nv && ok; ++b) {
+        double uv[2] = {fc->lo[0] + (fc->hi[0] - fc->lo[0]) * (a + 0.5) / nu,
+                        fc->lo[1] + (fc->hi[1] - fc->lo[1]) * (b + 0.5) / nv};
         if (!pm_face_inside(fc, uv)) continue;
         double k1, k2, x[3];
         pm_face_curvatures(fc, uv, &k1, &k2, NULL);
         if (!(fabs(k1) > 0) || !isfinite(k1)) continue;
         pm_cell_point(fc, uv, x);
-        ok = feat_push(r, x, x, (M_PI / 4) / fabs(k1));
+        ok = feat_push(r, x, x, fmax((M_PI / 4) / fabs(k1), hfloor));
       }
   }
   if (!ok) {

@@ -147,6 +147,7 @@ static pm_status grow(bub_state *s, int32_t need, pm_error *err) {
   GROW(par, 2);
   GROW(der, 6);
   GROW(d, 1);
+  GROW(dmoved, 1);
   GROW(alpha, 1);
   GROW(kind, 1);
   GROW(cell, 1);
@@ -178,7 +179,7 @@ pm_status bub_state_create(const pm_model *m, const pm_sizing *size, const bub_p
 
 void bub_state_destroy(bub_state *s) {
   if (!s) return;
-  free(s->x), free(s->v), free(s->par), free(s->der), free(s->d), free(s->alpha);
+  free(s->x), free(s->v), free(s->par), free(s->der), free(s->d), free(s->dmoved), free(s->alpha);
   free(s->kind), free(s->cell), free(s->flags);
   pm_grid_destroy(s->grid);
   free(s->nb_off), free(s->nb), free(s->x_build), free(s->d_build);
@@ -225,6 +226,7 @@ pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
   if (st) return st;
   int32_t i = s->n;
   s->kind[i] = (int8_t)kind, s->cell[i] = cell, s->flags[i] = 0, s->alpha[i] = 0;
+  s->dmoved[i] = 0;
   s->par[2 * i] = par && kind >= BUB_KCURVE && kind <= BUB_KFACE ? par[0] : 0;
   s->par[2 * i + 1] = par && kind == BUB_KFACE ? par[1] : 0;
   pm_v3_zero(&s->v[3 * i]);
@@ -294,6 +296,7 @@ pm_status bub_state_compact(bub_state *s, pm_error *err) {
   PERMUTE(par, 2, double);
   PERMUTE(der, 6, double);
   PERMUTE(d, 1, double);
+  PERMUTE(dmoved, 1, double);
   PERMUTE(alpha, 1, double);
   PERMUTE(kind, 1, int8_t);
   PERMUTE(cell, 1, int32_t);

@@ -1,0 +1,165 @@
+/* The bubble method through the packmesh command, end to end: `packmesh mesh case:qi3 --method
+ * bubble -o x.msh --stats s.json` and its JSON, --help, --trace, --frames, a CAD file with the
+ * default size, --volume, and bad --set values (one line on stderr, a non-zero exit, no output
+ * file). */
+#include "cli/cli_run.h"
+
+#include <cjson/cJSON.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static char dir[256];
+
+static int setup(void **state) {
+  (void)state;
+  snprintf(dir, sizeof dir, "/tmp/pm_test_bub_cli_XXXXXX");
+  return mkdtemp(dir) ? 0 : -1;
+}
+
+static int teardown(void **state) {
+  (void)state;
+  char cmd[600];
+  snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+  return system(cmd) == 0 ? 0 : -1;
+}
+
+static double num(const cJSON *root, const char *a, const char *b, const char *c) {
+  const cJSON *o = cJSON_GetObjectItemCaseSensitive(root, a);
+  if (b) o = cJSON_GetObjectItemCaseSensitive(o, b);
+  if (c) o = cJSON_GetObjectItemCaseSensitive(o, c);
+  if (!cJSON_IsNumber(o)) fail_msg("stats key %s.%s.%s missing", a, b ? b : "", c ? c : "");
+  return o->valuedouble;
+}
+
+static cJSON *read_json(const char *path) {
+  char *text = pm_test_slurp(path);
+  assert_non_null(text);
+  cJSON *j = cJSON_Parse(text);
+  free(text);
+  assert_non_null(j);
+  return j;
+}
+
+/* The example: qi3 with --stats. */
+static void qi3_stats(void **state) {
+  (void)state;
+  char args[4096], out[512], js[512];
+  snprintf(out, sizeof out, "%s/qi3.msh", dir);
+  snprintf(js, sizeof js, "%s/qi3.json", dir);
+  snprintf(args, sizeof args, "mesh case:qi3 --method bubble -o '%s' --stats '%s' --threads 2", out, js);
+  char *o = NULL, *e = NULL;
+  int rc = pm_test_cli(dir, args, &o, &e);
+  if (rc) fail_msg("exit %d: %s", rc, e);
+  free(o), free(e);
+  assert_int_equal(access(out, R_OK), 0);
+  cJSON *j = read_json(js);
+  assert_string_equal(cJSON_GetObjectItemCaseSensitive(j, "method")->valuestring, "bubble");
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "valid")));
+  double nodes = num(j, "nodes", NULL, NULL);
+  /* 712 +- 10% (papers/004 section 3.3). */
+  assert_true(nodes >= 641 && nodes <= 783);
+  assert_true(num(j, "tri", "radius_ratio", "mean") >= 0.95);
+  assert_true(num(j, "tri", "min_angle_deg", "min") >= 30);
+  assert_true(num(j, "iterations", NULL, NULL) > 0);
+  assert_true(num(j, "time_s", "place", NULL) >= 0);
+  assert_true(num(j, "time_s", "connect", NULL) >= 0);
+  assert_true(num(j, "bubble", "steps", NULL) == num(j, "iterations", NULL, NULL));
+  cJSON_Delete(j);
+}
+
+/* Bad parameters: one line naming the key, a non-zero exit, no mesh file. */
+static void bad_sets(void **state) {
+  (void)state;
+  const char *bad[][2] = {{"k0=0", "k0"},           {"k0=-1", "k0"},  {"zeta=0", "zeta"},
+                          {"w2=1.5", "w2"},         {"w2=0", "w2"},   {"nosuchkey=1", "nosuchkey"},
+                          {"integrator=euler", "integrator"},
+                          {"face_open=9", "face_open"}};
+  char out[512], args[1024];
+  snprintf(out, sizeof out, "%s/bad.msh", dir);
+  for (size_t k = 0; k < sizeof bad / sizeof bad[0]; ++k) {
+    snprintf(args, sizeof args, "mesh case:qi4 --method bubble --set %s -o '%s'", bad[k][0], out);
+    char *o = NULL, *e = NULL;
+    int rc = pm_test_cli(dir, args, &o, &e);
+    int lines = 0;
+    for (const char *c = e; *c; ++c) lines += *c == '\n';
+    if (rc == 0 || lines != 1 || !strstr(e, bad[k][1]))
+      fail_msg("--set %s: exit %d, stderr '%s'", bad[k][0], rc, e);
+    free(o), free(e);
+    assert_int_not_equal(access(out, F_OK), 0);
+  }
+}
+
+/* --help lists every parameter with its default and source. */
+static void help(void **state) {
+  (void)state;
+  char *o = NULL, *e = NULL;
+  assert_int_equal(pm_test_cli(dir, "mesh --method bubble --help", &o, &e), 0);
+  const char *keys[] = {"k0", "zeta", "w1", "w2", "face_open", "face_excess", "curve_open",
+                        "control_steps", "viscosity", "integrator", "adaptive_stop", "max_steps"};
+  for (size_t k = 0; k < sizeof keys / sizeof keys[0]; ++k) assert_non_null(strstr(o, keys[k]));
+  assert_non_null(strstr(o, "000 sec. 4.1.2"));
+  free(o), free(e);
+}
+
+/* --trace and --frames on a small planar case. */
+static void trace_frames(void **state) {
+  (void)state;
+  char args[4096], out[512], tr[512], fr[512], path[600];
+  snprintf(out, sizeof out, "%s/t.vtu", dir);
+  snprintf(tr, sizeof tr, "%s/trace.csv", dir);
+  snprintf(fr, sizeof fr, "%s/frames", dir);
+  snprintf(args, sizeof args, "mesh case:qi4 --method bubble -o '%s' --trace '%s' --frames '%s'", out, tr, fr);
+  char *o = NULL, *e = NULL;
+  int rc = pm_test_cli(dir, args, &o, &e);
+  if (rc) fail_msg("exit %d: %s", rc, e);
+  free(o), free(e);
+  char *csv = pm_test_slurp(tr);
+  assert_non_null(csv);
+  assert_true(strncmp(csv, "step,bubbles,kinetic,potential,mean_disp,max_disp,insertions,deletions,eps_t", 74) == 0);
+  int rows = 0;
+  for (const char *c = csv; *c; ++c) rows += *c == '\n';
+  assert_true(rows > 20);
+  free(csv);
+  snprintf(path, sizeof path, "%s/frames.pvd", fr);
+  assert_int_equal(access(path, R_OK), 0);
+  snprintf(path, sizeof path, "%s/frame_000001.svg", fr);
+  assert_int_equal(access(path, R_OK), 0);
+}
+
+/* A CAD file without --size (the default rule) and a solid with --volume. */
+static void cad_and_volume(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  char args[4096], out[512], js[512], cad[512];
+  snprintf(out, sizeof out, "%s/box.msh", dir);
+  snprintf(js, sizeof js, "%s/box.json", dir);
+  pm_test_cad("synth_box_hole.step", cad, sizeof cad);
+  snprintf(args, sizeof args, "mesh '%s' --method bubble -o '%s' --stats '%s'", cad, out, js);
+  char *o = NULL, *e = NULL;
+  int rc = pm_test_cli(dir, args, &o, &e);
+  if (rc) fail_msg("exit %d: %s", rc, e);
+  free(o), free(e);
+  cJSON *j = read_json(js);
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "valid")));
+  assert_true(num(j, "tri", "radius_ratio", "mean") > 0.93);
+  cJSON_Delete(j);
+  snprintf(out, sizeof out, "%s/cyl.msh", dir);
+  snprintf(js, sizeof js, "%s/cyl.json", dir);
+  snprintf(args, sizeof args, "mesh case:cylinder --method bubble --volume -o '%s' --stats '%s'", out, js);
+  rc = pm_test_cli(dir, args, &o, &e);
+  if (rc) fail_msg("exit %d: %s", rc, e);
+  free(o), free(e);
+  j = read_json(js);
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "valid")));
+  assert_true(num(j, "tets", NULL, NULL) > 0);
+  cJSON_Delete(j);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(qi3_stats),    cmocka_unit_test(bad_sets),
+      cmocka_unit_test(help),         cmocka_unit_test(trace_frames),
+      cmocka_unit_test(cad_and_volume),
+  };
+  return cmocka_run_group_tests(tests, setup, teardown);
+}
