@@ -6,6 +6,8 @@
  * nothing on stdout. */
 #include "test_support.h"
 
+#include "cli_run.h"
+
 #include <cjson/cJSON.h>
 #include <gmshc.h>
 #include <stdlib.h>
@@ -149,29 +151,8 @@ static void compare_summary(const cJSON *obj, double *v, size_t n, const char *w
   }
 }
 
-/* Run the command line; capture stdout and stderr into files; return the exit code. */
-static int run(const char *args, char **out, char **err) {
-  char cmd[2048], po[600], pe[600];
-  snprintf(po, sizeof po, "%s/stdout", dir);
-  snprintf(pe, sizeof pe, "%s/stderr", dir);
-  snprintf(cmd, sizeof cmd, "'%s' %s > '%s' 2> '%s'", PM_CLI, args, po, pe);
-  int st = system(cmd);
-  assert_true(WIFEXITED(st));
-  const char *paths[2] = {po, pe};
-  char **bufs[2] = {out, err};
-  for (int k = 0; k < 2; ++k) {
-    FILE *f = fopen(paths[k], "rb");
-    assert_non_null(f);
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    *bufs[k] = malloc((size_t)n + 1);
-    assert_int_equal(fread(*bufs[k], 1, (size_t)n, f), (size_t)n);
-    (*bufs[k])[n] = '\0';
-    fclose(f);
-  }
-  return WEXITSTATUS(st);
-}
+/* Run the command line; capture stdout and stderr; return the exit code. */
+static int run(const char *args, char **out, char **err) { return pm_test_cli(dir, args, out, err); }
 
 static int count_lines(const char *s) {
   int n = 0;

@@ -1,0 +1,179 @@
+/* packmesh mesh end to end: the stats keys of DESIGN.md, output files written whole, traces and
+ * frames, --target-nodes, reproducibility with the thread count, and one-line errors for bad
+ * input (a missing file, a corrupt STEP, bad sizes, unknown options and parameters). */
+#include "test_support.h"
+
+#include <cjson/cJSON.h>
+#include <sys/stat.h>
+
+#include "cli_run.h"
+
+static char dir[256];
+
+static cJSON *read_json(const char *path) {
+  char *text = pm_test_slurp(path);
+  assert_non_null(text);
+  cJSON *j = cJSON_Parse(text);
+  free(text);
+  assert_non_null(j);
+  return j;
+}
+
+static double num(const cJSON *j, const char *a, const char *b, const char *c) {
+  const cJSON *x = cJSON_GetObjectItemCaseSensitive(j, a);
+  if (b) x = cJSON_GetObjectItemCaseSensitive(x, b);
+  if (c) x = cJSON_GetObjectItemCaseSensitive(x, c);
+  if (!cJSON_IsNumber(x)) fail_msg("stats key %s%s%s%s%s missing", a, b ? "." : "", b ? b : "", c ? "." : "", c ? c : "");
+  return x->valuedouble;
+}
+
+static int exists(const char *path) {
+  struct stat st;
+  return stat(path, &st) == 0;
+}
+
+static void stats_keys_of_design(void **state) {
+  (void)state;
+  char args[1024], msh[300], js[300], tr[300], fr[300];
+  snprintf(msh, sizeof msh, "%s/qi1.msh", dir);
+  snprintf(js, sizeof js, "%s/qi1.json", dir);
+  snprintf(tr, sizeof tr, "%s/qi1.csv", dir);
+  snprintf(fr, sizeof fr, "%s/frames", dir);
+  snprintf(args, sizeof args, "mesh case:qi1 --method gmsh-frontal -o '%s' --stats '%s'", msh, js);
+  char *out = NULL;
+  assert_int_equal(pm_test_cli(dir, args, &out, NULL), 0);
+  assert_non_null(strstr(out, "gmsh-frontal case:qi1"));
+  free(out);
+  cJSON *j = read_json(js);
+  assert_string_equal(cJSON_GetObjectItemCaseSensitive(j, "method")->valuestring, "gmsh-frontal");
+  assert_string_equal(cJSON_GetObjectItemCaseSensitive(j, "input")->valuestring, "case:qi1");
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "valid")));
+  assert_true(cJSON_IsArray(cJSON_GetObjectItemCaseSensitive(j, "problems")));
+  /* qi1: 8 units of area at d = 0.1 is about 8 / (sqrt(3)/4 0.01) / 2 ~ 924 nodes. */
+  double nodes = num(j, "nodes", NULL, NULL), tris = num(j, "triangles", NULL, NULL);
+  assert_true(nodes > 800 && nodes < 1100);
+  assert_true(tris > 1.8 * nodes && tris < 2.1 * nodes);
+  assert_int_equal((int)num(j, "segments", NULL, NULL), 120); /* 12 units of boundary / 0.1 */
+  assert_int_equal((int)num(j, "tets", NULL, NULL), 0);
+  num(j, "iterations", NULL, NULL);
+  assert_true(num(j, "time_s", "total", NULL) >= 0);
+  const char *summ[] = {"radius_ratio", "aspect_ratio", "min_angle_deg", "max_angle_deg"};
+  const char *stat[] = {"min", "p25", "median", "p75", "max", "mean"};
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 6; ++b) num(cJSON_GetObjectItemCaseSensitive(j, "tri"), summ[a], stat[b], NULL);
+  assert_true(num(j, "tri", "radius_ratio", "mean") > 0.95);
+  num(j, "tri", "eps_t", NULL);
+  num(j, "tri", "eps_g", NULL);
+  /* Size conformity on a uniform field: mean edge / d near 1. */
+  double sr = num(j, "tri", "size_ratio", "mean");
+  assert_true(fabs(sr - 1) < 0.1);
+  num(j, "tri", "size_ratio", "std");
+  /* A planar mesh of a planar domain: distance 0 to round-off. */
+  assert_true(num(j, "distance", "max", NULL) < 1e-9);
+  PM_ASSERT_NEAR(num(j, "distance", "bbox_diagonal", NULL), sqrt(20.0), 1e-12);
+  cJSON_Delete(j);
+  assert_true(exists(msh));
+
+  /* A particle method with its trace and frames. */
+  snprintf(args, sizeof args,
+           "mesh case:qi1 --method bubble --size 0.25 -o '%s' --trace '%s' --frames '%s'", msh, tr, fr);
+  assert_int_equal(pm_test_cli(dir, args, NULL, NULL), 0);
+  char *csv = pm_test_slurp(tr);
+  assert_non_null(csv);
+  int rows = 0;
+  for (const char *c = csv; *c; ++c) rows += *c == '\n';
+  assert_true(rows > 10);
+  free(csv);
+  char pvd[400];
+  snprintf(pvd, sizeof pvd, "%s/frames.pvd", fr);
+  assert_true(exists(pvd));
+}
+
+static void target_nodes_and_threads(void **state) {
+  (void)state;
+  char args[1024], js[300], a1[300], a2[300];
+  snprintf(js, sizeof js, "%s/t.json", dir);
+  snprintf(args, sizeof args, "mesh case:qi3 --method gmsh-frontal --target-nodes 1500 -o '%s/t.msh' --stats '%s'", dir, js);
+  assert_int_equal(pm_test_cli(dir, args, NULL, NULL), 0);
+  cJSON *j = read_json(js);
+  double n = num(j, "nodes", NULL, NULL);
+  assert_true(fabs(n - 1500) <= 0.03 * 1500);
+  assert_true(num(j, "size_scale", NULL, NULL) < 1); /* more nodes than the case's own field */
+  cJSON_Delete(j);
+  /* The same seed gives the identical mesh with one or two threads. */
+  snprintf(a1, sizeof a1, "%s/t1.vtu", dir);
+  snprintf(a2, sizeof a2, "%s/t2.vtu", dir);
+  snprintf(args, sizeof args, "mesh case:shimada --method bubble --seed 7 --threads 1 -o '%s'", a1);
+  assert_int_equal(pm_test_cli(dir, args, NULL, NULL), 0);
+  snprintf(args, sizeof args, "mesh case:shimada --method bubble --seed 7 --threads 2 -o '%s'", a2);
+  assert_int_equal(pm_test_cli(dir, args, NULL, NULL), 0);
+  char *x1 = pm_test_slurp(a1), *x2 = pm_test_slurp(a2);
+  assert_non_null(x1);
+  assert_string_equal(x1, x2);
+  free(x1);
+  free(x2);
+}
+
+static void one_line_errors(void **state) {
+  (void)state;
+  char args[1024], bad[300], out[300];
+  snprintf(out, sizeof out, "%s/never.msh", dir);
+  snprintf(args, sizeof args, "mesh '%s/missing.step' -o '%s'", dir, out);
+  pm_test_cli_error(dir, args, 1, "missing.step");
+  /* A corrupt STEP: a header and garbage. */
+  snprintf(bad, sizeof bad, "%s/corrupt.step", dir);
+  FILE *f = fopen(bad, "w");
+  fputs("ISO-10303-21;\nHEADER;\nthis is not a STEP file at all\n", f);
+  fclose(f);
+  snprintf(args, sizeof args, "mesh '%s' -o '%s'", bad, out);
+  pm_test_cli_error(dir, args, 1, "corrupt.step");
+  snprintf(args, sizeof args, "mesh case:qi1 --size -0.1 -o '%s'", out);
+  pm_test_cli_error(dir, args, 1, "-0.1");
+  snprintf(args, sizeof args, "mesh case:qi1 --size nan -o '%s'", out);
+  pm_test_cli_error(dir, args, 1, "nan");
+  snprintf(args, sizeof args, "mesh case:qi1 --size '0.1*(x' -o '%s'", out);
+  pm_test_cli_error(dir, args, 1, "--size");
+  snprintf(args, sizeof args, "mesh case:qi1 --size '0.5-x' -o '%s'", out); /* <= 0 in the domain */
+  pm_test_cli_error(dir, args, 1, "size");
+  snprintf(args, sizeof args, "mesh case:qi1 --bogus -o '%s'", out);
+  pm_test_cli_error(dir, args, 2, "--bogus");
+  snprintf(args, sizeof args, "mesh case:qi1 --method bubble --set nokey=1 -o '%s'", out);
+  pm_test_cli_error(dir, args, 1, "nokey");
+  snprintf(args, sizeof args, "mesh case:qi1 --method bubble --set k0=-1 -o '%s'", out);
+  pm_test_cli_error(dir, args, 1, "k0");
+  snprintf(args, sizeof args, "mesh case:qi1 --method nomethod -o '%s'", out);
+  pm_test_cli_error(dir, args, 2, "nomethod");
+  snprintf(args, sizeof args, "mesh case:qi1 -o '%s/x.docx'", dir);
+  pm_test_cli_error(dir, args, 2, "docx");
+  snprintf(args, sizeof args, "mesh case:qi1 --method gmsh-frontal -o '/nonexistent/dir/x.msh'");
+  pm_test_cli_error(dir, args, 1, "x.msh");
+  pm_test_cli_error(dir, "mesh case:qi1", 2, "-o");
+  pm_test_cli_error(dir, "mesh -o x.msh", 2, "INPUT");
+  snprintf(args, sizeof args, "mesh case:sphere --method cgal -o '%s'", out);
+  pm_test_cli_error(dir, args, 1, "planar");
+  pm_test_cli_error(dir, "mesh case:qi1 --threads 0 -o x.msh", 2, "--threads");
+  /* Nothing was left behind by the failures. */
+  assert_false(exists(out));
+  /* --help of a method lists its parameters with their sources. */
+  char *help = NULL;
+  assert_int_equal(pm_test_cli(dir, "mesh --method bubble --help", &help, NULL), 0);
+  assert_non_null(strstr(help, "k0"));
+  assert_non_null(strstr(help, "003"));
+  free(help);
+}
+
+int main(void) {
+  snprintf(dir, sizeof dir, "/tmp/pm_test_cli_mesh_%d", (int)getpid());
+  char cmd[300];
+  snprintf(cmd, sizeof cmd, "mkdir -p %s", dir);
+  if (system(cmd) != 0) return 1;
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(stats_keys_of_design),
+      cmocka_unit_test(target_nodes_and_threads),
+      cmocka_unit_test(one_line_errors),
+  };
+  int rc = cmocka_run_group_tests(tests, NULL, NULL);
+  snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+  if (system(cmd) != 0) rc = 1;
+  return rc;
+}
