@@ -50,9 +50,10 @@ static const pm_param_desc cgal_desc[] = {
      NULL},
     {"optimizer", PM_PARAM_CHOICE, offsetof(peer_cgal_params, optimizer), PEER_CGAL_OPT_NONE, 0,
      0, PM_RANGE_CLOSED, "", "smoothing after refinement (boundary nodes fixed)",
-     "CGAL lloyd_optimize_mesh_2; ODT move on CGAL's Mesh_global_optimizer_2", optimizer_choices},
+     "Lloyd: CGAL Mesh_2::Lloyd_move_2; ODT: Alliez et al. 2005 (not in CGAL 5.5's Mesh_2)",
+     optimizer_choices},
     {"opt_iterations", PM_PARAM_INT, offsetof(peer_cgal_params, opt_iterations), 10, 1, 1000,
-     PM_RANGE_CLOSED, "", "maximum smoothing iterations",
+     PM_RANGE_CLOSED, "", "maximum smoothing iterations (fewer on convergence)",
      "CGAL max_iteration_number (its examples use 10)", NULL},
 };
 

@@ -5,8 +5,9 @@
  *   gmsh-meshadapt   gmsh's MeshAdapt surface algorithm        (Mesh.Algorithm = 1)
  *   gmsh-delaunay    gmsh's Delaunay surface algorithm         (Mesh.Algorithm = 5)
  *   gmsh-frontal     gmsh's Frontal-Delaunay surface algorithm (Mesh.Algorithm = 6)
- *   cgal             CGAL's 2D Delaunay refinement (Mesh_2), planar domains only, with CGAL's
- *                    Lloyd optimizer or an ODT smoother built on CGAL's optimizer as an option
+ *   cgal             CGAL's 2D Delaunay refinement (Mesh_2), planar domains only, optionally
+ *                    smoothed by CGAL's Lloyd move or an optimal Delaunay triangulation (ODT)
+ *                    move (CGAL 5.5 has no 2D ODT of its own; see cgal_mesh2.h)
  *
  * gmsh peers mesh a CAD model's own gmsh model, and a planar analytic domain (geom_analytic:
  * the built-in planar cases and JSON planar domains) as an equivalent OpenCASCADE geometry whose
@@ -68,8 +69,10 @@ typedef struct peer_cgal_params {
                           centroid; [0.5, 4], default 1.45, calibrated so that the mean edge length
                           over d is about 1 on uniform fields (Delaunay refinement leaves edges
                           between about half the bound and the bound) */
-  int optimizer;       /* peer_cgal_optimizer: none|lloyd|odt, default none */
-  int opt_iterations;  /* optimizer iterations; [1, 1000], default 10 */
+  int optimizer;       /* peer_cgal_optimizer: smoothing after refinement, boundary nodes fixed;
+                          none|lloyd|odt, default none */
+  int opt_iterations;  /* smoothing iterations at most (it stops earlier on convergence);
+                          [1, 1000], default 10 (the count CGAL's examples use) */
 } peer_cgal_params;
 
 void peer_cgal_params_init(void *params);

@@ -217,6 +217,38 @@ static void target_nodes(void **state) {
   free(out), free(err);
 }
 
+/* A JSON case file: a half disk (a segment and a 180-degree arc, which the gmsh peers build as
+ * a rational B-spline) with a circular hole and its own size field, through both kinds of peer. */
+static void json_domain(void **state) {
+  (void)state;
+  need_peers();
+  char path[600];
+  snprintf(path, sizeof path, "%s/half.json", dir);
+  FILE *f = fopen(path, "w");
+  assert_non_null(f);
+  fputs("{ \"name\": \"half disk with a hole\",\n"
+        "  \"domain\": { \"loops\": [\n"
+        "    [ {\"line\": [0, 0]}, {\"arc\": {\"from\": [2, 0], \"centre\": [1, 0], \"ccw\": true}} ],\n"
+        "    [ {\"arc\": {\"from\": [1.2, 0.4], \"centre\": [1, 0.4], \"ccw\": false}} ] ] },\n"
+        "  \"size\": \"0.04+0.05*y\" }\n",
+        f);
+  fclose(f);
+  static const char *const methods[] = {"gmsh-frontal", "gmsh-meshadapt", "cgal"};
+  for (int k = 0; k < 3; ++k) {
+    char args[800], *out, *err;
+    snprintf(args, sizeof args, "mesh half.json --method %s -o h.vtu --stats h.json", methods[k]);
+    int code = run(args, &out, &err);
+    if (code) fail_msg("%s: exit %d: %s", methods[k], code, err);
+    cJSON *st = read_json("h.json");
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItem(st, "valid")));
+    PM_ASSERT_NEAR(num(st, "tri", "size_ratio", "mean"), 1, 0.15);
+    /* Boundary nodes lie on the arcs: the two-sided distance is the chords' sag only. */
+    assert_true(num(st, "distance", "max", NULL) < 0.005);
+    cJSON_Delete(st);
+    free(out), free(err);
+  }
+}
+
 /* --help lists the parameters with their sources. */
 static void help(void **state) {
   (void)state;
@@ -263,7 +295,8 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(frontal_qi3), cmocka_unit_test(every_peer),
       cmocka_unit_test(volumes),     cmocka_unit_test(cad_default_size),
-      cmocka_unit_test(target_nodes), cmocka_unit_test(help),
+      cmocka_unit_test(target_nodes), cmocka_unit_test(json_domain),
+      cmocka_unit_test(help),
       cmocka_unit_test(errors),
   };
   if (getenv("PM_TEST_FILTER")) cmocka_set_test_filter(getenv("PM_TEST_FILTER"));
