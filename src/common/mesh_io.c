@@ -147,7 +147,9 @@ static pm_status gmsh_build(const pm_mesh *m, int classify, pm_error *err) {
   ent_key *nk = malloc((nn ? nn : 1) * sizeof *nk);
   ent_key *ek = malloc((nelem ? nelem : 1) * sizeof *ek);
   ent_key *ents = malloc((nn + nelem + 1) * sizeof *ents);
-  size_t *tags = malloc((nn > nelem ? nn : nelem) * 4 * sizeof *tags + sizeof *tags);
+  /* One entity's block of elements needs an element tag and up to 4 node tags each (tets): 5 per
+   * element; the node pass needs one per node. */
+  size_t *tags = malloc((nn > nelem ? nn : nelem) * 5 * sizeof *tags + sizeof *tags);
   double *xyz = malloc((nn ? nn : 1) * 3 * sizeof *xyz);
   double *par = malloc((nn ? nn : 1) * 2 * sizeof *par);
   pm_status s = PM_OK;

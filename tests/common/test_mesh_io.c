@@ -586,6 +586,44 @@ static void msh2_and_sparse_tags(void **state) {
 }
 
 /* Reading and writing leave the current gmsh model current and add no model. */
+/* A volume mesh is mostly tets: writing one entity's block of tets needs five tags per tet (the
+ * element's and its four nodes'); a buffer sized for four overran on such meshes. */
+static void tet_dominated_msh(void **state) {
+  (void)state;
+  pm_mesh *m = pm_mesh_create();
+  pm_error e = {0};
+  const int n = 6; /* n^3 cubes of 6 tets, one volume, no triangles */
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        double x[3] = {i, j, k};
+        PM_ASSERT_OK(pm_mesh_add_node(m, x, 3, 0, NULL, NULL, &e), e);
+      }
+#define ID(i, j, k) ((int32_t)((k) * (n + 1) * (n + 1) + (j) * (n + 1) + (i)))
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        int32_t c[8] = {ID(i, j, k), ID(i + 1, j, k), ID(i + 1, j + 1, k), ID(i, j + 1, k),
+                        ID(i, j, k + 1), ID(i + 1, j, k + 1), ID(i + 1, j + 1, k + 1), ID(i, j + 1, k + 1)};
+        /* The six tets around the diagonal c0-c6. */
+        static const int t[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6},
+                                    {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
+        for (int q = 0; q < 6; ++q)
+          PM_ASSERT_OK(pm_mesh_add_tet(m, c[t[q][0]], c[t[q][1]], c[t[q][2]], c[t[q][3]], 0, &e), e);
+      }
+#undef ID
+  char path[600];
+  snprintf(path, sizeof path, "%s/tets.msh", dir);
+  PM_ASSERT_OK(pm_mesh_write(m, path, &e), e);
+  pm_mesh *r = NULL;
+  PM_ASSERT_OK(pm_mesh_read(path, &r, &e), e);
+  assert_int_equal(r->nnode, m->nnode);
+  assert_int_equal(r->ntet, 6 * n * n * n);
+  assert_memory_equal(r->tet, m->tet, sizeof(int32_t) * 4 * (size_t)m->ntet);
+  pm_mesh_destroy(r);
+  pm_mesh_destroy(m);
+}
+
 static void keeps_current_model(void **state) {
   (void)state;
   int ierr = 0;
@@ -627,7 +665,7 @@ int main(void) {
       cmocka_unit_test(vtu_round_trip),   cmocka_unit_test(obj_round_trip),
       cmocka_unit_test(write_errors),     cmocka_unit_test(read_errors),
       cmocka_unit_test(foreign_elements), cmocka_unit_test(msh2_and_sparse_tags),
-      cmocka_unit_test(keeps_current_model),
+      cmocka_unit_test(keeps_current_model), cmocka_unit_test(tet_dominated_msh),
   };
   return cmocka_run_group_tests(tests, setup, teardown);
 }
