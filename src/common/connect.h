@@ -95,6 +95,17 @@ typedef struct pm_connect_report {
 pm_status pm_connect(const pm_model *model, pm_mesh *mesh, const pm_connect_params *p,
                      pm_connect_report *rep, pm_error *err);
 
+/* The volume step alone, for a mesh that already holds a conforming surface mesh classified on
+ * `model` (any mesher's: triangles tagged with face indices and oriented by pm_face_mesh_sign,
+ * segments tagged with curve indices, nodes classified, the volumes' own nodes with node_dim 3
+ * for PM_VOLUME_GIVEN): adds the tets of every volume (p->volume picks the mode; p->max_nodes
+ * caps the node count). Each group of volumes joined by shared or embedded faces is one TetGen
+ * run; groups that share nothing (the solids of an assembly) are separate runs. rep (may be
+ * NULL) receives the Steiner points, flat-tet repairs and time. On failure the mesh keeps its
+ * surface and no tet or added node. */
+pm_status pm_connect_volumes(const pm_model *model, pm_mesh *mesh, const pm_connect_params *p,
+                             pm_connect_report *rep, pm_error *err);
+
 #ifdef __cplusplus
 }
 #endif

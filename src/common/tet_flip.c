@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/hash.h"
 #include "common/predicates.h"
 #include "common/vec3.h"
 
@@ -30,11 +31,6 @@ typedef struct keyset {
   int64_t cap;
 } keyset;
 
-static uint64_t mix(uint64_t x) {
-  x ^= x >> 33, x *= 0xff51afd7ed558ccdULL, x ^= x >> 33, x *= 0xc4ceb9fe1a85ec53ULL;
-  return x ^ (x >> 33);
-}
-
 static uint64_t key3(int32_t a, int32_t b, int32_t c) {
   int32_t v[3] = {a, b, c};
   for (int i = 0; i < 2; ++i)
@@ -47,7 +43,7 @@ static uint64_t key3(int32_t a, int32_t b, int32_t c) {
    * storing a 64-bit mix of a collision-free 96-bit value's two halves. Equal triples give equal
    * keys; distinct triples collide with probability ~2^-64. */
   uint64_t lo = ((uint64_t)(uint32_t)v[0] << 32) | (uint32_t)v[1];
-  return mix(lo ^ mix((uint64_t)(uint32_t)v[2] + 0x9e3779b97f4a7c15ULL)) | 1;
+  return pm_mix64(lo ^ pm_mix64((uint64_t)(uint32_t)v[2] + 0x9e3779b97f4a7c15ULL)) | 1;
 }
 
 static uint64_t key2(int32_t a, int32_t b) { return key3(a, b, -1); }
@@ -60,13 +56,13 @@ static int keyset_init(keyset *s, int64_t n) {
 }
 
 static void keyset_add(keyset *s, uint64_t k) {
-  int64_t i = (int64_t)(mix(k) & (uint64_t)(s->cap - 1));
+  int64_t i = (int64_t)(pm_mix64(k) & (uint64_t)(s->cap - 1));
   while (s->key[i] && s->key[i] != k) i = (i + 1) & (s->cap - 1);
   s->key[i] = k;
 }
 
 static int keyset_has(const keyset *s, uint64_t k) {
-  int64_t i = (int64_t)(mix(k) & (uint64_t)(s->cap - 1));
+  int64_t i = (int64_t)(pm_mix64(k) & (uint64_t)(s->cap - 1));
   while (s->key[i]) {
     if (s->key[i] == k) return 1;
     i = (i + 1) & (s->cap - 1);

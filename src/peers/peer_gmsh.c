@@ -21,7 +21,8 @@
  *   5. gmsh's mesh is cleared (gmshModelMeshClear) whatever happened, so the CAD model is
  *      pristine for the next run, and the callback removed.
  * Then, with --volume and volume=tetgen, TetGen refines the volumes of gmsh's surface mesh
- * (peer_volume.h), and each face's triangles are oriented by geom.h's rule.
+ * (pm_connect_volumes of connect.h, the same volume step as our methods), and each face's
+ * triangles are oriented by geom.h's rule.
  *
  * gmsh runs single-threaded: General.NumThreads = 1 (gmsh_session) is not enough, because gmsh's
  * meshers open OpenMP parallel regions that follow the calling thread's OpenMP thread count,
@@ -49,7 +50,7 @@
 #include "common/vec3.h"
 #include "peers/peer_common.h"
 #include "peers/peer_gmsh_planar.h"
-#include "peers/peer_volume.h"
+#include "common/connect.h"
 
 /* ---- parameters ------------------------------------------------------------------------- */
 
@@ -505,11 +506,18 @@ static pm_status gmsh_run(const pm_method *self, int algorithm, const char *algo
   peer_tagmap_free(&map);
 
   if (!s) peer_orient_faces(m, mesh);
-  int32_t steiner = 0, flat_left = 0;
+  /* volume=tetgen: the connection layer's volume step on gmsh's own surface triangles, so that
+   * the volume mesher is the same as for our methods. */
+  pm_connect_report vrep;
+  memset(&vrep, 0, sizeof vrep);
   if (!s && want_volume && !gmsh_volume) {
-    double t0 = pm_seconds();
-    s = peer_volume_tetgen(m, mesh, p->radius_edge, in->max_nodes, &steiner, &flat_left, err);
-    t_tetgen = pm_seconds() - t0;
+    pm_connect_params cp;
+    pm_connect_params_init(&cp);
+    cp.volume = PM_VOLUME_REFINE;
+    cp.radius_edge = p->radius_edge;
+    cp.max_nodes = in->max_nodes > INT32_MAX ? 0 : (int32_t)in->max_nodes;
+    s = pm_connect_volumes(m, mesh, &cp, &vrep, err);
+    t_tetgen = vrep.time_volumes;
     if (s) pm_error_prefix(err, "%s, volume=tetgen", self->name);
   }
   if (!s && mesh->nnode > in->max_nodes)
@@ -525,8 +533,8 @@ static pm_status gmsh_run(const pm_method *self, int algorithm, const char *algo
   if (want_volume && !gmsh_volume) peer_stats_time(out->stats, "volume", t_tetgen);
   peer_stats_time(out->stats, "convert", t_convert);
   if (out->stats && want_volume && !gmsh_volume) {
-    pm_stats_add_number(out->stats, "tetgen_steiner", steiner, NULL);
-    pm_stats_add_number(out->stats, "tetgen_flat_tets_left", flat_left, NULL);
+    pm_stats_add_number(out->stats, "tetgen_steiner", vrep.steiner, NULL);
+    pm_stats_add_number(out->stats, "tetgen_flat_tet_flips", vrep.flat_tet_flips, NULL);
   }
   out->mesh = mesh;
   snprintf(out->stop_reason, sizeof out->stop_reason, "gmsh %s%s", algorithm_name,
