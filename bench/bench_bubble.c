@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "bubble/bub_private.h"
 #include "common/cases.h"
@@ -26,6 +27,7 @@
 #include "common/vec3.h"
 #include "common/stats.h"
 #include "common/trace.h"
+#include "peers/peers.h"
 
 typedef struct result {
   int ok;
@@ -33,10 +35,17 @@ typedef struct result {
   int32_t nodes, tris;
   double rr_mean, rr_min, amin, eps_t, eps_g, share30, size_mean;
   int64_t steps;
-  double time;
+  double time, cpu;
   int valid;
   char stop[128];
 } result;
+
+/* CPU time of the process (the wall clock of a loaded machine overstates a run). */
+static double cpu_seconds(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 /* Diagnostics (command-line flags): triangles for gnuplot, the worst triangles, the run's extra
  * statistics, the trace. */
@@ -44,7 +53,8 @@ static const char *opt_dump, *opt_trace;
 static double opt_worst = -1;
 static int opt_extra;
 
-static result run_one(const pm_model *m, const pm_sizing *size, const bub_params *p, int threads) {
+static result run_method(const pm_method *meth, const void *params, const pm_model *m,
+                         const pm_sizing *size, int threads) {
   result r;
   memset(&r, 0, sizeof r);
   pm_run_input in = {m, size, 1, threads, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
@@ -57,9 +67,10 @@ static result run_one(const pm_model *m, const pm_sizing *size, const bub_params
   pm_stats_init(&stats);
   out.stats = &stats;
   pm_error e = {0};
-  double t0 = pm_seconds();
-  pm_status st = bub_run(&in, p, &out, &e);
+  double t0 = pm_seconds(), c0 = cpu_seconds();
+  pm_status st = meth->run(&in, params, &out, &e);
   r.time = pm_seconds() - t0;
+  r.cpu = cpu_seconds() - c0;
   if (tr) {
     pm_trace_write_csv(tr, opt_trace, NULL);
     pm_trace_destroy(tr);
@@ -132,6 +143,10 @@ static result run_one(const pm_model *m, const pm_sizing *size, const bub_params
   return r;
 }
 
+static result run_one(const pm_model *m, const pm_sizing *size, const bub_params *p, int threads) {
+  return run_method(&bub_method, p, m, size, threads);
+}
+
 /* The papers' figures and gmsh Frontal-Delaunay measured on the same domains and size fields. */
 typedef struct paper_row {
   const char *name, *paper, *gmsh;
@@ -145,11 +160,17 @@ static const paper_row paper[] = {
     {"shimada", "003 T1 (100 it): eps_t 0.42, eps_g 0.04", "-"},
 };
 
+static void print_row(const char *name, const result *r) {
+  printf("%-8s %6d %6d %7.4f %7.4f %7.2f %6.3f %6.3f %7.3f %6lld %7.3f %6.3f %5s  %s\n", name,
+         r->nodes, r->tris, r->rr_mean, r->rr_min, r->amin, r->eps_t, r->eps_g, r->size_mean,
+         (long long)r->steps, r->time, r->cpu, r->valid ? "yes" : "NO", r->stop);
+}
+
 static void section_planar(const bub_params *p, int threads, const char *only) {
   printf("\nplanar cases (threads %d)\n", threads);
-  printf("%-8s %6s %6s %7s %7s %7s %6s %6s %7s %6s %7s %5s  %s\n", "case", "nodes", "tris",
-         "rr_mean", "rr_min", "minang", "eps_t", "eps_g", "size", "steps", "time_s", "valid",
-         "stop");
+  printf("%-8s %6s %6s %7s %7s %7s %6s %6s %7s %6s %7s %6s %5s  %s\n", "case", "nodes", "tris",
+         "rr_mean", "rr_min", "minang", "eps_t", "eps_g", "size", "steps", "wall_s", "cpu_s",
+         "valid", "stop");
   for (size_t k = 0; k < sizeof paper / sizeof paper[0]; ++k) {
     if (only && strcmp(only, paper[k].name) != 0) continue;
     pm_model *m = NULL;
@@ -163,10 +184,33 @@ static void section_planar(const bub_params *p, int threads, const char *only) {
     if (!r.ok) {
       printf("%-8s FAILED: %s\n", paper[k].name, r.err);
     } else {
-      printf("%-8s %6d %6d %7.4f %7.4f %7.2f %6.3f %6.3f %7.3f %6lld %7.3f %5s  %s\n",
-             paper[k].name, r.nodes, r.tris, r.rr_mean, r.rr_min, r.amin, r.eps_t, r.eps_g,
-             r.size_mean, (long long)r.steps, r.time, r.valid ? "yes" : "NO", r.stop);
-      printf("         paper: %s | %s\n", paper[k].paper, paper[k].gmsh);
+      print_row(paper[k].name, &r);
+      printf("         paper: %s | issue: %s\n", paper[k].paper, paper[k].gmsh);
+    }
+    /* gmsh's Frontal-Delaunay on the same domain and size field, and the bubble mesher with the
+     * size field scaled until its node count is within 1% of gmsh's (the comparison at the same
+     * node count). */
+    char gp[256];
+    peer_gmsh_params_init(gp);
+    result g = run_method(&peer_gmsh_frontal, gp, m, size, 1);
+    if (g.ok) {
+      print_row("  gmsh", &g);
+      double f = 1;
+      result mr = r;
+      for (int it = 0; it < 6 && r.ok && mr.ok && fabs((double)mr.nodes / g.nodes - 1) > 0.01; ++it) {
+        f *= sqrt((double)mr.nodes / g.nodes);
+        pm_sizing *sc = NULL;
+        if (pm_sizing_scaled(size, f, &sc, &e)) break;
+        mr = run_one(m, sc, p, threads);
+        pm_sizing_destroy(sc);
+      }
+      if (mr.ok) {
+        char lab[32];
+        snprintf(lab, sizeof lab, "  @%.3fd", f);
+        print_row(lab, &mr);
+      }
+    } else {
+      printf("  gmsh    failed: %s\n", g.err);
     }
     pm_sizing_destroy(size);
     pm_model_destroy(m);
@@ -186,8 +230,8 @@ static const char *const cad_files[] = {
 static void section_cad(const bub_params *p, int threads, const char *only) {
   printf("\nCAD models, default size (diagonal / %g, reduced at small features; threads %d)\n",
          p->size_div, threads);
-  printf("%-26s %7s %7s %7s %7s %8s %6s %8s %5s  %s\n", "model", "nodes", "tris", "rr_mean",
-         ">=30deg", "minang", "steps", "time_s", "valid", "stop / problem");
+  printf("%-26s %7s %7s %7s %7s %8s %6s %8s %8s %5s  %s\n", "model", "nodes", "tris", "rr_mean",
+         ">=30deg", "minang", "steps", "wall_s", "cpu_s", "valid", "stop / problem");
   for (size_t k = 0; k < sizeof cad_files / sizeof cad_files[0]; ++k) {
     if (only && strcmp(only, cad_files[k]) != 0) continue;
     char path[1024];
@@ -210,8 +254,8 @@ static void section_cad(const bub_params *p, int threads, const char *only) {
     if (!r.ok)
       printf("%-26s FAILED after %.2f s: %s\n", cad_files[k], r.time, r.err);
     else
-      printf("%-26s %7d %7d %7.4f %6.1f%% %8.2f %6lld %8.2f %5s  %s%s%s\n", cad_files[k], r.nodes,
-             r.tris, r.rr_mean, 100 * r.share30, r.amin, (long long)r.steps, r.time,
+      printf("%-26s %7d %7d %7.4f %6.1f%% %8.2f %6lld %8.2f %8.2f %5s  %s%s%s\n", cad_files[k], r.nodes,
+             r.tris, r.rr_mean, 100 * r.share30, r.amin, (long long)r.steps, r.time, r.cpu,
              r.valid ? "yes" : "NO", r.stop, r.valid ? "" : " | ", r.valid ? "" : r.err);
     fflush(stdout);
     pm_sizing_destroy(size);
