@@ -230,8 +230,9 @@ static int32_t lattice_point(face_ctx *fx, int64_t i, int64_t j) {
   }
   if (fx->npts >= fx->budget) {
     fx->st = pm_error_setf(fx->err, PM_ERR_LIMIT,
-                           "bubble placement on face %d exceeds the cap of %lld bubbles",
-                           fx->f->tag, (long long)fx->budget);
+                           "bubble placement on face %d: the quadtree exceeds %lld lattice points "
+                           "(the bubble cap is %lld)",
+                           fx->f->tag, (long long)fx->budget, (long long)((fx->budget - 4096) / 8 + fx->s->n));
     return -1;
   }
   if (fx->npts == fx->cap_pts) {
@@ -406,8 +407,9 @@ static pm_status place_face(bub_state *s, int32_t face, int64_t cap, pm_error *e
   face_ctx fx;
   memset(&fx, 0, sizeof fx);
   fx.s = s, fx.f = f, fx.face = face, fx.err = err;
-  fx.budget = cap - s->n;
-  if (fx.budget < 1) fx.budget = 1;
+  /* Lattice points include corners outside the face: allow several per bubble left (a guard
+   * against runaway refinement; the cap itself is checked on the bubbles kept). */
+  fx.budget = 8 * (cap - s->n) + 4096;
   face_scales(f, fx.scale);
 
   /* Loop segments in scaled coordinates. */

@@ -19,8 +19,10 @@
  *     disp_tol of its diameter in a step, and the last control changed nothing (or population
  *     control is off);
  *   - max_steps;
- *   - the bubble cap (max_bubbles, and the run's max_nodes): reached by insertions, it ends
- *     population control like the adaptive stop; an initial placement above it is PM_ERR_LIMIT.
+ *   - the bubble cap max_bubbles: reached by insertions, it ends population control like the
+ *     adaptive stop (the run reports it). The run's node budget (in->max_nodes, --max-nodes) is
+ *     a hard limit instead: a placement above it, or insertions that reach it, are PM_ERR_LIMIT
+ *     (DESIGN.md: "a node budget that would be exceeded" is an error).
  *
  * Nodes for the connection: vertex bubbles (dim 0), curve bubbles (dim 1, t) and face bubbles
  * (dim 2, (u, v)); outside-layer bubbles exist only during a control and are never nodes. With
@@ -110,7 +112,8 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
     size = own_size;
   }
   int64_t cap = (int64_t)fmin(p->max_bubbles, 2e9);
-  if (in->max_nodes > 0 && in->max_nodes < cap) cap = in->max_nodes;
+  int budget = 0; /* the cap is the run's node budget, not the method's own */
+  if (in->max_nodes > 0 && in->max_nodes <= cap) cap = in->max_nodes, budget = 1;
   bub_params q = *p;
   q.max_bubbles = (double)cap;
 
@@ -118,8 +121,8 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   st = bub_state_create(m, size, &q, in->threads, in->seed, &s, err);
   if (!st) st = bub_place(s, err);
   if (!st && s->n > cap)
-    st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the initial placement has %d bubbles, above the cap of %lld",
-                       (int)s->n, (long long)cap);
+    st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the initial placement has %d bubbles, above the %s of %lld",
+                       (int)s->n, budget ? "node budget" : "cap max_bubbles", (long long)cap);
   double t_place = pm_seconds();
   int32_t initial = s ? s->nf : 0;
   if (!st && in->trace) st = pm_trace_columns(in->trace, NCOL, trace_cols, err);
@@ -157,6 +160,12 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
         snprintf(reason, sizeof reason,
                  "converged: bubble count changed by <= %g%% in %d consecutive rounds",
                  100 * p->stop_change, p->stop_rounds);
+      } else if (s->nf >= cap && budget) {
+        st = pm_error_setf(err, PM_ERR_LIMIT,
+                           "bubble: the node budget of %lld would be exceeded (the size field asks "
+                           "for more nodes)",
+                           (long long)cap);
+        break;
       } else if (s->nf >= cap) {
         final_phase = 1, final_left = p->final_steps;
         snprintf(reason, sizeof reason, "bubble cap (%lld) reached", (long long)cap);

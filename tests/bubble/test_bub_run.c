@@ -261,7 +261,25 @@ static void caps_and_errors(void **state) {
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
   assert_null(out.mesh);
   assert_null(strchr(e.msg, '\n'));
-  /* The method's own cap ends the run instead when it is reached by insertions only. */
+  /* The method's own cap ends the run when insertions reach it; the run's node budget is an
+   * error. (At d = 0.05 the square wants about 500 nodes; the sparse start has fewer than 300.) */
+  in.max_nodes = PM_DEFAULT_MAX_NODES;
+  p.max_bubbles = 300;
+  PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
+  assert_non_null(strstr(out.stop_reason, "bubble cap (300) reached"));
+  assert_true(out.mesh->nnode <= 300);
+  pm_check_report cr;
+  memset(&cr, 0, sizeof cr);
+  PM_ASSERT_OK(pm_mesh_check(out.mesh, m, &cr, &e), e);
+  assert_true(cr.valid);
+  pm_check_report_clear(&cr);
+  pm_mesh_destroy(out.mesh);
+  out.mesh = NULL;
+  bub_params_init(&p);
+  in.max_nodes = 300;
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
+  assert_non_null(strstr(e.msg, "node budget of 300"));
+  assert_null(out.mesh);
   in.max_nodes = PM_DEFAULT_MAX_NODES;
   p.k0 = 0;
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_ARG);
