@@ -42,7 +42,8 @@ typedef struct bub_params {
   double mass;      /* bubble mass m; (0, 1e6], default 1 (000 section 6.4) */
   double zeta;      /* damping ratio zeta = c / (2 sqrt(m k0)) (003 eq. 14); (0, 10], default 0.7 */
   double dt;        /* time step as a fraction of the natural period T0 = 2 pi sqrt(m / k0);
-                       (0, 0.2], default 0.1 (our choice, see bub_dynamics.c) */
+                       [0, 0.2], default 0 = automatic: 0.1 for rk4, 0.05 for rk2 (our choice,
+                       see bub_dynamics.c; bub_params_check rejects an unstable step) */
   int integrator;   /* BUB_RK4 (003 section 3.4) or BUB_RK2 (004 section 1, Heun's second-order
                        scheme); default rk4 */
   /* ---- viscosity schedule (004 section 2.2) ---- */
@@ -65,14 +66,16 @@ typedef struct bub_params {
                        start that insertions fill ends nearer the ideal count than a dense one
                        that removals thin: see bub_place.c) */
   /* ---- population control (003 eq. 16, 000 sections 4.1.2, 4.2) ---- */
-  int population;   /* adaptive population control on/off; default on */
-  double face_open;   /* face bubble is open below this overlap ratio; default 5 (000 4.1.2) */
-  double face_excess; /* face bubble is excess above this overlap ratio; default 8 (000 4.1.2) */
-  double curve_open;  /* curve bubble open below; default 5/3 (our choice: the face cut-offs
-                         scaled by 2/6) */
-  double curve_excess; /* curve bubble excess above; default 8/3 (same rule) */
-  double insert_k;  /* insertion distance factor k (a new face bubble at k r); default 1.8
-                       (000 section 4.2.4) */
+  int population;   /* adaptive population control on/off; default on (003 section 3.5) */
+  double face_open;   /* face bubble is open below this overlap ratio; (0, 12], < 6, default 5
+                         (000 section 4.1.2) */
+  double face_excess; /* face bubble is excess above this overlap ratio; (0, 30], > 6, default 8
+                         (000 section 4.1.2) */
+  double curve_open;  /* curve bubble open below; (0, 4], < 2, default 5/3 (our choice: the face
+                         cut-offs scaled by 2/6, the same spacing window; bub_population.c) */
+  double curve_excess; /* curve bubble excess above; (0, 10], > 2, default 8/3 (same rule) */
+  double insert_k;  /* insertion distance factor k (a new face bubble at k r); [0.5, 4],
+                       default 1.8 (000 section 4.2.4) */
   int control_steps; /* relaxation steps between two population controls; [1, 100000],
                         default 20 (000 section 4.2.6) */
   double calm;      /* control only when every bubble moved less than calm x its diameter in the
@@ -82,18 +85,23 @@ typedef struct bub_params {
   /* ---- stopping (003 section 3.4, 004 section 2.4) ---- */
   int adaptive_stop; /* stop when the count changes by at most stop_change in stop_rounds
                         consecutive rounds (004 section 2.4); default on */
-  double stop_change; /* default 0.005 (004: 0.5%) */
-  int stop_rounds;  /* default 2 (004: twice) */
+  double stop_change; /* largest relative count change of a settled round; [0, 1], default
+                         0.005 (004 section 2.4: 0.5%) */
+  int stop_rounds;  /* settled rounds in a row; [1, 1000], default 2 (004: twice) */
   double disp_tol;  /* stop when no bubble moves more than disp_tol x its diameter in a step and
                        the last control changed nothing (003 section 3.4); [0, 1], default 1e-3 */
-  int final_steps;  /* relaxation steps after the population has settled; default 60 */
-  int max_steps;    /* cap on steps; default 3000 */
-  double max_bubbles; /* cap on bubbles (also min with the run's max_nodes); default 1e7 */
+  int final_steps;  /* relaxation steps after the population has settled; [0, 1e6], default 60
+                       (our choice) */
+  int max_steps;    /* cap on steps; [0, 1e8], default 3000 */
+  double max_bubbles; /* cap on bubbles: reached by insertions it ends the run (the run's own
+                         node budget, pm_run_input.max_nodes, is an error instead); [1, 2e9],
+                         default 1e7 */
   /* ---- default size rule (bub_size.c) ---- */
-  double size_div;  /* default size: bounding-box diagonal / size_div; default 30 */
-  double size_grade; /* growth rate of the default size away from small features; default 0.3 */
+  double size_div;  /* default size: bounding-box diagonal / size_div; [1, 1e6], default 30 */
+  double size_grade; /* growth rate of the default size away from small features; [0.01, 2],
+                        default 0.3 */
   /* ---- output ---- */
-  int frame_every;  /* --frames: a snapshot every this many steps; default 10 */
+  int frame_every;  /* --frames: a snapshot every this many steps; [1, 1e6], default 10 */
 } bub_params;
 
 /* The table that describes every field (params.h). */

@@ -31,7 +31,7 @@ static void torus_confinement(void **state) {
   pm_sizing *size = NULL;
   pm_error e = {0};
   PM_ASSERT_OK(pm_cad_case("torus", &m, &e), e);
-  const double d = 0.2;
+  const double d = 0.25;
   PM_ASSERT_OK(pm_sizing_constant(d, &size, &e), e);
   bub_params p = bt_params();
   p.w2 = 1; /* dense start: the bubbles keep moving for a while */
@@ -93,6 +93,7 @@ static void cylinder_default_size_volume(void **state) {
   PM_ASSERT_OK(pm_case_open("cylinder", &m, NULL, &e), e);
   bub_params p;
   bub_params_init(&p);
+  p.size_div = 15; /* the default rule, coarser than its default 30: a quick test */
   pm_run_input in = {m, NULL, 3, 2, 1, PM_DEFAULT_MAX_NODES, NULL, NULL};
   pm_run_output out;
   memset(&out, 0, sizeof out);
@@ -100,11 +101,11 @@ static void cylinder_default_size_volume(void **state) {
   check_valid(out.mesh, m);
   assert_true(out.mesh->ntet > 0);
   assert_true(out.mesh->ntri > 0);
-  /* The default size: diagonal / 30 (radius 0.5, height 2: no smaller feature). */
+  /* The default size: diagonal / 15 (radius 0.5, height 2: no smaller feature). */
   pm_sizing *ds = NULL;
   PM_ASSERT_OK(bub_default_size(m, &p, 3, 1, &ds, &e), e);
   double x[3] = {0.5, 0, 0};
-  PM_ASSERT_NEAR(pm_sizing_eval(ds, x), m->diagonal / 30, 1e-9 * m->diagonal);
+  PM_ASSERT_NEAR(pm_sizing_eval(ds, x), m->diagonal / 15, 1e-9 * m->diagonal);
   pm_sizing_destroy(ds);
   pm_mesh_destroy(out.mesh);
   pm_model_destroy(m);
