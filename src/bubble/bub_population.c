@@ -110,6 +110,7 @@ typedef struct ctl {
   double *lam;
   int32_t *ngap;
   double s_open, s_excess; /* uniform chain spacings (in l0) at the curve cut-offs */
+  uint8_t *curve_changed;  /* [ncurve] a bubble of the curve was inserted or removed */
 } ctl;
 
 static int add_event(ctl *c, const double x[3], double d) {
@@ -277,6 +278,7 @@ static pm_status remove_excess(ctl *c, int kind, int32_t *removed) {
       int32_t cu = s->cell[i];
       if (c->ngap[cu] < 2 || c->lam[cu] / (c->ngap[cu] - 1) > c->s_open) continue;
       c->ngap[cu]--;
+      c->curve_changed[cu] = 1;
     }
     s->flags[i] |= BUB_FDEAD;
     st = pm_grid_remove(s->grid, i, c->err);
@@ -491,7 +493,7 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
     if (st) break;
     c->live++;
     (*inserted)++;
-    if (kind == BUB_KCURVE) c->ngap[s->cell[o]]++;
+    if (kind == BUB_KCURVE) c->ngap[s->cell[o]]++, c->curve_changed[s->cell[o]] = 1;
     s->alpha[id] = bub_alpha(s, id);
     if (!add_event(c, &s->x[3 * id], s->d[id])) st = pm_error_setf(c->err, PM_ERR_NOMEM, "out of memory");
     if (!st) st = update_around(c, &s->x[3 * id], s->d[id], kind, -1, &h);
@@ -503,12 +505,30 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
 
 /* ---- the control ------------------------------------------------------------------------------ */
 
+/* After curve bubbles were inserted or removed: the outside layer again, and the ratios of the
+ * face bubbles whose face a changed curve bounds (the only ones whose ratio can have changed
+ * through the layer; update_around already covered the bubbles near the curve bubbles
+ * themselves). */
 static pm_status refresh_layer(ctl *c) {
   bub_state *s = c->s;
+  const pm_model *m = s->model;
   if (!s->p.outside_layer) return PM_OK;
   pm_status st = bub_outside_layer(s, c->err);
-  if (!st) bub_alpha_all(s);
-  return st;
+  if (st) return st;
+  int32_t nf = m->count[PM_FACE];
+  uint8_t *face_hit = calloc((size_t)nf + 1, 1);
+  if (!face_hit) return pm_error_setf(c->err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t cu = 0; cu < m->count[PM_CURVE]; ++cu) {
+    if (!c->curve_changed[cu]) continue;
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, cu);
+    for (int32_t k = 0; k < cv->nup; ++k) face_hit[cv->up[k]] = 1;
+    c->curve_changed[cu] = 0;
+  }
+  for (int32_t i = 0; i < s->n; ++i)
+    if (s->kind[i] == BUB_KFACE && !(s->flags[i] & BUB_FDEAD) && face_hit[s->cell[i]])
+      s->alpha[i] = bub_alpha(s, i);
+  free(face_hit);
+  return PM_OK;
 }
 
 pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *info,
@@ -517,6 +537,8 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   ctl c = {0};
   c.s = s, c.cap = cap, c.info = info, c.err = err;
   c.s_open = chain_spacing(s->p.curve_open), c.s_excess = chain_spacing(s->p.curve_excess);
+  c.curve_changed = calloc((size_t)s->model->count[PM_CURVE] + 1, 1);
+  if (!c.curve_changed) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   pm_status st = PM_OK;
   for (int32_t i = 0; i < s->n; ++i) s->flags[i] &= (uint8_t)~BUB_FODD;
   /* The grid at the current positions. */
@@ -566,7 +588,7 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   for (int32_t i = 0; i < s->n; ++i)
     if (s->flags[i] & BUB_FNEW) pm_v3_zero(&s->v[3 * i]);
   pm_idbuf_free(&c.buf);
-  free(c.ev), free(c.lam), free(c.ngap);
+  free(c.ev), free(c.lam), free(c.ngap), free(c.curve_changed);
   if (!st) st = bub_state_compact(s, err);
   info->after = s->nf - s->nv;
   s->insertions += info->inserted;
