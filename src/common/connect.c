@@ -110,52 +110,33 @@ static pm_status prepare_nodes(const pm_model *m, pm_mesh *mesh, pm_connect_repo
   free(drop);
   rep->dropped_nodes = ndrop;
 
-  /* A vertex that bounds nothing and lies in nothing, at the place of another vertex, is a stray
-   * point of the CAD file (a leftover construction point): its node would duplicate the other
-   * vertex's node, so it gets none. */
+  /* Stray CAD points (geom.h) get no node: it would duplicate another vertex's. */
   int32_t nv = m->count[PM_VERTEX];
-  uint8_t *stray = calloc((size_t)nv + 1, 1);
-  if (!stray) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  for (int32_t v = 0; v < nv; ++v) {
-    const pm_cell *a = &m->cells[PM_VERTEX][v];
-    if (a->nup || a->nhost) continue;
-    for (int32_t u = 0; u < nv && !stray[v]; ++u) {
-      const pm_cell *b = &m->cells[PM_VERTEX][u];
-      if (u != v && (b->nup || b->nhost || u < v) && pm_v3_dist(a->xyz, b->xyz) <= 1e3 * m->tol) stray[v] = 1;
-    }
-  }
   drop = calloc((size_t)mesh->nnode + 1, 1);
-  if (!drop) {
-    free(stray);
-    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  }
+  if (!drop) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   ndrop = 0;
   for (int32_t i = 0; i < mesh->nnode; ++i)
-    if (mesh->node_dim[i] == PM_VERTEX && stray[mesh->node_cell[i]]) drop[i] = 1, ++ndrop;
+    if (mesh->node_dim[i] == PM_VERTEX && m->cells[PM_VERTEX][mesh->node_cell[i]].stray)
+      drop[i] = 1, ++ndrop;
   if (ndrop) compact_nodes(mesh, drop);
   free(drop);
   rep->dropped_nodes += ndrop;
 
   /* One node per vertex: add the missing ones, reject doubles. */
   int32_t *has = calloc((size_t)nv + 1, sizeof(int32_t));
-  if (!has) {
-    free(stray);
-    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  }
+  if (!has) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   for (int32_t i = 0; i < mesh->nnode; ++i)
     if (mesh->node_dim[i] == PM_VERTEX && has[mesh->node_cell[i]]++) {
       int tag = m->cells[PM_VERTEX][mesh->node_cell[i]].tag;
       free(has);
-      free(stray);
       return pm_error_setf(err, PM_ERR_ARG, "vertex %d carries more than one node", tag);
     }
   for (int32_t v = 0; v < nv && !s; ++v)
-    if (!has[v] && !stray[v]) {
+    if (!has[v] && !m->cells[PM_VERTEX][v].stray) {
       s = pm_mesh_add_node(mesh, m->cells[PM_VERTEX][v].xyz, PM_VERTEX, v, NULL, NULL, err);
       rep->added_nodes++;
     }
   free(has);
-  free(stray);
   if (s) return s;
 
   /* A closed curve (one end vertex) is a polygon only with at least two interior nodes: with

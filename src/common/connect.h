@@ -81,6 +81,8 @@ typedef struct pm_connect_report {
   int32_t curved_triangles;    /* how many triangles those figures are over */
   int32_t steiner;             /* interior points TetGen added (PM_VOLUME_REFINE) */
   int32_t flat_tet_flips;      /* edge removals that cleared zero-volume tets inside volumes */
+  int32_t retagged_tets;       /* tets TetGen left without a region that lie inside a volume
+                                  (tagged by flood fill from their neighbours) */
   int32_t flat_tets_repaired;  /* zero-volume tets under a planar face removed by flipping that
                                   face's diagonal */
   double time_curves, time_faces, time_volumes; /* seconds */

@@ -11,6 +11,7 @@
 
 #include "common/clock.h"
 #include "common/hash.h"
+#include "common/mesh_topo.h"
 #include "common/predicates.h"
 #include "common/quality.h"
 #include "common/self_intersect.h"
@@ -231,6 +232,50 @@ static int32_t repair_flat_tets(pm_mesh *mesh, const int32_t *rtet, int32_t rnte
 
 /* Tetrahedralize one group of volumes (those with ingroup[v] set): volumes joined by shared or
  * embedded faces go to TetGen together, so their tets conform across the shared faces. */
+/* Region tags by flood fill. TetGen tags tets by region seeds, but a tet it creates after its
+ * region pass (its optimization flips) can come out with no region although it lies inside the
+ * volume -- a hole in the mesh once untagged tets are dropped as cavities. So the tags TetGen
+ * gives are only starting points: a tag spreads to every untagged tet reachable through faces
+ * that are not input facets, and only tets reachable from no tagged one (a true cavity enclosed
+ * by facets) stay untagged. Returns the tets retagged, or -(status) on failure. */
+static int64_t spread_region_tags(const pm_tet_result *res, const int32_t *tri, int32_t ntri,
+                                  pm_error *err) {
+  pm_faces fc = {0};
+  pm_status s = pm_faces_build(res->npts, res->tet, res->ntet, &fc, err);
+  if (s) return -(int64_t)s;
+  uint8_t *facet = calloc((size_t)fc.nface + 1, 1);
+  int32_t *queue = malloc(sizeof(int32_t) * ((size_t)res->ntet + 1));
+  if (!facet || !queue) {
+    free(facet), free(queue), pm_faces_free(&fc);
+    return -(int64_t)pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int32_t t = 0; t < ntri; ++t) {
+    int64_t f = pm_faces_find(&fc, tri[3 * t], tri[3 * t + 1], tri[3 * t + 2], NULL);
+    if (f >= 0) facet[f] = 1;
+  }
+  int64_t head = 0, tail = 0, retagged = 0;
+  for (int32_t t = 0; t < res->ntet; ++t)
+    if (res->tet_tag[t] >= 0) queue[tail++] = t;
+  static const int opp[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  while (head < tail) {
+    int32_t t = queue[head++];
+    for (int q = 0; q < 4; ++q) {
+      const int32_t *v = &res->tet[4 * t];
+      int64_t f = pm_faces_find(&fc, v[opp[q][0]], v[opp[q][1]], v[opp[q][2]], NULL);
+      if (f < 0 || facet[f]) continue;
+      for (int64_t k = fc.off[f]; k < fc.off[f + 1]; ++k) {
+        int32_t u = fc.tet[k];
+        if (res->tet_tag[u] >= 0) continue;
+        res->tet_tag[u] = res->tet_tag[t];
+        queue[tail++] = u;
+        ++retagged;
+      }
+    }
+  }
+  free(facet), free(queue), pm_faces_free(&fc);
+  return retagged;
+}
+
 static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const face_tris *ft,
                                       const uint8_t *ingroup, const pm_connect_params *p,
                                       pm_connect_report *rep, pm_error *err) {
@@ -350,6 +395,18 @@ static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const fa
   in.max_points = p->max_nodes > 0 ? p->max_nodes - (mesh->nnode - np) : 0;
   in.allow_recovery_points = p->recovery_points;
   s = pm_tet_tetrahedralize(&in, &res, err);
+  if (s && res.lost_tri >= 0 && res.lost_tri < ntri) {
+    /* Name the model face: TetGen's own numbers mean nothing to a user. A face TetGen cannot keep
+     * is almost always a thin feature sampled too coarsely, its triangles nearly touching
+     * another face's. */
+    const pm_cell *fc = &m->cells[PM_FACE][tag[res.lost_tri]];
+    const double *a = &xyz[3 * tri[3 * res.lost_tri]];
+    s = pm_error_setf(err, PM_ERR_BACKEND,
+                      "TetGen could not keep a surface triangle of face %d near (%.6g, %.6g, %.6g) "
+                      "(a thin or sharp feature sampled too coarsely for it: a smaller size there "
+                      "helps)",
+                      fc->tag, a[0], a[1], a[2]);
+  }
   if (s) goto done;
   /* Steiner points become volume nodes of the volume of their first tet. */
   if (res.npts > np) {
@@ -362,6 +419,14 @@ static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const fa
     for (int32_t i = np; i < res.npts; ++i) back[i] = -1;
   }
 
+  {
+    int64_t r = spread_region_tags(&res, tri, ntri, err);
+    if (r < 0) {
+      s = (pm_status)-r;
+      goto done;
+    }
+    rep->retagged_tets += (int32_t)r;
+  }
   /* A cavity that is no volume has tag -1: its tets are dropped. Then flat tets (nearly
    * coplanar and cospherical nodes, which TetGen's flips leave) are removed: inside the volume
    * by edge removal (tet_flip.h), against a planar face by flipping its diagonal. */

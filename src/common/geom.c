@@ -156,6 +156,23 @@ static pm_status face_bound_from_loops(pm_cell *f, pm_error *err) {
   return PM_OK;
 }
 
+/* Stray vertices (geom.h): isolated points on another vertex. Quadratic in the isolated vertices
+ * only, of which a model has few. */
+static void mark_stray_vertices(pm_model *m) {
+  int32_t nv = m->count[PM_VERTEX];
+  for (int32_t v = 0; v < nv; ++v) {
+    pm_cell *a = &m->cells[PM_VERTEX][v];
+    a->stray = 0;
+    if (a->nup || a->nhost) continue;
+    for (int32_t u = 0; u < nv && !a->stray; ++u) {
+      const pm_cell *b = &m->cells[PM_VERTEX][u];
+      /* Of two coincident isolated points the first one is kept. */
+      if (u != v && (b->nup || b->nhost || u < v) && pm_v3_dist(a->xyz, b->xyz) <= 1e3 * m->tol)
+        a->stray = 1;
+    }
+  }
+}
+
 /* Sample count per parameter direction for 3D bounding boxes of curves and faces. */
 #define BOX_SAMPLES 16
 
@@ -217,6 +234,7 @@ pm_status pm_model_finish(pm_model *m, pm_error *err) {
   m->diagonal = pm_v3_dist(m->box, m->box + 3);
   if (!(m->diagonal > 0)) return pm_error_setf(err, PM_ERR_GEOM, "the model has zero extent");
   if (!(m->tol > 0)) m->tol = 1e-9 * m->diagonal;
+  mark_stray_vertices(m);
   return PM_OK;
 }
 

@@ -37,6 +37,9 @@ static void init_mutex_and_gmsh(void) {
   gmshOptionSetNumber("General.AbortOnError", 0, &ierr);
   /* packmesh decides threading itself; gmsh's own threads would compete for the 2 cores. */
   gmshOptionSetNumber("General.NumThreads", 1, &ierr);
+  gmshOptionSetNumber("Mesh.MaxNumThreads1D", 1, &ierr);
+  gmshOptionSetNumber("Mesh.MaxNumThreads2D", 1, &ierr);
+  gmshOptionSetNumber("Mesh.MaxNumThreads3D", 1, &ierr);
   omp_set_num_threads(omp_threads);
   gmsh_ready = 1;
 }
@@ -80,8 +83,10 @@ pm_status pm_gmsh_scope_enter(pm_gmsh_scope *scope, const char *name, int create
   pm_status s = pm_gmsh_begin(err);
   if (s) return s;
   /* The scope holds the (recursive) gmsh lock until it is left, so no other thread can switch
-   * the current model under it. */
+   * the current model under it; gmsh runs on one OpenMP thread inside it (see the header). */
   pm_gmsh_lock();
+  scope->omp_threads = omp_get_max_threads();
+  omp_set_num_threads(1);
   scope->previous[0] = '\0';
   scope->had_previous = 0;
   int ierr = 0;
@@ -115,6 +120,7 @@ pm_status pm_gmsh_scope_enter(pm_gmsh_scope *scope, const char *name, int create
   /* A failed enter leaves nothing to leave: restore and release here. */
   if (s) {
     if (scope->had_previous && scope->previous[0]) gmshModelSetCurrent(scope->previous, &ierr);
+    omp_set_num_threads(scope->omp_threads);
     pm_gmsh_unlock();
   }
   return s;
@@ -124,6 +130,7 @@ void pm_gmsh_scope_leave(pm_gmsh_scope *scope, int remove_current) {
   int ierr = 0;
   if (remove_current) gmshModelRemove(&ierr);
   if (scope->had_previous && scope->previous[0]) gmshModelSetCurrent(scope->previous, &ierr);
+  omp_set_num_threads(scope->omp_threads);
   pm_gmsh_unlock();
 }
 

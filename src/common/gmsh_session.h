@@ -32,11 +32,14 @@ pm_status pm_gmsh_error(pm_error *err, pm_status code, const char *what);
 typedef struct pm_gmsh_scope {
   char previous[256]; /* name of the model that was current, "" if none */
   int had_previous;
+  int omp_threads;    /* the calling thread's OpenMP thread count before the scope */
 } pm_gmsh_scope;
 
 /* Make model `name` current, creating it when `create` is set (an existing model of that name is
  * an error then). Remembers the previous current model in scope. The scope holds the gmsh lock
- * from a successful enter to its leave; a failed enter holds nothing. */
+ * from a successful enter to its leave; a failed enter holds nothing. Inside a scope the calling
+ * thread's OpenMP thread count is 1: gmsh's meshers open OpenMP regions that follow it, and with
+ * more than one thread gmsh 4.8.4's meshes change from run to run. */
 pm_status pm_gmsh_scope_enter(pm_gmsh_scope *scope, const char *name, int create, pm_error *err);
 
 /* Restore the model that was current before pm_gmsh_scope_enter() and release the lock. When

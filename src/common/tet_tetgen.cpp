@@ -111,6 +111,7 @@ void zero(pm_tet_result *r) {
   r->tet = nullptr;
   r->tet_tag = nullptr;
   r->nsteiner = 0;
+  r->lost_tri = -1;
 }
 
 // Sorted vertex triple / pair: keys for faces and edges.
@@ -748,6 +749,7 @@ pm_status collect(const pm_tet_input *in, const Plc &plc, Raw &o, pm_tet_result 
     for (size_t k = 0; k < plc.tri.size(); ++k)
       if (!found[k]) {
         const Tri &t = plc.tri[k];
+        res->lost_tri = plc.tri_in[k];
         return pm_error_setf(err, PM_ERR_BACKEND,
                              "tet: input triangle %d (%d, %d, %d) is not a face of the output",
                              plc.tri_in[k], t[0], t[1], t[2]);

@@ -86,6 +86,8 @@ typedef struct pm_tet_result {
   int32_t *tet;           /* [4*ntet] positively oriented (see mesh.h) */
   int32_t *tet_tag;       /* [ntet] the region tag of each tet, -1 outside every region seed */
   int32_t nsteiner;       /* points added by TetGen (0 in PM_TET_GIVEN_POINTS mode) */
+  int32_t lost_tri;       /* on a failure because TetGen did not keep an input triangle: its
+                             index in the input (the only field set then); else -1 */
 } pm_tet_result;
 
 pm_status pm_tet_tetrahedralize(const pm_tet_input *in, pm_tet_result *out, pm_error *err);

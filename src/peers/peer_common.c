@@ -225,22 +225,6 @@ int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh) {
   return turned;
 }
 
-uint8_t *peer_stray_vertices(const pm_model *m) {
-  int32_t nv = m->count[PM_VERTEX];
-  uint8_t *stray = calloc((size_t)nv + 1, 1);
-  if (!stray) return NULL;
-  for (int32_t v = 0; v < nv; ++v) {
-    const pm_cell *a = &m->cells[PM_VERTEX][v];
-    if (a->nup || a->nhost) continue;
-    for (int32_t u = 0; u < nv && !stray[v]; ++u) {
-      const pm_cell *b = &m->cells[PM_VERTEX][u];
-      if (u != v && (b->nup || b->nhost || u < v) && pm_v3_dist(a->xyz, b->xyz) <= 1e3 * m->tol)
-        stray[v] = 1;
-    }
-  }
-  return stray;
-}
-
 void peer_stats_time(pm_stats *stats, const char *phase, double seconds) {
   if (stats) pm_stats_set_time(stats, phase, seconds, NULL);
 }

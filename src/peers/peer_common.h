@@ -66,13 +66,6 @@ void peer_tagmap_free(peer_tagmap *t);
  * without interior nodes keep the backend's orientation. Returns the number of faces turned. */
 int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh);
 
-/* Stray vertices of a CAD model: a vertex that bounds nothing and lies in nothing, within
- * 1e3 x the model tolerance of another vertex that bounds something (or of a lower-indexed
- * vertex), is a leftover construction point of the file; a backend that meshes it would put a
- * second node on the other vertex's place. The connection step gives such vertices no node; the
- * peers drop theirs the same way. Returns a malloc'ed flag per vertex (NULL when out of
- * memory). */
-uint8_t *peer_stray_vertices(const pm_model *m);
 
 /* Add a phase time to out's stats when present (errors ignored: timings are informational). */
 void peer_stats_time(pm_stats *stats, const char *phase, double seconds);

@@ -209,8 +209,6 @@ static pm_status convert_nodes(const pm_model *m, const peer_tagmap *map, int pl
   node_key *keys = NULL;
   size_t nkeys = 0, cap = 0;
   pm_status s = PM_OK;
-  uint8_t *stray = peer_stray_vertices(m);
-  if (!stray) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   for (int dim = 0; dim <= maxdim && !s; ++dim) {
     int ierr = 0, *dt = NULL;
     size_t ndt = 0;
@@ -232,8 +230,8 @@ static pm_status convert_nodes(const pm_model *m, const peer_tagmap *map, int pl
         if (cell < 0)
           s = pm_error_setf(err, PM_ERR_INTERNAL, "gmsh entity (%d, %d) is no cell of model '%s'",
                             dim, tag, m->name);
-        /* A stray point's node would duplicate another vertex's; no element uses it. */
-        if (!s && dim == PM_VERTEX && stray[cell]) nn = 0;
+        /* A stray CAD point's node (geom.h) would duplicate another vertex's. */
+        if (!s && dim == PM_VERTEX && m->cells[PM_VERTEX][cell].stray) nn = 0;
         if (!s && nkeys + nn > cap) {
           size_t ncap = cap ? cap : 1024;
           while (ncap < nkeys + nn) ncap *= 2;
@@ -255,7 +253,6 @@ static pm_status convert_nodes(const pm_model *m, const peer_tagmap *map, int pl
     }
     if (dt) gmshFree(dt);
   }
-  free(stray);
   if (!s && nkeys) qsort(keys, nkeys, sizeof *keys, cmp_node_key);
   if (s) {
     free(keys);
