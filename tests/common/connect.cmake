@@ -25,3 +25,8 @@ foreach(f ${PM_CONNECT_CAD_LONG})
   set_tests_properties(test_connect_cad_${f} PROPERTIES LABELS "backend;long" TIMEOUT 1200
     ENVIRONMENT "${PM_TEST_ENV}")
 endforeach()
+# A node set on which TetGen 1.5 leaves an inner tet without a region: without the flood-fill
+# retagging of the volume step, that tet was dropped and left a hole.
+add_test(NAME test_connect_cad_retag COMMAND test_connect_cad ${PM_CAD_DIR}/bottle.brep 0.06666666666666667 3)
+set_tests_properties(test_connect_cad_retag PROPERTIES LABELS "backend" TIMEOUT 300
+  ENVIRONMENT "${PM_TEST_ENV}")

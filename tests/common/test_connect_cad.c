@@ -5,7 +5,8 @@
  * consistently oriented shells, no zero-area or duplicate triangles. Solids also get tets in both
  * TetGen modes, with the volume tags kept.
  *
- * Usage: test_connect_cad FILE [SIZE_FRACTION]   (one shared model per ctest entry, so that a
+ * Usage: test_connect_cad FILE [SIZE_FRACTION [JITTER_SEED]] (a seed given means the run must
+ * meet TetGen's untagged inner tets and retag them -- a regression case)   (one shared model per ctest entry, so that a
  * crash of gmsh's mesher on one model stays that model's failure). */
 #include "test_support.h"
 
@@ -22,6 +23,8 @@
 
 static const char *model_path;
 static double size_fraction = 1.0 / 15;
+static uint64_t jitter_seed = 12345;
+static int expect_retag; /* the run must have retagged tets TetGen left without a region */
 
 static int32_t cell_of_tag(const pm_model *m, int dim, int tag) {
   for (int32_t i = 0; i < m->count[dim]; ++i)
@@ -37,7 +40,7 @@ static int32_t cell_of_tag(const pm_model *m, int dim, int tag) {
  * space). */
 static void jitter(const pm_cell *c, uint64_t id, double h, double *par, double x[3]) {
   pm_rng r;
-  pm_rng_init(&r, 12345, id);
+  pm_rng_init(&r, jitter_seed, id);
   if (c->dim == PM_VOLUME) {
     for (int k = 0; k < 3; ++k) x[k] += 0.01 * h * pm_rng_range(&r, -1, 1);
     return;
@@ -134,6 +137,7 @@ static void connect_gmsh_nodes(void **state) {
   /* Solids: tets in both modes, tags kept. Refinement first; its interior points are then the
    * given nodes of the no-Steiner mode (gmsh's own 3D mesher asserts on some of these models, so
    * it is not asked for interior nodes). */
+  int32_t retagged = 0;
   if (m->count[PM_VOLUME] > 0) {
     pm_mesh *refined = NULL;
     for (int mode = PM_VOLUME_REFINE; mode >= PM_VOLUME_GIVEN; --mode) {
@@ -154,11 +158,12 @@ static void connect_gmsh_nodes(void **state) {
       for (int32_t v = 0; v < m->count[PM_VOLUME]; ++v) assert_true(seen[v] > 0);
       /* Given nodes: no point added but the few TetGen needs to recover the boundary. */
       if (mode == PM_VOLUME_GIVEN) assert_int_equal(vm->nnode, given + rep.steiner);
+      retagged += rep.retagged_tets;
       print_message("%s: %s: %d tets over %d volumes from %d nodes, %d added by TetGen; %d flat "
-                    "tets removed by flips, %d by diagonal swaps\n",
+                    "tets removed by flips, %d by diagonal swaps; %d retagged\n",
                     model_path, mode == PM_VOLUME_GIVEN ? "given nodes" : "TetGen refinement",
                     (int)vm->ntet, (int)m->count[PM_VOLUME], (int)given, rep.steiner,
-                    rep.flat_tet_flips, rep.flat_tets_repaired);
+                    rep.flat_tet_flips, rep.flat_tets_repaired, rep.retagged_tets);
       free(seen);
       pm_check_report_clear(&r);
       if (mode == PM_VOLUME_REFINE)
@@ -168,6 +173,7 @@ static void connect_gmsh_nodes(void **state) {
     }
     pm_mesh_destroy(refined);
   }
+  if (expect_retag) assert_true(retagged > 0);
   pm_model_destroy(m);
 }
 
@@ -178,6 +184,7 @@ int main(int argc, char **argv) {
   }
   model_path = argv[1];
   if (argc > 2) size_fraction = atof(argv[2]);
+  if (argc > 3) jitter_seed = (uint64_t)atoll(argv[3]), expect_retag = 1;
   if (access(model_path, R_OK) != 0) {
     printf("skipped: %s is not there\n", model_path);
     return 0;
