@@ -1,0 +1,110 @@
+/* The psys parameter table: one description per field of psys_params drives its default,
+ * `--set`, `--help` and the range check (params.h). Defaults live here and nowhere else. */
+#include <math.h>
+#include <stddef.h>
+
+#include "psys/psys.h"
+
+#define F(field) offsetof(psys_params, field)
+#define D PM_PARAM_DOUBLE
+#define I PM_PARAM_INT
+#define B PM_PARAM_BOOL
+
+static const pm_param_desc desc[] = {
+    {"s_kappa", D, F(s_kappa), 2.0, 0, 1e6, PM_RANGE_LO_OPEN, "",
+     "curvature scaling: sigma_kappa = 1 / (s_kappa kappa); larger fits curved geometry closer",
+     "001 sec. 3.1 eq. 12-13, sec. 5.1", NULL},
+    {"s_tau", D, F(s_tau), 0.5, 0, 10, PM_RANGE_LO_OPEN, "",
+     "gap-size scaling: sigma <= s_tau x the distance to the nearest non-adjacent cell",
+     "001 sec. 3.1 (Gap Size), Alg. 2, sec. 5.1", NULL},
+    {"L", D, F(lipschitz), 0.3, 0, 10, PM_RANGE_LO_OPEN, "",
+     "Lipschitz bound of the sizing field: |sigma_i - sigma_j| <= L |x_i - x_j|",
+     "001 eq. 14-15, sec. 5.1", NULL},
+    {"kappa_min", D, F(kappa_min), 0, 0, INFINITY, PM_RANGE_HI_OPEN, "1/length",
+     "smallest curvature considered; sigma_max = 1/(s_kappa kappa_min); 0 = 5 / model diagonal",
+     "001 eq. 13 (default: ours)", NULL},
+    {"kappa_max", D, F(kappa_max), 0, 0, INFINITY, PM_RANGE_HI_OPEN, "1/length",
+     "largest curvature considered; sigma_min = 1/(s_kappa kappa_max); 0 = 500 / model diagonal",
+     "001 eq. 12 (default: ours)", NULL},
+    {"sigma_grow", D, F(sigma_grow), 1.5, 1, 100, PM_RANGE_LO_OPEN, "",
+     "largest factor by which a particle's sigma may rise in one update (bounds the gap search)",
+     "ours (001 is silent)", NULL},
+    {"kappa_refresh", D, F(kappa_refresh), 0.25, 0, 100, PM_RANGE_CLOSED, "sigma",
+     "re-evaluate a particle's curvature once it moved this far (0: every update)",
+     "ours (001 is silent)", NULL},
+    {"lambda_init", D, F(lambda_init), 1.0, 0, 100, PM_RANGE_LO_OPEN, "",
+     "initial step scale lambda_i (step = lambda_i x the tangent Newton step of E_i)",
+     "001 Alg. 1, sec. 3 (Newton-Raphson)", NULL},
+    {"lambda_min", D, F(lambda_min), 1e-4, 0, 100, PM_RANGE_LO_OPEN, "",
+     "Algorithm 1's lambda_min: below it a rejected step is skipped", "001 Alg. 1", NULL},
+    {"lambda_max", D, F(lambda_max), 1.0, 0, 100, PM_RANGE_LO_OPEN, "",
+     "cap of lambda_i (1: a full Newton step)", "ours (001 is silent)", NULL},
+    {"lambda_grow", D, F(lambda_grow), 2.0, 1, 100, PM_RANGE_CLOSED, "",
+     "lambda_i is multiplied by this after an accepted step (1: never grows)",
+     "ours (001 only divides by 10)", NULL},
+    {"step_max", D, F(step_max), 0.5, 0, 1, PM_RANGE_LO_OPEN, "sigma",
+     "longest world-space step of a particle (eq. 2 diverges as r -> 0)", "ours (001 is silent)",
+     NULL},
+    {"split_ratio", D, F(split_ratio), 0.35, 0, 100, PM_RANGE_LO_OPEN, "",
+     "split when E_i (1 + eps) < split_ratio E_ideal", "001 eq. 4", NULL},
+    {"delete_ratio", D, F(delete_ratio), 1.75, 0, 100, PM_RANGE_LO_OPEN, "",
+     "delete when E_i (1 + eps) > delete_ratio E_ideal", "001 eq. 5", NULL},
+    {"ring_curve", D, F(ring_curve), 1.5, 1, 6, PM_RANGE_CLOSED, "",
+     "E_ideal of curve particles is sigma ring_curve E(beta) (6: eq. 6 as printed, the hexagonal "
+     "one-ring of a face; 2: the one-ring of a curve)",
+     "001 eq. 6 (value for curves: ours)", NULL},
+    {"delete_grace", I, F(delete_grace), 3, 0, 1000, PM_RANGE_CLOSED, "iterations",
+     "particles around a split or a delete are not deleted for this many iterations",
+     "ours (001 is silent)", NULL},
+    {"seeds_per_face", I, F(seeds_per_face), 8, 1, 100000, PM_RANGE_CLOSED, "",
+     "k: random particles seeded per face at the start of phase 3", "001 sec. 4.1", NULL},
+    {"pop_tol", D, F(pop_tol), 0.005, 0, 1, PM_RANGE_CLOSED, "",
+     "annealing starts once the particle count moved by at most max(2, pop_tol n) over 10 "
+     "iterations",
+     "ours (001 sec. 3: 'this bias can be adjusted to stop splits and deletes')", NULL},
+    {"anneal_after", I, F(anneal_after), 150, 1, 10000000, PM_RANGE_CLOSED, "iterations",
+     "annealing starts at the latest after this many iterations of a phase", "ours", NULL},
+    {"anneal_rate", D, F(anneal_rate), 0.75, 0, 1, PM_RANGE_LO_OPEN | PM_RANGE_HI_OPEN, "",
+     "per-iteration factor of the annealing weight (bias amplitude, threshold widening)", "ours",
+     NULL},
+    {"anneal_off", D, F(anneal_off), 0.02, 0, 1, PM_RANGE_LO_OPEN | PM_RANGE_HI_OPEN, "",
+     "splits and deletes stop once the annealing weight falls below this", "ours", NULL},
+    {"move_tol", D, F(move_tol), 2e-3, 0, 1, PM_RANGE_LO_OPEN, "sigma",
+     "a phase ends when population control is off and the mean move is below this",
+     "001 sec. 4.1 ('change ... below some threshold'; value ours)", NULL},
+    {"max_iter", I, F(max_iter), 1500, 1, 10000000, PM_RANGE_CLOSED, "iterations",
+     "iteration cap of each phase", "ours", NULL},
+    {"edge_per_sigma", D, F(edge_per_sigma), 0.66, 0.05, 2, PM_RANGE_CLOSED, "",
+     "mean edge length / sigma of the converged packing (a given size d gives sigma = "
+     "d / edge_per_sigma); calibrated on uniform fields",
+     "001 eq. 6 (beta = 0.577) and our calibration", NULL},
+    {"frame_every", I, F(frame_every), 10, 1, 10000000, PM_RANGE_CLOSED, "iterations",
+     "--frames: a snapshot every this many iterations (and at the end of each phase)", "ours",
+     NULL},
+    {"affine", B, F(affine), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "connection: affine scaling of each face's parameter space", "001 eq. 16", NULL},
+    {"flips", B, F(flips), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "connection: flip edges towards empty diametric balls", "001 sec. 4.3", NULL},
+    {"tet_radius_edge", D, F(tet_radius_edge), 1.5, 1, 100, PM_RANGE_LO_OPEN, "",
+     "--volume: TetGen's radius-edge quality bound (-q)", "001 sec. 4.4", NULL},
+};
+
+const pm_param_table psys_param_table = {"psys", desc, (int)(sizeof desc / sizeof desc[0])};
+
+void psys_params_init(psys_params *p) { pm_params_defaults(&psys_param_table, p); }
+
+pm_status psys_params_check(const psys_params *p, pm_error *err) {
+  pm_status s = pm_params_check(&psys_param_table, p, err);
+  if (s) return s;
+  if (!(p->lambda_min <= p->lambda_init && p->lambda_init <= p->lambda_max))
+    return pm_error_setf(err, PM_ERR_ARG,
+                         "psys: need lambda_min <= lambda_init <= lambda_max, got %g, %g, %g",
+                         p->lambda_min, p->lambda_init, p->lambda_max);
+  if (!(p->split_ratio < p->delete_ratio))
+    return pm_error_setf(err, PM_ERR_ARG, "psys: need split_ratio < delete_ratio, got %g and %g",
+                         p->split_ratio, p->delete_ratio);
+  if (p->kappa_min > 0 && p->kappa_max > 0 && !(p->kappa_min < p->kappa_max))
+    return pm_error_setf(err, PM_ERR_ARG, "psys: need kappa_min < kappa_max, got %g and %g",
+                         p->kappa_min, p->kappa_max);
+  return PM_OK;
+}

@@ -1,0 +1,224 @@
+/* The three phases of papers/001 section 4.1-4.2, their seeding and their end.
+ *
+ *   Phase 1: one particle on every vertex, one at the middle of every curve; vertex and curve
+ *            particles are optimized with the curvature and Lipschitz constraints only.
+ *   Phase 2: the same particles, with the gap size added outside the corner balls; a vertex's
+ *            corner ball is its sigma at the end of phase 1 (section 4.2). With a given size
+ *            field there is nothing to add, and phase 2 is skipped.
+ *   Phase 3: k random particles on every face; the vertex and curve particles are held fixed,
+ *            their sigma too, and the face particles are optimized.
+ *
+ * When a phase ends (ours; "a phase is considered complete when the change from one iteration to
+ * the next drops below some threshold"). The change has two parts: the population and the
+ * positions. The population is left to the split/delete rules until the particle count has
+ * settled -- it moved by at most max(2, pop_tol n) (pop_tol = 0.5%) over the last 10 iterations:
+ * the random bias keeps a few splits and deletes going at any time, so their number says less
+ * than their balance -- or until anneal_after (150) iterations have passed; then the annealing weight a of psys_population.c is multiplied by
+ * anneal_rate (0.75) every iteration, and once it falls below anneal_off (0.02, about 14
+ * iterations) splits and deletes stop for good. The phase ends at the first iteration after that
+ * whose mean move is below move_tol (0.2%) of sigma, or at max_iter (1500) iterations.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/clock.h"
+#include "common/mesh.h"
+#include "common/rng.h"
+#include "psys/psys_private.h"
+
+/* ---- seeding --------------------------------------------------------------------------------- */
+
+pm_status psys_seed_curves(psys_sys *s, pm_error *err) {
+  const pm_model *m = s->model;
+  pm_status st;
+  for (int32_t v = 0; v < m->count[PM_VERTEX]; ++v) {
+    const pm_cell *c = pm_model_cell(m, PM_VERTEX, v);
+    /* A point that bounds nothing and lies in nothing (a stray construction point of a CAD
+     * file) is no part of the mesh's geometry. */
+    if (c->nup == 0 && c->nhost == 0) continue;
+    if ((st = psys_add(s, PM_VERTEX, v, NULL, 0, NULL, err))) return st;
+  }
+  for (int32_t e = 0; e < m->count[PM_CURVE]; ++e) {
+    const pm_cell *c = pm_model_cell(m, PM_CURVE, e);
+    if (c->degenerate) continue; /* a pole: its vertex carries it */
+    double t = 0.5 * (c->lo[0] + c->hi[0]);
+    if ((st = psys_add(s, PM_CURVE, e, &t, 0, NULL, err))) return st;
+  }
+  return PM_OK;
+}
+
+static uint64_t mix64(uint64_t x) {
+  x ^= x >> 30, x *= 0xbf58476d1ce4e5b9ULL;
+  x ^= x >> 27, x *= 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+pm_status psys_seed_face(psys_sys *s, int32_t f, int k, pm_error *err) {
+  const pm_cell *c = pm_model_cell(s->model, PM_FACE, f);
+  pm_rng r;
+  pm_rng_init(&r, s->seed, mix64(0x5eedface00000000ULL ^ (uint64_t)(uint32_t)f));
+  int placed = 0;
+  pm_status st;
+  /* Uniform in the parameter box, kept when inside the trimmed region. */
+  for (int tries = 0; tries < 200 * k && placed < k; ++tries) {
+    double uv[2] = {pm_rng_range(&r, c->lo[0], c->hi[0]), pm_rng_range(&r, c->lo[1], c->hi[1])};
+    if (!pm_face_inside(c, uv)) continue;
+    if ((st = psys_add(s, PM_FACE, f, uv, 0, NULL, err))) return st;
+    ++placed;
+  }
+  if (placed) return PM_OK;
+  /* A sliver of its box (a thin strip along a diagonal): step inwards from the middle of the
+   * outer loop's polyline segments. */
+  for (int32_t l = 0; l < c->nloop && !placed; ++l) {
+    const pm_loop *lp = &c->loop[l];
+    if (lp->outer != 1) continue;
+    for (int32_t q = 0; q < lp->npts && !placed; ++q) {
+      const double *a = &lp->uv[2 * q], *b = &lp->uv[2 * ((q + 1) % lp->npts)];
+      double dx = b[0] - a[0], dy = b[1] - a[1];
+      for (double f2 = 0.5; f2 > 1e-4 && !placed; f2 *= 0.25) {
+        /* outer loops run counter-clockwise: the inside is on the left */
+        double uv[2] = {0.5 * (a[0] + b[0]) - f2 * dy, 0.5 * (a[1] + b[1]) + f2 * dx};
+        if (!pm_face_inside(c, uv)) continue;
+        if ((st = psys_add(s, PM_FACE, f, uv, 0, NULL, err))) return st;
+        ++placed;
+      }
+    }
+  }
+  return PM_OK;
+}
+
+/* ---- observation -------------------------------------------------------------------------- */
+
+static const char *const trace_cols[] = {"iteration", "phase",      "particles", "energy",
+                                         "mean_move", "max_move",   "splits",    "deletes",
+                                         "mean_sigma", "anneal",    "mean_rel_move"};
+#define NTRACE ((int)(sizeof trace_cols / sizeof trace_cols[0]))
+
+static pm_status observe(psys_sys *s, const psys_observer *obs, const psys_move_info *mi,
+                         int32_t sp, int32_t de, double a, int frame, pm_error *err) {
+  if (!obs) return PM_OK;
+  pm_status st;
+  if (obs->trace) {
+    if (pm_trace_ncol(obs->trace) == 0 &&
+        (st = pm_trace_columns(obs->trace, NTRACE, trace_cols, err)))
+      return st;
+    double ms = 0;
+    for (int32_t i = 0; i < s->n; ++i) ms += s->sigma[i];
+    if (s->n) ms /= s->n;
+    double row[NTRACE] = {(double)s->iter, s->phase,     s->n,        mi->energy,
+                          mi->mean_move,   mi->max_move, sp,          de,
+                          ms,              a,            mi->mean_rel};
+    if (pm_trace_ncol(obs->trace) == NTRACE && (st = pm_trace_add(obs->trace, row, err)))
+      return st;
+  }
+  if (obs->frames && frame)
+    return pm_frames_add(obs->frames, s->iter, s->n, s->xyz, s->sigma, s->dim, err);
+  return PM_OK;
+}
+
+/* ---- one phase -------------------------------------------------------------------------------- */
+
+#define POP_WINDOW 10
+
+pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psys_observer *obs,
+                         psys_phase_report *rep, pm_error *err) {
+  const double t0 = pm_seconds();
+  memset(rep, 0, sizeof *rep);
+  pm_status st = PM_OK;
+  s->phase = phase;
+  if (phase == 1) {
+    s->gap_curves = s->gap_faces = 0;
+    if (s->n == 0 && (st = psys_seed_curves(s, err))) return st;
+  } else if (phase == 2) {
+    /* Section 4.2: each vertex's sigma after phase 1 becomes its corner-ball radius. */
+    for (int32_t i = 0; i < s->n; ++i)
+      if (s->dim[i] == PM_VERTEX) s->corner[s->cell[i]] = s->sigma[i];
+    s->gap_curves = s->size == NULL;
+    s->gap_faces = 0;
+  } else {
+    /* The new optimization uses the fixed positions of the previous phases (section 3). */
+    for (int32_t i = 0; i < s->n; ++i) s->fixed[i] = 1, s->frozen[i] = 1;
+    s->gap_faces = s->size == NULL;
+    if ((st = psys_build_chains(s, err))) return st;
+    const int32_t nf = s->model->count[PM_FACE];
+    free(s->face_on);
+    if (!(s->face_on = calloc((size_t)nf + 1, 1)))
+      return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    for (int32_t f = 0; f < nf; ++f) {
+      s->face_on[f] = !faces || faces[f];
+      if (s->face_on[f] && (st = psys_seed_face(s, f, s->p.seeds_per_face, err))) return st;
+    }
+  }
+  double a = 1;
+  int pop_on = 1;
+  int32_t hist[POP_WINDOW]; /* particle counts of the last POP_WINDOW iterations */
+  for (int64_t it = 0;; ++it) {
+    psys_move_info mi;
+    int32_t sp = 0, de = 0;
+    if ((st = psys_sigma_update(s, err))) return st;
+    if ((st = psys_move_pass(s, &mi, err))) return st;
+    if (pop_on && (st = psys_population_pass(s, a, &sp, &de, err))) return st;
+    rep->iterations = it + 1;
+    /* the count POP_WINDOW iterations ago, then this one in its place */
+    int32_t then = it >= POP_WINDOW ? hist[it % POP_WINDOW] : -1;
+    hist[it % POP_WINDOW] = s->n;
+    int done = 0;
+    if (pop_on) {
+      if (a == 1) {
+        /* the count has settled when it moved by at most max(2, pop_tol n) over the window */
+        int32_t tol = (int32_t)fmax(2.0, s->p.pop_tol * s->n);
+        int calm = then >= 0 && abs(s->n - then) <= tol;
+        if (calm || it + 1 >= s->p.anneal_after) a *= s->p.anneal_rate;
+      } else {
+        a *= s->p.anneal_rate;
+        if (a < s->p.anneal_off) pop_on = 0;
+      }
+    } else if (mi.mean_rel < s->p.move_tol) {
+      done = 1, rep->converged = 1;
+    }
+    if (mi.movable == 0 && sp == 0 && de == 0 && s->n > 0) {
+      /* nothing can move and nothing changed: only splits could, and there were none */
+      int movable = 0;
+      for (int32_t i = 0; i < s->n && !movable; ++i) movable = !s->fixed[i];
+      if (!movable) done = 1, rep->converged = 1;
+    }
+    if (!done && it + 1 >= s->p.max_iter) done = 1;
+    int frame = done || it % s->p.frame_every == 0;
+    if ((st = observe(s, obs, &mi, sp, de, pop_on ? a : 0, frame, err))) return st;
+    s->iter++;
+    if (done) break;
+  }
+  rep->particles = s->n;
+  rep->seconds = pm_seconds() - t0;
+  return PM_OK;
+}
+
+pm_status psys_optimize(psys_sys *s, const psys_observer *obs, psys_phase_report rep[3],
+                        pm_error *err) {
+  memset(rep, 0, 3 * sizeof *rep);
+  pm_status st = psys_run_phase(s, 1, NULL, obs, &rep[0], err);
+  if (st) return pm_error_prefix(err, "psys phase 1");
+  if (!s->size && (st = psys_run_phase(s, 2, NULL, obs, &rep[1], err)))
+    return pm_error_prefix(err, "psys phase 2");
+  if (s->size) rep[1].converged = 1, rep[1].particles = s->n;
+  if ((st = psys_run_phase(s, 3, NULL, obs, &rep[2], err)))
+    return pm_error_prefix(err, "psys phase 3");
+  return PM_OK;
+}
+
+pm_status psys_to_mesh(const psys_sys *s, pm_mesh **out, pm_error *err) {
+  *out = NULL;
+  pm_mesh *m = pm_mesh_create();
+  if (!m) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  pm_status st = pm_mesh_reserve(m, s->n, 0, 0, 0, err);
+  for (int32_t i = 0; i < s->n && !st; ++i)
+    st = pm_mesh_add_node(m, &s->xyz[3 * i], s->dim[i], s->cell[i],
+                          s->dim[i] == PM_VERTEX ? NULL : &s->par[2 * i], NULL, err);
+  if (st) {
+    pm_mesh_destroy(m);
+    return st;
+  }
+  *out = m;
+  return PM_OK;
+}

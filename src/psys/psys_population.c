@@ -1,0 +1,267 @@
+/* Splitting and deleting (papers/001 eq. 3-6): the particle count follows the energy density.
+ *
+ * Each movable particle draws eps uniform in [0, 1) from its own stream (seed, serial,
+ * iteration) and forms E* = E_i (1 + a eps) (eq. 3); with E_ideal = sigma_i 6 E(beta) (eq. 6) it
+ * splits when E* < 0.35 a E_ideal (eq. 4) and is deleted when E* > 1.75 E_ideal / a (eq. 5).
+ * a is the annealing weight of psys_phases.c: 1 gives the paper's rules; as the phase converges a
+ * falls towards 0, the bias fades and the thresholds move apart until splits and deletes stop
+ * (section 3: "this bias can be adjusted to stop splits and deletes all together, ensuring
+ * termination"; the schedule is ours).
+ *
+ * Order (ours; the paper is silent): particles are visited in index order, one thread. A particle
+ * whose neighbourhood changed in this pass (a neighbour split or was deleted) waits for the next
+ * iteration: its energy no longer describes its surroundings, and acting on it would delete both
+ * particles of a crowded pair or split both sides of a hole.
+ *
+ * Empty cells (ours). A curve or face whose particles all went (before the last-particle rule
+ * below could hold one, when its sigma was larger) gets one particle again, at the middle of a
+ * curve or at a random point of a face, once it extends over more than two ideal spacings of its
+ * end vertices: only particles split, so an empty cell would stay empty however fine the field
+ * around it becomes.
+ *
+ * The last particle of a cell (ours). Particles of different cells repel each other in world
+ * space, and before the gap size is known (phase 1) the particle of a long curve can sit within
+ * a far smaller distance than its sigma of another curve's particle (the two outlines of a thin
+ * plate); the pair's energy then deletes one of them, and a curve left without particles can
+ * never get one back (only particles split). So the last particle of a curve or face is not
+ * deleted while the cell extends over more than two ideal spacings, 2 beta sigma_i (arc length
+ * of a curve, box diagonal of a face); the gap size of phase 2 then lowers its sigma and it
+ * splits like the others.
+ *
+ * Grace (ours). A split or a delete changes the energies around it at once, while the moves
+ * that even the spacing out again spread over a few iterations: a child that halves a gap of a
+ * curve leaves its neighbours crowded until the chain has relaxed, and deleting them then
+ * undoes the split (on long curves half the splits were undone so). So the particles around a
+ * split or a delete, and the child, are not deleted for the next delete_grace (3) iterations.
+ *
+ * Where a split puts the child (ours): at the ideal lattice distance beta sigma_i from the parent,
+ * along the parent's force projected on its cell (the force points away from the
+ * neighbours, towards the empty side); when that force vanishes (a lone particle), along a random
+ * tangent direction from the particle's stream. The child is placed through pm_cell_displace, so
+ * it never leaves the cell; if the cell stops it (an end of a curve, a trim boundary), the other
+ * direction is tried, and the split is dropped when neither gives room.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/vec3.h"
+#include "psys/psys_private.h"
+
+enum { RND_EPS = 1, RND_DIR = 2 };
+
+/* The unit direction (3D, tangent to the cell) along which particle i splits. */
+static void split_direction(const psys_sys *s, int32_t i, double dir[3]) {
+  const double *f = &s->force[3 * i], *d = &s->deriv[6 * i];
+  double t[3];
+  if (s->dim[i] == PM_CURVE) {
+    double g = pm_v3_dot(d, d), ft = g > 0 ? pm_v3_dot(f, d) / g : 0;
+    pm_v3_scale(t, d, ft);
+  } else {
+    double nrm[3];
+    pm_v3_cross(nrm, d, d + 3);
+    pm_v3_normalize(nrm);
+    pm_v3_axpy(t, f, -pm_v3_dot(f, nrm), nrm);
+  }
+  if (pm_v3_normalize(t) > 1e-9 * (pm_v3_norm(f) + 1e-300) && pm_v3_norm(f) > 1e-12) {
+    pm_v3_copy(dir, t);
+    return;
+  }
+  double r = psys_random(s, i, RND_DIR);
+  if (s->dim[i] == PM_CURVE) {
+    pm_v3_copy(dir, d);
+    pm_v3_normalize(dir);
+    if (r < 0.5) pm_v3_scale(dir, dir, -1.0);
+    return;
+  }
+  double e1[3], e2[3], nrm[3];
+  pm_v3_copy(e1, d);
+  if (pm_v3_normalize(e1) == 0) pm_v3_copy(e1, d + 3), pm_v3_normalize(e1);
+  pm_v3_cross(nrm, d, d + 3);
+  pm_v3_normalize(nrm);
+  pm_v3_cross(e2, nrm, e1);
+  double th = 2 * M_PI * r;
+  for (int k = 0; k < 3; ++k) dir[k] = cos(th) * e1[k] + sin(th) * e2[k];
+}
+
+/* The energy a particle of radius sigma on the cell of key ki would have at x among the present
+ * particles. */
+static pm_status probe_energy(const psys_sys *s, int32_t ki, const double x[3], double sigma,
+                              pm_idbuf *buf, double *e, pm_error *err) {
+  pm_status st = pm_grid_query_mutual(s->grid, x, sigma, buf, err);
+  if (st) return st;
+  double sum = 0;
+  for (int32_t q = 0; q < buf->n; ++q) {
+    int32_t j = buf->ids[q];
+    if (!psys_interacts(s, ki, j)) continue;
+    double sij = sigma > s->sigma[j] ? sigma : s->sigma[j];
+    sum += psys_pair_energy(pm_v3_dist(x, &s->xyz[3 * j]), sij);
+  }
+  *e = sum;
+  return PM_OK;
+}
+
+/* Split particle i; *child = -1 when there was no room. */
+static pm_status split(psys_sys *s, int32_t i, pm_idbuf *buf, int32_t *child, pm_error *err) {
+  *child = -1;
+  const pm_cell *c = pm_model_cell(s->model, s->dim[i], s->cell[i]);
+  double dir[3], e1[3], e2[3], nrm[3];
+  split_direction(s, i, dir);
+  /* candidate directions: the split direction and its turns by 60 degrees in the tangent plane
+   * (faces), or the two senses of the tangent (curves) */
+  int ndir = 2;
+  pm_v3_copy(e1, dir);
+  if (s->dim[i] == PM_FACE) {
+    const double *d = &s->deriv[6 * i];
+    pm_v3_cross(nrm, d, d + 3);
+    if (pm_v3_normalize(nrm) > 0) {
+      pm_v3_cross(e2, nrm, e1);
+      ndir = 6;
+    }
+  }
+  const double sigma = s->sigma[i], dists[2] = {PSYS_BETA * sigma, 0.6 * PSYS_BETA * sigma};
+  double best_e = INFINITY, best_par[2] = {0, 0};
+  for (int k = 0; k < ndir; ++k) {
+    double dk[3];
+    if (ndir == 2) {
+      pm_v3_scale(dk, e1, k ? -1.0 : 1.0);
+    } else {
+      double th = k * M_PI / 3;
+      for (int q = 0; q < 3; ++q) dk[q] = cos(th) * e1[q] + sin(th) * e2[q];
+    }
+    for (int h = 0; h < 2; ++h) {
+      double dx[3], np[2] = {s->par[2 * i], s->par[2 * i + 1]}, x[3], e;
+      pm_v3_scale(dx, dk, dists[h]);
+      pm_cell_displace(c, &s->par[2 * i], dx, np);
+      pm_cell_point(c, np, x);
+      /* a child much closer than intended sits against the cell's boundary: no room there */
+      if (pm_v3_dist(x, &s->xyz[3 * i]) < 0.5 * dists[h]) continue;
+      pm_status st = probe_energy(s, psys_key(s, s->dim[i], s->cell[i]), x, sigma, buf, &e, err);
+      if (st) return st;
+      if (e < best_e) best_e = e, best_par[0] = np[0], best_par[1] = np[1];
+    }
+  }
+  if (best_e == INFINITY) return PM_OK;
+  return psys_add_child(s, i, best_par, child, err);
+}
+
+/* Flag every particle within sigma_i of particle i's point (mutual relation) in mark[], and give
+ * it the grace period. */
+static pm_status mark_around(psys_sys *s, int32_t i, uint8_t *mark, pm_idbuf *buf,
+                             pm_error *err) {
+  pm_status st = pm_grid_query_mutual(s->grid, &s->xyz[3 * i], s->sigma[i], buf, err);
+  if (st) return st;
+  for (int32_t q = 0; q < buf->n; ++q) {
+    mark[buf->ids[q]] = 1;
+    s->grace[buf->ids[q]] = s->iter + 1 + s->p.delete_grace;
+  }
+  return PM_OK;
+}
+
+/* Empty cells (see the file comment): a movable curve or face without particles whose extent
+ * exceeds two ideal spacings of its end vertices (2 beta sigma, sigma the smallest of theirs)
+ * gets one again, at the middle of a curve, at a random point of a face (curves in phases 1-2,
+ * faces in phase 3, when they move). */
+static pm_status refill(psys_sys *s, int32_t *added, pm_error *err) {
+  const pm_model *m = s->model;
+  const int32_t nv = m->count[PM_VERTEX], nc = m->count[PM_CURVE], nf = m->count[PM_FACE];
+  const int curves_move = s->phase < 3, faces_move = s->phase == 3;
+  int32_t *now = calloc((size_t)nc + (size_t)nf + 1, sizeof(int32_t)); /* particles per cell */
+  double *vsig = malloc(sizeof(double) * ((size_t)nv + 1)); /* sigma of each vertex's particle */
+  pm_status st = PM_OK;
+  if (!now || !vsig) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+  for (int32_t v = 0; v < nv; ++v) vsig[v] = -1;
+  for (int32_t i = 0; i < s->n; ++i) {
+    if (s->dim[i] == PM_VERTEX) vsig[s->cell[i]] = s->sigma[i];
+    else now[(s->dim[i] == PM_FACE ? nc : 0) + s->cell[i]]++;
+  }
+  for (int32_t k = 0; k < nc + nf; ++k) {
+    const int is_face = k >= nc;
+    if (now[k] || (is_face ? !faces_move : !curves_move)) continue;
+    if (is_face && s->face_on && !s->face_on[k - nc]) continue;
+    const int32_t cell = is_face ? k - nc : k;
+    const pm_cell *c = pm_model_cell(m, is_face ? PM_FACE : PM_CURVE, cell);
+    if (!is_face && c->degenerate) continue;
+    /* the smallest sigma of the cell's vertices */
+    const int32_t key = psys_key(s, is_face ? PM_FACE : PM_CURVE, cell);
+    double sg = INFINITY;
+    for (int32_t q = s->vert_off[key]; q < s->vert_off[key + 1]; ++q)
+      if (vsig[s->vert[q]] > 0) sg = fmin(sg, vsig[s->vert[q]]);
+    if (!(sg < INFINITY) || !(s->extent[k] > 2 * PSYS_BETA * sg)) continue;
+    int32_t before = s->n;
+    if (is_face) {
+      st = psys_seed_face(s, cell, 1, err);
+    } else {
+      double t = 0.5 * (c->lo[0] + c->hi[0]);
+      st = psys_add(s, PM_CURVE, cell, &t, sg, NULL, err);
+    }
+    if (st) goto out;
+    for (int32_t i = before; i < s->n; ++i) s->grace[i] = s->iter + 1 + s->p.delete_grace;
+    *added += s->n - before;
+  }
+out:
+  free(now), free(vsig);
+  return st;
+}
+
+pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *deletes,
+                               pm_error *err) {
+  *splits = *deletes = 0;
+  if (!(a > 0)) return PM_OK;
+  const int32_t n0 = s->n;
+  /* marks cover the children too: at most one per particle */
+  uint8_t *mark = calloc(2 * (size_t)n0 + 1, 1);
+  uint8_t *dead = calloc(2 * (size_t)n0 + 1, 1);
+  pm_idbuf buf = PM_IDBUF_INIT;
+  pm_status st = PM_OK;
+  const int32_t nc = s->model->count[PM_CURVE], ncell = nc + s->model->count[PM_FACE];
+  int32_t *count = calloc((size_t)ncell + 1, sizeof(int32_t)); /* particles per curve, face */
+  if (!mark || !dead || !count) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+  for (int32_t i = 0; i < n0; ++i)
+    if (s->dim[i] > PM_VERTEX) count[(s->dim[i] == PM_FACE ? nc : 0) + s->cell[i]]++;
+  for (int32_t i = 0; i < n0; ++i) {
+    if (s->fixed[i] || mark[i]) continue;
+    /* eq. 6; on a curve the one-ring of the ideal lattice has ring_curve particles (below) */
+    double eid = psys_ideal_energy(s->sigma[i]);
+    if (s->dim[i] == PM_CURVE) eid *= s->p.ring_curve / 6.0;
+    const double es = s->energy[i] * (1 + a * psys_random(s, i, RND_EPS)); /* eq. 3 */
+    if (es < s->p.split_ratio * a * eid) { /* eq. 4 */
+      int32_t child;
+      if ((st = split(s, i, &buf, &child, err))) goto out;
+      if (child < 0) continue;
+      if ((st = mark_around(s, i, mark, &buf, err))) goto out;
+      mark[child] = 1;
+      s->grace[child] = s->iter + 1 + s->p.delete_grace;
+      (*splits)++;
+    } else if (es > s->p.delete_ratio / a * eid && s->iter >= s->grace[i]) { /* eq. 5 */
+      const int32_t kc = (s->dim[i] == PM_FACE ? nc : 0) + s->cell[i];
+      if (count[kc] == 1 && s->extent[kc] > 2 * PSYS_BETA * s->sigma[i]) continue;
+      count[kc]--;
+      if ((st = mark_around(s, i, mark, &buf, err))) goto out;
+      dead[i] = 1;
+      if ((st = pm_grid_remove(s->grid, i, err))) goto out;
+      (*deletes)++;
+    }
+  }
+  if (*deletes) {
+    /* psys_compact refiles the grid from the survivors (the removed ones are gone already). */
+    if ((st = psys_compact(s, dead, err))) goto out;
+  }
+  {
+    int32_t added = 0;
+    if ((st = refill(s, &added, err))) goto out;
+    *splits += added;
+  }
+  s->splits_total += *splits;
+  s->deletes_total += *deletes;
+out:
+  pm_idbuf_free(&buf);
+  free(mark), free(dead), free(count);
+  return st;
+}

@@ -1,0 +1,254 @@
+/* The internal interface of the particle system (papers/001): the particle arrays, the pieces of
+ * one iteration and the phase driver. psys_run.c builds the method from them; the tests call them
+ * one by one (energy against finite differences, lattices, splits and deletes, the Lipschitz
+ * closure, the inferred field on a sphere and on a thin flange).
+ *
+ * One iteration (psys_iterate) is, in this order:
+ *   1. psys_sigma_update: every free particle's sigma from the inferred field (eq. 11-15,
+ *      Algorithm 2) or from the given size field;
+ *   2. psys_move_pass: Algorithm 1, every movable particle one step down its energy;
+ *   3. psys_population_pass: splits and deletes (eq. 3-5), sequential in index order.
+ *
+ * Determinism. Step 1 is a Jacobi iteration: every particle's new sigma is computed from the same
+ * snapshot of all particles, then the Lipschitz closure runs in one thread. Step 2 is a
+ * Gauss-Seidel sweep over colour classes fixed in index order (psys_move.c): the particles of a
+ * colour step in parallel but never see each other, and each colour sees the colours before it.
+ * Sums are formed per particle over neighbours sorted by index, and totals are summed in index
+ * order after the parallel loops. Step 3 runs in one thread in index order, and every random
+ * number comes from a stream seeded by (seed, particle serial number, iteration), never from a
+ * shared generator. So a run gives the same particles, to the bit, with any number of
+ * threads.
+ */
+#ifndef PSYS_PRIVATE_H
+#define PSYS_PRIVATE_H
+
+#include <stdint.h>
+
+#include "common/frames.h"
+#include "common/grid.h"
+#include "common/trace.h"
+#include "psys/psys.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* papers/001 eq. 6: the ideal lattice distance over sigma, 0.5 / cos(pi / 6) = 1 / sqrt(3). */
+#define PSYS_BETA 0.57735026918962576
+
+/* ---- energy (psys_energy.c) ------------------------------------------------------------ */
+
+/* eq. 1: E(r) = sigma [cot(r/sigma pi/2) + r/sigma pi/2 - pi/2] for 0 < r < sigma, 0 beyond. */
+double psys_pair_energy(double r, double sigma);
+
+/* eq. 2: dE/dr = pi/2 [1 - sin^-2(r/sigma pi/2)] for 0 < r < sigma (negative: repulsive),
+ * 0 beyond. */
+double psys_pair_denergy(double r, double sigma);
+
+/* d2E/dr2, the derivative of eq. 2: pi^2 / (2 sigma) cos / sin^3 (x = r/sigma pi/2), > 0 inside
+ * the ball, 0 beyond. */
+double psys_pair_d2energy(double r, double sigma);
+
+/* eq. 6: E_ideal = sigma 6 E(beta) with E the energy of unit sigma. */
+double psys_ideal_energy(double sigma);
+
+/* ---- the system (psys_system.c) --------------------------------------------------------- */
+
+typedef struct psys_sys {
+  const pm_model *model;   /* borrowed */
+  psys_params p;           /* copy */
+  const pm_sizing *size;   /* borrowed; NULL: the inferred field */
+  uint64_t seed;
+  int threads;
+  int64_t max_particles;   /* PM_ERR_LIMIT beyond */
+  double kappa_min, kappa_max; /* resolved (the 0 defaults made absolute) */
+  double sigma_min, sigma_max; /* eq. 12-13 */
+
+  /* particles, index 0 .. n-1; arrays of capacity cap */
+  int32_t n, cap;
+  int8_t *dim;             /* cell dimension 0, 1, 2 */
+  int32_t *cell;           /* cell index in its dimension */
+  double *par;             /* [2 cap] t or (u, v) */
+  double *xyz;             /* [3 cap] */
+  double *deriv;           /* [6 cap] first derivatives at par: C' (curves), Su and Sv (faces) */
+  double *sigma;           /* ball radius sigma_i */
+  double *lambda;          /* Algorithm 1's step scale lambda_i */
+  double *energy;          /* E_i at the last move pass */
+  double *force;           /* [3 cap] the descent direction -dE_i/dx_i at the last move pass */
+  double *sig_curv;        /* the curvature bound clamp(1 / (s_kappa kappa), sigma_min, sigma_max) */
+  double *kxyz;            /* [3 cap] where sig_curv was evaluated */
+  double *gap;             /* the gap size found by the last search (a lower bound when the
+                              search found nothing: its radius), < 0 before any */
+  double *gxyz;            /* [3 cap] where that search was made */
+  uint64_t *serial;        /* creation number: names the particle's random streams */
+  int64_t *grace;          /* not deleted before this iteration (psys_population.c) */
+  uint8_t *fixed;          /* 1: does not move (vertices; curves and vertices in phase 3) */
+  uint8_t *frozen;         /* 1: sigma is not updated (curves and vertices in phase 3) */
+  uint64_t next_serial;
+
+  pm_grid *grid;           /* every particle, radius sigma, id = index */
+
+  /* cell adjacency: cells of dimension 0..2 numbered key = koff[dim] + index */
+  int32_t koff[3];
+  int32_t nkey;
+  int32_t *clo_off, *clo;  /* closure of each cell (itself, its boundary, embedded cells and
+                              their closures), sorted keys */
+  int32_t *vert_off, *vert; /* the vertices of that closure, sorted vertex indices */
+  double *corner;          /* [vertices] corner-ball radius (section 4.2), 0 before phase 2 */
+  double *extent;          /* [curves + faces] arc length of a curve, 3D box diagonal of a face */
+  uint8_t *slow_face;      /* [faces] 1 when evaluated by gmsh (batched) */
+
+  /* phase 3: the frozen particles of each curve in order, end vertices included (the
+   * polylines whose distance measures a face's width, psys_sizing.c) */
+  int32_t nfrozen;         /* particles 0 .. nfrozen-1 are the frozen ones */
+  int32_t *chain_off;      /* [curves + 1] */
+  int32_t *chain;          /* particle indices, chain c at chain_off[c] .. chain_off[c+1] */
+  int32_t *chain_pos;      /* [nfrozen] a curve particle's place in its chain, else -1 */
+  int32_t *vpart;          /* [vertices] the particle on each vertex, -1 when none */
+  uint8_t *face_on;        /* [faces] the faces phase 3 optimizes */
+
+  int phase;               /* 1, 2, 3 */
+  int gap_curves;          /* sigma_tau on vertex and curve particles (phase 2 on) */
+  int gap_faces;           /* sigma_tau on face particles (phase 3) */
+  int64_t iter;            /* iterations run so far, all phases (random streams) */
+  int32_t splits_total, deletes_total;
+
+  /* scratch of the sigma update */
+  double *target;          /* [cap] */
+  int64_t nedge, cap_edge;
+  int32_t *edge_a, *edge_b;
+  double *edge_r;
+} psys_sys;
+
+/* A system on model m with parameters p (copied, must have passed psys_params_check), a given
+ * size field (borrowed, NULL: infer), seed, threads (>= 1) and a particle cap (> 0). */
+pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizing *size,
+                          uint64_t seed, int threads, int64_t max_particles, psys_sys **out,
+                          pm_error *err);
+void psys_sys_destroy(psys_sys *s);
+
+/* Add a particle on cell (dim, cell) at par (curves: t, faces: (u, v); vertices: ignored) with
+ * radius sigma (<= 0: the field's value there). Evaluates its point and derivatives, its
+ * curvature bound, and files it in the grid. *index (may be NULL) receives its index. */
+pm_status psys_add(psys_sys *s, int dim, int32_t cell, const double *par, double sigma,
+                   int32_t *index, pm_error *err);
+
+/* Add a split child of particle `parent` on its cell at par, with the parent's sigma and its
+ * curvature bound (refreshed once the child has moved). */
+pm_status psys_add_child(psys_sys *s, int32_t parent, const double *par, int32_t *index,
+                         pm_error *err);
+
+/* Remove the particles flagged in dead[n] (order of the others kept) and refile the grid. */
+pm_status psys_compact(psys_sys *s, const uint8_t *dead, pm_error *err);
+
+/* Set particle i's sigma (and its grid radius). */
+pm_status psys_set_sigma(psys_sys *s, int32_t i, double sigma, pm_error *err);
+
+/* Cell keys and relations. */
+static inline int32_t psys_key(const psys_sys *s, int dim, int32_t cell) {
+  return s->koff[dim] + cell;
+}
+/* 1 when one cell lies in the other's closure (papers/001: "adjacent if one is on the boundary
+ * of the other"; embedded cells count as on the boundary). */
+int psys_adjacent(const psys_sys *s, int32_t ka, int32_t kb);
+/* 1 when the closures of the two cells share a vertex. */
+int psys_touch(const psys_sys *s, int32_t ka, int32_t kb);
+
+/* Whether a particle on the cell of key ki feels particle j (psys_energy.c explains phase 1). */
+static inline int psys_interacts(const psys_sys *s, int32_t ki, int32_t j) {
+  if (s->phase != 1) return 1;
+  int32_t kj = psys_key(s, s->dim[j], s->cell[j]);
+  return kj == ki || psys_adjacent(s, ki, kj);
+}
+
+/* The random number in [0, 1) that particle i draws for `purpose` at the current iteration. */
+double psys_random(const psys_sys *s, int32_t i, int purpose);
+
+/* ---- the sizing field (psys_sizing.c) --------------------------------------------------- */
+
+/* The curvature bound at a point of a cell: clamp(1 / (s_kappa kappa), sigma_min, sigma_max)
+ * with kappa the largest principal curvature on a face, the larger of the curve's curvature and
+ * its faces' largest principal curvatures on a curve, the largest of those over its curves at a
+ * vertex (section 3.1, Curvature). */
+double psys_curvature_sigma(const psys_sys *s, int dim, int32_t cell, const double *par,
+                            const double xyz[3]);
+
+/* The gap distance of particle i (before s_tau), from the particles within radius rq of it: see
+ * psys_sizing.c for the rules. INFINITY when none applies. */
+double psys_gap_distance(const psys_sys *s, int32_t i, double rq);
+
+/* Phase 3: build the curve chains (above) from the frozen particles. */
+pm_status psys_build_chains(psys_sys *s, pm_error *err);
+
+/* Step 1 of an iteration: every free particle's sigma (eq. 11 with the Lipschitz closure of
+ * eq. 15 over the neighbour pairs, or d / edge_per_sigma of the given field). */
+pm_status psys_sigma_update(psys_sys *s, pm_error *err);
+
+/* ---- movement (psys_move.c) ------------------------------------------------------------- */
+
+typedef struct psys_move_info {
+  double energy;     /* sum of E_i over all particles after the pass */
+  double mean_move;  /* mean world-space displacement over movable particles */
+  double max_move;
+  double mean_rel;   /* mean displacement / sigma over movable particles */
+  int32_t movable;   /* particles allowed to move */
+  int32_t colours;   /* colour classes of the sweep */
+} psys_move_info;
+
+/* Energy of particle i at point x (its own or a trial point) against the current positions of
+ * its candidate neighbours ids[m] (sorted; i itself skipped); grad (may be NULL) receives
+ * dE_i/dx_i; hess (may be NULL) the Hessian d2E_i/dx_i2 as xx, xy, xz, yy, yz, zz and, in
+ * hess[6], the sum of the pairs' d2E/dr2 (psys_move.c's Newton step). */
+double psys_particle_energy(const psys_sys *s, int32_t i, const double x[3], const int32_t *ids,
+                            int32_t m, double grad[3], double hess[7]);
+
+/* Step 2: Algorithm 1 for every movable particle (a coloured Gauss-Seidel sweep, see above);
+ * energies and forces of every particle are refreshed. */
+pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err);
+
+/* ---- population (psys_population.c) ----------------------------------------------------- */
+
+/* Step 3: splits and deletes of eq. 3-5 with the annealing weight a in (0, 1]: a particle with
+ * E* = E_i (1 + a eps), eps uniform in [0, 1), splits when E* < split_ratio a E_ideal and is
+ * deleted when E* > delete_ratio E_ideal / a. */
+pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *deletes,
+                               pm_error *err);
+
+/* ---- phases (psys_phases.c) ------------------------------------------------------------- */
+
+typedef struct psys_phase_report {
+  int64_t iterations;
+  double seconds;
+  int converged;     /* 1: converged, 0: stopped by the iteration cap */
+  int32_t particles; /* at the end */
+} psys_phase_report;
+
+typedef struct psys_observer {
+  pm_trace *trace;   /* borrowed, may be NULL (columns are set by psys_optimize) */
+  pm_frames *frames; /* borrowed, may be NULL */
+} psys_observer;
+
+/* Seed phase 1: a particle on every vertex that bounds or lies in something, and one at the
+ * middle of every non-degenerate curve. */
+pm_status psys_seed_curves(psys_sys *s, pm_error *err);
+
+/* Seed phase 3 on face f: k random points of its trimmed region. */
+pm_status psys_seed_face(psys_sys *s, int32_t f, int k, pm_error *err);
+
+/* Run one phase (1, 2 or 3: sets the flags, fixes and freezes what the phase holds still) until
+ * it converges or reaches the cap. Phase 3 seeds only the faces with faces[f] != 0 (NULL: all). */
+pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psys_observer *obs,
+                         psys_phase_report *rep, pm_error *err);
+
+/* All three phases (phase 2 only with the inferred field). */
+pm_status psys_optimize(psys_sys *s, const psys_observer *obs, psys_phase_report rep[3],
+                        pm_error *err);
+
+/* The particles as mesh nodes (classified on their cells), ready for pm_connect. */
+pm_status psys_to_mesh(const psys_sys *s, pm_mesh **out, pm_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PSYS_PRIVATE_H */

@@ -1,0 +1,142 @@
+/* The psys method (pm_method "psys") and the sizing inference for other methods: the phases of
+ * psys_phases.c, then the shared connection step (papers/001 section 4.3-4.4). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/clock.h"
+#include "common/connect.h"
+#include "psys/psys_private.h"
+
+static void init_params(void *p) { psys_params_init(p); }
+
+static void connect_params(const psys_params *p, int volume, int64_t max_nodes,
+                           pm_connect_params *cp) {
+  pm_connect_params_init(cp);
+  cp->affine = p->affine;                                  /* eq. 16 */
+  cp->flips = p->flips ? PM_FLIP_DIAMETRIC : PM_FLIP_NONE; /* section 4.3 */
+  cp->volume = volume ? PM_VOLUME_REFINE : PM_VOLUME_NONE; /* section 4.4: TetGen refinement */
+  cp->radius_edge = p->tet_radius_edge;
+  cp->max_nodes = max_nodes > 0 && max_nodes < INT32_MAX ? (int32_t)max_nodes : 0;
+}
+
+static pm_status add_stats(pm_stats *st, const psys_sys *s, const psys_phase_report rep[3],
+                           double t_connect, pm_error *err) {
+  if (!st) return PM_OK;
+  static const char *const names[3] = {"phase1", "phase2", "phase3"};
+  pm_status r = PM_OK;
+  for (int k = 0; k < 3 && !r; ++k) r = pm_stats_set_time(st, names[k], rep[k].seconds, err);
+  if (!r) r = pm_stats_set_time(st, "connect", t_connect, err);
+  char key[64];
+  for (int k = 0; k < 3 && !r; ++k) {
+    snprintf(key, sizeof key, "psys.iterations.%s", names[k]);
+    r = pm_stats_add_number(st, key, (double)rep[k].iterations, err);
+  }
+  if (!r) r = pm_stats_add_number(st, "psys.particles", s->n, err);
+  if (!r) r = pm_stats_add_number(st, "psys.sigma_min", s->sigma_min, err);
+  if (!r) r = pm_stats_add_number(st, "psys.sigma_max", s->sigma_max, err);
+  if (!r) r = pm_stats_add_number(st, "psys.splits", s->splits_total, err);
+  if (!r) r = pm_stats_add_number(st, "psys.deletes", s->deletes_total, err);
+  return r;
+}
+
+static pm_status run(const pm_run_input *in, const void *params, pm_run_output *out,
+                     pm_error *err) {
+  const psys_params *p = params;
+  out->mesh = NULL;
+  out->iterations = 0;
+  out->stop_reason[0] = '\0';
+  if (!in || !in->model) return pm_error_setf(err, PM_ERR_ARG, "psys: no model");
+  psys_sys *s = NULL;
+  pm_mesh *mesh = NULL;
+  pm_status st = psys_sys_create(in->model, p, in->size, in->seed, in->threads,
+                                 in->max_nodes > 0 ? in->max_nodes : PM_DEFAULT_MAX_NODES, &s,
+                                 err);
+  if (st) return st;
+  psys_observer obs = {in->trace, in->frames};
+  psys_phase_report rep[3];
+  if ((st = psys_optimize(s, &obs, rep, err))) goto fail;
+  for (int k = 0; k < 3; ++k) out->iterations += rep[k].iterations;
+  if ((st = psys_to_mesh(s, &mesh, err))) goto fail;
+  pm_connect_params cp;
+  connect_params(p, in->volume, in->max_nodes, &cp);
+  double t0 = pm_seconds();
+  pm_connect_report crep;
+  if ((st = pm_connect(in->model, mesh, &cp, &crep, err))) goto fail;
+  double t_connect = pm_seconds() - t0;
+  int all = rep[0].converged && rep[1].converged && rep[2].converged;
+  snprintf(out->stop_reason, sizeof out->stop_reason,
+           "%s: phases 1-3 ran %lld, %lld, %lld iterations%s", all ? "converged" : "max_iter",
+           (long long)rep[0].iterations, (long long)rep[1].iterations,
+           (long long)rep[2].iterations, all ? "" : " (a phase reached max_iter)");
+  if ((st = add_stats(out->stats, s, rep, t_connect, err))) goto fail;
+  psys_sys_destroy(s);
+  out->mesh = mesh;
+  return PM_OK;
+fail:
+  pm_mesh_destroy(mesh);
+  psys_sys_destroy(s);
+  return st;
+}
+
+/* The default field as a pm_sizing a caller can scale (--target-nodes): the inferred one. */
+static pm_status default_size(const pm_model *model, const void *params, uint64_t seed,
+                              int threads, pm_sizing **out, pm_error *err) {
+  return psys_infer_size(model, params, seed, threads, out, err);
+}
+
+const pm_method psys_method = {
+    "psys",
+    "Bronson, Levine & Whitaker's particle system with its inferred sizing field (papers/001)",
+    &psys_param_table,
+    sizeof(psys_params),
+    init_params,
+    run,
+    0,
+    0,
+    default_size,
+};
+
+/* ---- the inferred field for other methods -------------------------------------------------- */
+
+pm_status psys_infer_size(const pm_model *m, const psys_params *p, uint64_t seed, int threads,
+                          pm_sizing **out, pm_error *err) {
+  *out = NULL;
+  psys_params def;
+  if (!p) psys_params_init(&def), p = &def;
+  psys_sys *s = NULL;
+  pm_mesh *mesh = NULL;
+  double *val = NULL;
+  pm_status st = psys_sys_create(m, p, NULL, seed, threads, PM_DEFAULT_MAX_NODES, &s, err);
+  if (st) return st;
+  psys_phase_report rep[3];
+  if ((st = psys_optimize(s, NULL, rep, err))) goto out;
+  if ((st = psys_to_mesh(s, &mesh, err))) goto out;
+  pm_connect_params cp;
+  connect_params(p, 0, 0, &cp);
+  if ((st = pm_connect(m, mesh, &cp, NULL, err))) goto out;
+  /* The connection may add nodes (vertices without a particle, closed curves with fewer than
+   * two) and drops none of ours inside their cells: each node takes the sigma of the nearest
+   * particle, which is itself for every particle. */
+  val = malloc(sizeof(double) * ((size_t)mesh->nnode + 1));
+  if (!val) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+  for (int32_t k = 0; k < mesh->nnode; ++k) {
+    int32_t j = pm_grid_nearest(s->grid, &mesh->xyz[3 * k], NULL);
+    if (j < 0) {
+      st = pm_error_setf(err, PM_ERR_INTERNAL, "psys: no particle left for the sampled field");
+      goto out;
+    }
+    val[k] = s->sigma[j] * p->edge_per_sigma; /* sigma -> edge length (the calibration) */
+  }
+  st = pm_sizing_sampled(mesh, val, out, err);
+out:
+  free(val);
+  pm_mesh_destroy(mesh);
+  psys_sys_destroy(s);
+  if (st) pm_error_prefix(err, "psys sizing inference");
+  return st;
+}

@@ -1,0 +1,191 @@
+/* The psys method end to end through the library (pm_method): valid meshes of the inferred
+ * field, the same seed giving the same mesh with 1 or 2 threads, volumes, the trace and frames.
+ * Every mesh goes through pm_mesh_check. */
+#include "test_psys_util.h"
+
+#include <unistd.h>
+
+#include "common/input.h"
+#include "common/mesh_check.h"
+#include "common/quality.h"
+
+static pm_model *open_input(const char *spec) {
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_input_open(spec, &m, NULL, &e), e);
+  return m;
+}
+
+/* Run psys on m with size (may be NULL) and the given overrides ("KEY=VALUE", NULL-ended). */
+static pm_mesh *run(const pm_model *m, const pm_sizing *size, uint64_t seed, int threads,
+                    int volume, const char *const *sets, pm_stats *stats, pm_trace *trace,
+                    pm_frames *frames) {
+  psys_params p;
+  psys_params_init(&p);
+  pm_error e = {0};
+  for (int k = 0; sets && sets[k]; ++k) PM_ASSERT_OK(pm_params_set_pair(&psys_param_table, &p, sets[k], &e), e);
+  PM_ASSERT_OK(pm_params_check(&psys_param_table, &p, &e), e);
+  pm_run_input in;
+  memset(&in, 0, sizeof in);
+  in.model = m, in.size = size, in.seed = seed, in.threads = threads, in.volume = volume;
+  in.max_nodes = PM_DEFAULT_MAX_NODES, in.trace = trace, in.frames = frames;
+  pm_run_output out;
+  memset(&out, 0, sizeof out);
+  out.stats = stats;
+  PM_ASSERT_OK(psys_method.run(&in, &p, &out, &e), e);
+  assert_non_null(out.mesh);
+  assert_true(out.iterations > 0);
+  assert_true(strlen(out.stop_reason) > 0);
+  return out.mesh;
+}
+
+static void assert_valid(const pm_mesh *mesh, const pm_model *m) {
+  pm_check_report r;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_mesh_check(mesh, m, &r, &e), e);
+  if (!r.valid) fail_msg("mesh check: %s", r.nproblem ? r.problem[0] : "invalid");
+  pm_check_report_clear(&r);
+}
+
+static pm_summary aspect(const pm_mesh *mesh, const pm_sizing *size, double *size_ratio) {
+  pm_quality q;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_quality_compute(mesh, size, &q, &e), e);
+  pm_summary s = q.tri.s_aspect_ratio;
+  if (size_ratio) *size_ratio = q.tri.size_ratio.mean;
+  pm_quality_clear(&q);
+  return s;
+}
+
+/* The inferred field on built-in solids: valid, decent meshes, the stats keys. */
+static void inferred_field_meshes(void **state) {
+  (void)state;
+  const char *cases[] = {"case:boxhole", "case:torus", "case:cylinder"};
+  for (int k = 0; k < 3; ++k) {
+    pm_model *m = open_input(cases[k]);
+    pm_stats st;
+    pm_stats_init(&st);
+    pm_mesh *mesh = run(m, NULL, 1, 2, 0, NULL, &st, NULL, NULL);
+    assert_valid(mesh, m);
+    assert_true(mesh->ntri > 200);
+    pm_summary a = aspect(mesh, NULL, NULL);
+    /* an equilateral triangle has 0.577; a particle packing stays close (papers/001 Fig. 11) */
+    if (!(a.median < 0.68 && a.p75 < 0.75 && a.max < 3))
+      fail_msg("%s: R/l_min median %g p75 %g max %g", cases[k], a.median, a.p75, a.max);
+    /* phase times and iteration counts */
+    int times = 0;
+    for (int32_t q = 0; q < st.ntime; ++q)
+      times += !strcmp(st.time[q].key, "phase1") || !strcmp(st.time[q].key, "phase2") ||
+               !strcmp(st.time[q].key, "phase3") || !strcmp(st.time[q].key, "connect");
+    assert_int_equal(times, 4);
+    double it3 = -1, np = -1;
+    for (int32_t q = 0; q < st.nextra; ++q) {
+      if (!strcmp(st.extra[q].key, "psys.iterations.phase3")) it3 = st.extra[q].num;
+      if (!strcmp(st.extra[q].key, "psys.particles")) np = st.extra[q].num;
+    }
+    assert_true(it3 > 0);
+    assert_true(np > 0 && np <= mesh->nnode);
+    pm_stats_clear(&st);
+    pm_mesh_destroy(mesh);
+    pm_model_destroy(m);
+  }
+}
+
+/* The same seed gives the same mesh, to the bit, twice and with 1 or 2 threads; another seed
+ * gives another mesh. */
+static void same_seed_same_mesh(void **state) {
+  (void)state;
+  pm_model *m = open_input("case:boxhole");
+  pm_mesh *a = run(m, NULL, 42, 1, 0, NULL, NULL, NULL, NULL);
+  pm_mesh *b = run(m, NULL, 42, 1, 0, NULL, NULL, NULL, NULL);
+  pm_mesh *c = run(m, NULL, 42, 2, 0, NULL, NULL, NULL, NULL);
+  pm_mesh *d = run(m, NULL, 43, 2, 0, NULL, NULL, NULL, NULL);
+  const pm_mesh *same[2] = {b, c};
+  for (int k = 0; k < 2; ++k) {
+    assert_int_equal(a->nnode, same[k]->nnode);
+    assert_int_equal(a->ntri, same[k]->ntri);
+    assert_int_equal(a->nseg, same[k]->nseg);
+    assert_memory_equal(a->xyz, same[k]->xyz, sizeof(double) * 3 * (size_t)a->nnode);
+    assert_memory_equal(a->tri, same[k]->tri, sizeof(int32_t) * 3 * (size_t)a->ntri);
+  }
+  assert_true(a->nnode != d->nnode ||
+              memcmp(a->xyz, d->xyz, sizeof(double) * 3 * (size_t)a->nnode) != 0);
+  pm_mesh_destroy(a), pm_mesh_destroy(b), pm_mesh_destroy(c), pm_mesh_destroy(d);
+  pm_model_destroy(m);
+}
+
+/* --volume: TetGen's quality refinement of the surface mesh (papers/001 section 4.4). */
+static void volume_with_tets(void **state) {
+  (void)state;
+  pm_model *m = open_input("case:cylinder");
+  pm_mesh *mesh = run(m, NULL, 1, 2, 1, NULL, NULL, NULL, NULL);
+  assert_valid(mesh, m);
+  assert_true(mesh->ntet > 100);
+  pm_quality q;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_quality_compute(mesh, NULL, &q, &e), e);
+  /* TetGen -q1.5 bounds the radius-edge ratio R / l_min of the tets it can refine (a regular
+   * tet has 0.612) */
+  assert_true(q.tet.s_aspect_ratio.median < 1.2);
+  assert_true(q.tet.s_aspect_ratio.max < 2.0);
+  pm_quality_clear(&q);
+  pm_mesh_destroy(mesh);
+  pm_model_destroy(m);
+}
+
+/* --trace rows and --frames snapshots. */
+static void trace_and_frames(void **state) {
+  (void)state;
+  pm_model *m = open_input("case:cylinder");
+  pm_trace *tr = NULL;
+  pm_frames *fr = NULL;
+  pm_error e = {0};
+  char dir[256];
+  snprintf(dir, sizeof dir, "%s/psys_frames_%d", PM_BINARY_DIR, (int)getpid());
+  PM_ASSERT_OK(pm_trace_create(&tr, &e), e);
+  PM_ASSERT_OK(pm_frames_create(dir, m, &fr, &e), e);
+  const char *sets[] = {"frame_every=5", NULL};
+  pm_stats st;
+  pm_stats_init(&st);
+  pm_mesh *mesh = run(m, NULL, 1, 1, 0, sets, &st, tr, fr);
+  PM_ASSERT_OK(pm_frames_finish(fr, &e), e);
+  const char *cols[] = {"iteration", "phase", "particles", "energy", "mean_move", "max_move",
+                        "splits", "deletes", "mean_sigma"};
+  assert_true(pm_trace_ncol(tr) >= 9);
+  for (int k = 0; k < 9; ++k) assert_string_equal(pm_trace_column(tr, k), cols[k]);
+  /* one row per iteration, phases in order, the last row's count is the particle count */
+  assert_true(pm_trace_nrow(tr) > 10);
+  double ph = 1, splits = 0;
+  for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) {
+    const double *row = pm_trace_row(tr, r);
+    assert_true(row[1] >= ph);
+    ph = row[1];
+    splits += row[6];
+    assert_true(row[2] > 0 && row[8] > 0);
+  }
+  assert_true(ph == 3);
+  assert_true(splits > 50);
+  /* a snapshot every 5 iterations, and one at the end of each phase */
+  assert_true(pm_frames_count(fr) >= pm_trace_nrow(tr) / 5);
+  char path[512];
+  snprintf(path, sizeof path, "%s/frames.pvd", dir);
+  assert_int_equal(access(path, R_OK), 0);
+  pm_mesh_destroy(mesh);
+  pm_stats_clear(&st);
+  pm_frames_destroy(fr);
+  pm_trace_destroy(tr);
+  pm_model_destroy(m);
+  char cmd[600];
+  snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+  assert_int_equal(system(cmd), 0);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(inferred_field_meshes),
+      cmocka_unit_test(same_seed_same_mesh),
+      cmocka_unit_test(volume_with_tets),
+      cmocka_unit_test(trace_and_frames),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,151 @@
+/* The inferred sizing field (papers/001 eq. 11-15, Algorithm 2): the Lipschitz closure, the
+ * growth cap, and the curvature bound on a sphere with the limits of eq. 12-13 (the gap size is
+ * tested on the thin flange in test_psys_flange.c). */
+#include "test_psys_util.h"
+
+#include "common/input.h"
+
+/* After an update, no neighbour pair (|r_ij| < max(sigma_i, sigma_j)) violates
+ * |sigma_i - sigma_j| <= L |r_ij|, every sigma lies within [sigma_min, its own bound], and each
+ * one is tight: its own bound, or max(|r_ij|, sigma_j + L |r_ij|) for some particle j (the
+ * closure is the largest field below the bounds whose neighbour pairs obey the bound). */
+static void lipschitz_bound_holds_after_update(void **state) {
+  (void)state;
+  pm_model *m = psys_test_square(1);
+  psys_params p;
+  psys_params_init(&p);
+  p.sigma_grow = 100; /* let the bounds, not the growth cap, decide */
+  psys_sys *s = psys_test_system(m, &p, 2);
+  pm_rng r;
+  pm_rng_init(&r, 3, 0);
+  pm_error e = {0};
+  const int n = 800;
+  for (int k = 0; k < n; ++k) {
+    double uv[2] = {pm_rng_range(&r, 0.02, 0.98), pm_rng_range(&r, 0.02, 0.98)};
+    PM_ASSERT_OK(psys_add(s, PM_FACE, 0, uv, 0.05, NULL, &e), e);
+  }
+  /* bounds spread over a factor 20: a field far from Lipschitz */
+  double *bound = malloc(sizeof(double) * n);
+  for (int i = 0; i < n; ++i) {
+    bound[i] = exp(pm_rng_range(&r, log(0.01), log(0.2)));
+    s->sig_curv[i] = bound[i];
+    PM_ASSERT_OK(psys_set_sigma(s, i, bound[i], &e), e);
+  }
+  PM_ASSERT_OK(psys_sigma_update(s, &e), e);
+  const double L = p.lipschitz;
+  int pairs = 0, tight_lip = 0;
+  for (int i = 0; i < n; ++i) {
+    const double si = s->sigma[i];
+    assert_true(si >= s->sigma_min);
+    assert_true(si <= fmin(bound[i], s->sigma_max) * (1 + 1e-15));
+    int tight = si == fmin(bound[i], s->sigma_max);
+    for (int j = 0; j < n; ++j) {
+      if (j == i) continue;
+      double rij = pm_v3_dist(&s->xyz[3 * i], &s->xyz[3 * j]);
+      if (rij < fmax(si, s->sigma[j])) {
+        ++pairs;
+        if (!(fabs(si - s->sigma[j]) <= L * rij * (1 + 1e-12)))
+          fail_msg("pair %d-%d: |%g - %g| > L |r| = %g", i, j, si, s->sigma[j], L * rij);
+      }
+      if (fabs(si - fmax(rij, s->sigma[j] + L * rij)) <= 1e-12 * si) tight = 1, ++tight_lip;
+    }
+    if (!tight) fail_msg("particle %d: sigma %g is neither its bound nor Lipschitz-tight", i, si);
+  }
+  assert_true(pairs > 1000);
+  assert_true(tight_lip > n / 4); /* the closure lowered many */
+  free(bound);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+}
+
+/* Growth: a sigma rises by at most sigma_grow per update; falls are immediate. */
+static void sigma_rise_is_capped(void **state) {
+  (void)state;
+  pm_model *m = psys_test_square(1);
+  psys_sys *s = psys_test_system(m, NULL, 1);
+  pm_error e = {0};
+  double uv[2] = {0.5, 0.5};
+  int32_t i;
+  PM_ASSERT_OK(psys_add(s, PM_FACE, 0, uv, 0.001, &i, &e), e);
+  /* a plane: the curvature bound is sigma_max = diagonal / 10 */
+  PM_ASSERT_NEAR(s->sig_curv[i], m->diagonal / 10, 1e-12);
+  double prev = s->sigma[i];
+  for (int it = 0; it < 40; ++it) {
+    PM_ASSERT_OK(psys_sigma_update(s, &e), e);
+    assert_true(s->sigma[i] <= prev * s->p.sigma_grow * (1 + 1e-15));
+    prev = s->sigma[i];
+  }
+  PM_ASSERT_NEAR(s->sigma[i], s->sigma_max, 1e-15);
+  s->sig_curv[i] = 0.003;
+  PM_ASSERT_OK(psys_sigma_update(s, &e), e);
+  PM_ASSERT_NEAR(s->sigma[i], 0.003, 1e-15);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+}
+
+/* Phases 1-3 of the inferred field on case:sphere (radius 1); returns the system. */
+static psys_sys *sphere(pm_model **mp, double kappa_min, double kappa_max, double s_kappa) {
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_input_open("case:sphere", mp, NULL, &e), e);
+  psys_params p;
+  psys_params_init(&p);
+  p.kappa_min = kappa_min, p.kappa_max = kappa_max, p.s_kappa = s_kappa;
+  psys_sys *s = NULL;
+  PM_ASSERT_OK(psys_sys_create(*mp, &p, NULL, 1, 2, 1000000, &s, &e), e);
+  psys_phase_report rep[3];
+  PM_ASSERT_OK(psys_optimize(s, NULL, rep, &e), e);
+  assert_true(rep[2].converged);
+  return s;
+}
+
+/* Curvature alone (a sphere has no gap): sigma settles at R / s_kappa everywhere, unless
+ * eq. 12-13 bound it. */
+static void sphere_sigma_is_radius_over_s_kappa(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  /* limits far away: sigma = 1 / (2 x 1) */
+  psys_sys *s = sphere(&m, 0.01, 100, 2);
+  int faces = 0;
+  for (int32_t i = 0; i < s->n; ++i) {
+    faces += s->dim[i] == PM_FACE;
+    PM_ASSERT_NEAR(s->sigma[i], 0.5, 1e-6);
+  }
+  assert_true(faces > 30);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+  /* s_kappa = 4: R / 4 */
+  s = sphere(&m, 0.01, 100, 4);
+  for (int32_t i = 0; i < s->n; ++i) PM_ASSERT_NEAR(s->sigma[i], 0.25, 1e-6);
+  int32_t n4 = s->n;
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+  assert_true(n4 > 3 * faces); /* half the sigma, four times the particles, roughly */
+  /* eq. 13: kappa_min = 2.5 > 1 caps sigma at sigma_max = 1 / (2 x 2.5) = 0.2 */
+  s = sphere(&m, 2.5, 100, 2);
+  PM_ASSERT_NEAR(s->sigma_max, 0.2, 1e-15);
+  for (int32_t i = 0; i < s->n; ++i) PM_ASSERT_NEAR(s->sigma[i], 0.2, 1e-12);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+  /* eq. 12: kappa_max = 0.8 < 1 raises sigma to sigma_min = 1 / (2 x 0.8) = 0.625 */
+  s = sphere(&m, 0.01, 0.8, 2);
+  PM_ASSERT_NEAR(s->sigma_min, 0.625, 1e-15);
+  for (int32_t i = 0; i < s->n; ++i) PM_ASSERT_NEAR(s->sigma[i], 0.625, 1e-12);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+  /* the defaults: kappa_min = 5 / diagonal, sigma_max = diagonal / 10 = 0.346 < R / 2 */
+  s = sphere(&m, 0, 0, 2);
+  PM_ASSERT_NEAR(s->sigma_max, m->diagonal / 10, 1e-12);
+  for (int32_t i = 0; i < s->n; ++i) PM_ASSERT_NEAR(s->sigma[i], m->diagonal / 10, 1e-12);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+}
+
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(lipschitz_bound_holds_after_update),
+      cmocka_unit_test(sigma_rise_is_capped),
+      cmocka_unit_test(sphere_sigma_is_radius_over_s_kappa),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
