@@ -32,7 +32,9 @@
 static int need_rebuild(const bub_state *s) {
   if (!s->lists_valid) return 1;
   for (int32_t i = s->nv; i < s->nf; ++i)
-    if (pm_v3_dist(&s->x[3 * i], &s->x_build[3 * i]) > REBUILD_FRACTION * s->d_build[i]) return 1;
+    if (pm_v3_dist(&s->x[3 * i], &s->x_build[3 * i]) > REBUILD_FRACTION * s->d_build[i]) {
+      return 1;
+    }
   return 0;
 }
 
@@ -60,7 +62,7 @@ pm_status bub_neighbors_update(bub_state *s, pm_error *err) {
     st = bub_state_grid_rebuild(s, err);
   } else {
     for (int32_t i = 0; i < s->n && !st; ++i)
-      if (!(s->flags[i] & BUB_FDEAD)) st = pm_grid_move(s->grid, i, &s->x[3 * i], s->d[i], err);
+      if (!(s->flags[i] & BUB_FDEAD)) st = pm_grid_move(s->grid, i, &s->x[3 * i], BUB_GRID_FACTOR * s->d[i], err);
   }
   if (st) return st;
 
@@ -98,8 +100,8 @@ pm_status bub_neighbors_update(bub_state *s, pm_error *err) {
     pm_idbuf q = PM_IDBUF_INIT;
     pm_error e = {0};
     for (int32_t i = lo; i < hi && !tst[t]; ++i) {
-      /* grid radius d_j: the query returns dist < reach d_i + d_j, a superset of the list
-       * radius reach (d_i + d_j) since reach < 1. */
+      /* grid radius BUB_GRID_FACTOR d_j >= reach d_j: the query returns
+       * dist < reach d_i + BUB_GRID_FACTOR d_j, a superset of the list radius reach (d_i + d_j). */
       tst[t] = pm_grid_query_overlap(s->grid, &s->x[3 * i], reach * s->d[i], &q, &e);
       int32_t cnt = 0;
       for (int32_t k = 0; k < q.n && !tst[t]; ++k) {

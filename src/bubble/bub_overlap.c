@@ -203,7 +203,7 @@ static pm_status add_outside(bub_state *s, const chord *c, void *user, pm_error 
   pm_v3_axpy(apex, mid, 0.86602540378443865 * c->len, c->w);
   int32_t id;
   pm_status st = bub_state_add(s, BUB_KOUT, c->face, NULL, apex, 0.5 * (s->d[c->A] + s->d[c->B]), &id, err);
-  if (!st) st = pm_grid_insert(s->grid, id, apex, s->d[id], err);
+  if (!st) st = pm_grid_insert(s->grid, id, apex, BUB_GRID_FACTOR * s->d[id], err);
   return st;
 }
 
@@ -253,7 +253,7 @@ static pm_status drop_near_boundary_bubbles(bub_state *s, border_ctx *bc, pm_err
   pm_status st = PM_OK;
   for (int32_t i = s->nc; i < s->nf && !st; ++i) {
     if (s->kind[i] != BUB_KFACE || (s->flags[i] & BUB_FDEAD)) continue;
-    st = pm_grid_query_overlap(s->grid, &s->x[3 * i], 0, &bc->buf, err);
+    st = pm_grid_query_overlap(s->grid, &s->x[3 * i], 0.25 * s->d[i], &bc->buf, err);
     for (int32_t k = 0; k < bc->buf.n && !st; ++k) {
       int32_t j = bc->buf.ids[k];
       if (s->kind[j] > BUB_KCURVE || !bub_related(s, i, j)) continue;

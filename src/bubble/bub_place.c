@@ -511,7 +511,7 @@ static pm_status place_face(bub_state *s, int32_t face, int64_t cap, pm_error *e
     }
     int32_t id;
     st = bub_state_add(s, BUB_KFACE, face, pt->uv, NULL, 0, &id, err);
-    if (!st) st = pm_grid_insert(s->grid, id, &s->x[3 * id], s->d[id], err);
+    if (!st) st = pm_grid_insert(s->grid, id, &s->x[3 * id], BUB_GRID_FACTOR * s->d[id], err);
   }
   pm_idbuf_free(&buf);
   free(order);

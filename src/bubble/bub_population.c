@@ -489,7 +489,7 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
     st = bub_state_add(s, kind, s->cell[o], best.par, NULL, 0, &id, c->err);
     if (st) break;
     s->flags[id] |= BUB_FNEW;
-    st = pm_grid_insert(s->grid, id, &s->x[3 * id], s->d[id], c->err);
+    st = pm_grid_insert(s->grid, id, &s->x[3 * id], BUB_GRID_FACTOR * s->d[id], c->err);
     if (st) break;
     c->live++;
     (*inserted)++;
@@ -545,7 +545,7 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   if (!s->grid_valid) {
     st = bub_state_grid_rebuild(s, err);
   } else {
-    for (int32_t i = 0; i < s->n && !st; ++i) st = pm_grid_move(s->grid, i, &s->x[3 * i], s->d[i], err);
+    for (int32_t i = 0; i < s->n && !st; ++i) st = pm_grid_move(s->grid, i, &s->x[3 * i], BUB_GRID_FACTOR * s->d[i], err);
   }
   if (st) return st;
   s->grid_valid = 1;

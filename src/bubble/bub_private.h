@@ -176,7 +176,14 @@ double bub_curve_length(const pm_cell *c, double t1, double t2);
 /* ---- neighbour lists (bub_neighbors.c) ------------------------------------------------------ */
 
 /* Skin of the lists: the list radius is (1 + skin) x 1.5 l0. */
-#define BUB_SKIN 0.3
+#define BUB_SKIN 0.6
+
+/* The radius a bubble of diameter d has in the grid: d (the overlap boundary of 000 section
+ * 3.1.3), or the list reach 0.75 (1 + skin) d when that is larger. Every query below asks for a
+ * superset of what it needs with this radius: the overlap ratio needs dist < d_i + d_j / 2
+ * (query radius d_i), the lists dist < 0.75 (1 + skin)(d_i + d_j) (query radius
+ * 0.75 (1 + skin) d_i). */
+#define BUB_GRID_FACTOR (0.75 * (1 + BUB_SKIN) > 1 ? 0.75 * (1 + BUB_SKIN) : 1.0)
 
 /* Build the lists if they are invalid or some bubble moved too far since the last build. */
 pm_status bub_neighbors_update(bub_state *s, pm_error *err);

@@ -323,7 +323,7 @@ pm_status bub_state_grid_rebuild(bub_state *s, pm_error *err) {
   pm_grid_clear(s->grid);
   pm_status st = pm_grid_reserve(s->grid, s->n, err);
   for (int32_t i = 0; i < s->n && !st; ++i)
-    if (!(s->flags[i] & BUB_FDEAD)) st = pm_grid_insert(s->grid, i, &s->x[3 * i], s->d[i], err);
+    if (!(s->flags[i] & BUB_FDEAD)) st = pm_grid_insert(s->grid, i, &s->x[3 * i], BUB_GRID_FACTOR * s->d[i], err);
   s->grid_valid = !st;
   return st;
 }
