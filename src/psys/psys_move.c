@@ -24,6 +24,11 @@
  *   - growth: after an accepted step lambda_i is multiplied by lambda_grow (2), capped at
  *     lambda_max, so a particle that once met a steep neighbourhood is not slowed forever;
  *   - steps are capped at step_max sigma_i;
+ *   - a face particle's step is also refused when it ends within 0.15 sigma_i of the face's
+ *     boundary polyline (the frozen curve and vertex particles, psys_sizing.c) and closer to it
+ *     than before: the curve particles repel face particles (section 4.3), but between two of
+ *     them a face particle can settle on the curve itself, in line with them, and the
+ *     connection then makes a needle triangle of the three;
  *   - order: Algorithm 1 updates the particles one after the other, each seeing the others'
  *     latest positions (Gauss-Seidel). Done literally, the result depends on how particles are
  *     shared between threads. We colour the movable particles greedily in index order so that no
@@ -59,6 +64,7 @@ typedef struct block {
   int32_t idx[BLOCK];    /* the particle in each slot */
   double e0[BLOCK], en[BLOCK], lam[BLOCK];
   double dir[3 * BLOCK]; /* the Newton step n_i (lambda = 1) */
+  double bd[BLOCK];      /* boundary distance at the trial point (face particles, phase 3) */
   double tp[2 * BLOCK], tx[3 * BLOCK], td[6 * BLOCK];
   uint8_t st[BLOCK], acc[BLOCK], ready[BLOCK];
   int32_t order[BLOCK];
@@ -323,6 +329,8 @@ static pm_status step_block(psys_sys *s, const nblist *L, block *B, int32_t m, d
     B->lam[k] = s->lambda[i];
     B->acc[k] = 0;
     B->st[k] = ST_DONE;
+    if (s->dim[i] == PM_FACE && s->chain_off)
+      s->bdist[i] = psys_boundary_distance(s, i, xi, ids, nn);
     if (B->e0[k] > 0 && newton_step(s, i, &s->force[3 * i], hess, &B->dir[3 * k]))
       B->st[k] = ST_PENDING;
   }
@@ -339,9 +347,17 @@ static pm_status step_block(psys_sys *s, const nblist *L, block *B, int32_t m, d
     for (int32_t k = 0; k < m; ++k) {
       if (B->st[k] != ST_PENDING) continue;
       const int32_t i = B->idx[k];
-      B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], L->ids + L->off[i],
-                                      (int32_t)(L->off[i + 1] - L->off[i]), NULL, NULL);
-      if (B->en[k] < B->e0[k]) {
+      const int32_t *ids = L->ids + L->off[i];
+      const int32_t nn = (int32_t)(L->off[i + 1] - L->off[i]);
+      B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], ids, nn, NULL, NULL);
+      int off_boundary = 1;
+      if (s->dim[i] == PM_FACE && s->chain_off) {
+        /* a face particle does not step onto its face's boundary (see the file comment) */
+        B->bd[k] = psys_boundary_distance(s, i, &B->tx[3 * k], ids, nn);
+        if (B->bd[k] < PSYS_BOUNDARY_CLEARANCE * s->sigma[i] && B->bd[k] < s->bdist[i])
+          off_boundary = 0;
+      }
+      if (B->en[k] < B->e0[k] && off_boundary) {
         B->acc[k] = 1, B->st[k] = ST_DONE; /* Algorithm 1: accept */
       } else if (B->lam[k] <= s->p.lambda_min) {
         B->st[k] = ST_DONE; /* lines 10-11: skip */
@@ -358,6 +374,7 @@ static pm_status step_block(psys_sys *s, const nblist *L, block *B, int32_t m, d
       memcpy(&s->xyz[3 * i], &B->tx[3 * k], 3 * sizeof(double));
       memcpy(&s->deriv[6 * i], &B->td[6 * k], 6 * sizeof(double));
       s->energy[i] = B->en[k];
+      if (s->dim[i] == PM_FACE && s->chain_off) s->bdist[i] = B->bd[k];
       double l = B->lam[k] * s->p.lambda_grow;
       s->lambda[i] = l < s->p.lambda_max ? l : s->p.lambda_max;
       pm_status st = pm_grid_move(s->grid, i, &s->xyz[3 * i], s->sigma[i], err);

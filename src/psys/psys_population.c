@@ -34,6 +34,11 @@
  * undoes the split (on long curves half the splits were undone so). So the particles around a
  * split or a delete, and the child, are not deleted for the next delete_grace (3) iterations.
  *
+ * Face particles on the boundary (ours). A face particle within 0.15 sigma of its face's
+ * boundary polyline (a seed or a child placed there, or one that slid between two curve
+ * particles before its step rule held it) is deleted whatever its energy: in line with the
+ * boundary nodes it would make a needle triangle.
+ *
  * Where a split puts the child (ours): at the ideal lattice distance beta sigma_i from the parent,
  * along the parent's force projected on its cell (the force points away from the
  * neighbours, towards the empty side); when that force vanishes (a lone particle), along a random
@@ -231,7 +236,17 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
     double eid = psys_ideal_energy(s->sigma[i]);
     if (s->dim[i] == PM_CURVE) eid *= s->p.ring_curve / 6.0;
     const double es = s->energy[i] * (1 + a * psys_random(s, i, RND_EPS)); /* eq. 3 */
-    if (es < s->p.split_ratio * a * eid) { /* eq. 4 */
+    /* a face particle on its face's boundary polyline (see the file comment) */
+    const int on_boundary =
+        s->dim[i] == PM_FACE && s->bdist[i] < PSYS_BOUNDARY_CLEARANCE * s->sigma[i];
+    if (on_boundary) {
+      const int32_t kc = nc + s->cell[i];
+      count[kc]--;
+      if ((st = mark_around(s, i, mark, &buf, err))) goto out;
+      dead[i] = 1;
+      if ((st = pm_grid_remove(s->grid, i, err))) goto out;
+      (*deletes)++;
+    } else if (es < s->p.split_ratio * a * eid) { /* eq. 4 */
       int32_t child;
       if ((st = split(s, i, &buf, &child, err))) goto out;
       if (child < 0) continue;

@@ -80,6 +80,8 @@ typedef struct psys_sys {
   double *gap;             /* the gap size found by the last search (a lower bound when the
                               search found nothing: its radius), < 0 before any */
   double *gxyz;            /* [3 cap] where that search was made */
+  double *bdist;           /* phase 3: a face particle's distance to its face's boundary
+                              polylines after the last move pass (INFINITY when far) */
   uint64_t *serial;        /* creation number: names the particle's random streams */
   int64_t *grace;          /* not deleted before this iteration (psys_population.c) */
   uint8_t *fixed;          /* 1: does not move (vertices; curves and vertices in phase 3) */
@@ -176,6 +178,16 @@ double psys_curvature_sigma(const psys_sys *s, int dim, int32_t cell, const doub
 /* The gap distance of particle i (before s_tau), from the particles within radius rq of it: see
  * psys_sizing.c for the rules. INFINITY when none applies. */
 double psys_gap_distance(const psys_sys *s, int32_t i, double rq);
+
+/* Phase 3: the distance from point x to the boundary polylines (chains) of the face of particle
+ * i near the frozen particles among ids[m]; INFINITY when none is near (or i is not on a face,
+ * or there are no chains). */
+double psys_boundary_distance(const psys_sys *s, int32_t i, const double x[3], const int32_t *ids,
+                              int32_t m);
+
+/* Face particles keep this fraction of their sigma from their face's boundary polylines
+ * (psys_move.c, psys_population.c). */
+#define PSYS_BOUNDARY_CLEARANCE 0.15
 
 /* Phase 3: build the curve chains (above) from the frozen particles. */
 pm_status psys_build_chains(psys_sys *s, pm_error *err);

@@ -283,6 +283,29 @@ static double chain_distance(const psys_sys *s, int32_t c, int32_t j, const doub
   return d;
 }
 
+double psys_boundary_distance(const psys_sys *s, int32_t i, const double x[3], const int32_t *ids,
+                              int32_t m) {
+  double best = INFINITY;
+  if (s->dim[i] != PM_FACE || !s->chain_off) return best;
+  const int32_t ki = psys_key(s, PM_FACE, s->cell[i]);
+  for (int32_t q = 0; q < m; ++q) {
+    int32_t j = ids[q];
+    if (j >= s->nfrozen || s->dim[j] == PM_FACE) continue;
+    if (s->dim[j] == PM_CURVE) {
+      if (in_closure(s, ki, psys_key(s, PM_CURVE, s->cell[j])))
+        best = fmin(best, chain_distance(s, s->cell[j], j, x));
+    } else {
+      const pm_cell *v = pm_model_cell(s->model, PM_VERTEX, s->cell[j]);
+      if (!in_closure(s, ki, psys_key(s, PM_VERTEX, s->cell[j]))) continue;
+      best = fmin(best, pm_v3_dist(x, &s->xyz[3 * j]));
+      for (int32_t u = 0; u < v->nup; ++u)
+        if (in_closure(s, ki, psys_key(s, PM_CURVE, v->up[u])))
+          best = fmin(best, chain_distance(s, v->up[u], j, x));
+    }
+  }
+  return best;
+}
+
 typedef struct tkey {
   double t;
   int32_t id;

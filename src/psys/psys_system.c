@@ -215,7 +215,7 @@ void psys_sys_destroy(psys_sys *s) {
   if (!s) return;
   free(s->dim), free(s->cell), free(s->par), free(s->xyz), free(s->deriv);
   free(s->sigma), free(s->lambda), free(s->energy), free(s->force);
-  free(s->sig_curv), free(s->kxyz), free(s->gap), free(s->gxyz), free(s->serial), free(s->grace), free(s->fixed), free(s->frozen);
+  free(s->sig_curv), free(s->kxyz), free(s->gap), free(s->gxyz), free(s->bdist), free(s->serial), free(s->grace), free(s->fixed), free(s->frozen);
   free(s->clo_off), free(s->clo), free(s->vert_off), free(s->vert);
   free(s->corner), free(s->slow_face), free(s->extent);
   free(s->chain_off), free(s->chain), free(s->chain_pos), free(s->vpart), free(s->face_on);
@@ -248,6 +248,7 @@ static int reserve(psys_sys *s, int32_t need) {
   GROW(kxyz, double, 3);
   GROW(gap, double, 1);
   GROW(gxyz, double, 3);
+  GROW(bdist, double, 1);
   GROW(serial, uint64_t, 1);
   GROW(grace, int64_t, 1);
   GROW(fixed, uint8_t, 1);
@@ -327,6 +328,7 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
   pm_v3_zero(&s->force[3 * i]);
   s->serial[i] = s->next_serial++;
   s->grace[i] = 0;
+  s->bdist[i] = INFINITY;
   s->fixed[i] = dim == PM_VERTEX;
   s->frozen[i] = 0;
   s->target[i] = sigma;
@@ -371,6 +373,7 @@ pm_status psys_compact(psys_sys *s, const uint8_t *dead, pm_error *err) {
       memcpy(&s->gxyz[3 * n], &s->gxyz[3 * i], 3 * sizeof(double));
       s->serial[n] = s->serial[i], s->fixed[n] = s->fixed[i], s->frozen[n] = s->frozen[i];
       s->grace[n] = s->grace[i];
+      s->bdist[n] = s->bdist[i];
       s->target[n] = s->target[i];
     }
     ++n;
