@@ -5,10 +5,12 @@
 
 #include "bubble/bubble.h"
 #include "peers/peers.h"
+#include "psys/psys.h"
 
 /* In the order `packmesh mesh --help` lists them: ours first, then the classic peers. */
 static const pm_method *const methods[] = {
     &bub_method,
+    &psys_method,
     &peer_gmsh_frontal,
     &peer_gmsh_delaunay,
     &peer_gmsh_meshadapt,
