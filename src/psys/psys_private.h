@@ -89,6 +89,7 @@ typedef struct psys_sys {
   uint64_t next_serial;
 
   pm_grid *grid;           /* every particle, radius sigma, id = index */
+  pm_grid *bgrid;          /* phase 3: the frozen particles only (psys_sizing.c) */
 
   /* cell adjacency: cells of dimension 0..2 numbered key = koff[dim] + index */
   int32_t koff[3];

@@ -377,10 +377,21 @@ pm_status psys_build_chains(psys_sys *s, pm_error *err) {
   }
   s->chain_off[nc] = pos;
   free(tk), free(cnt), free(start);
-  return PM_OK;
+  /* the frozen particles alone, for the faces' gap searches */
+  pm_grid_destroy(s->bgrid);
+  s->bgrid = NULL;
+  pm_status st = pm_grid_create(s->size ? 1e-6 * m->diagonal : 1e-2 * s->sigma_min, &s->bgrid, err);
+  for (int32_t i = 0; i < s->n && !st; ++i)
+    st = pm_grid_insert(s->bgrid, i, &s->xyz[3 * i], s->sigma[i], err);
+  return st;
 }
 
-static double gap_from(const psys_sys *s, int32_t i, const cand *c) {
+enum { GAP_BOUNDARY = 1, GAP_OTHER = 2 };
+
+/* The gap of particle i from the candidates c: for a face particle, `parts` selects the width
+ * through the face (GAP_BOUNDARY) and the nearest particle on a cell that shares no vertex with
+ * the face (GAP_OTHER). */
+static double gap_from(const psys_sys *s, int32_t i, const cand *c, int parts) {
   const int32_t ki = psys_key(s, s->dim[i], s->cell[i]);
   memo mt = {0};
   if (s->dim[i] <= PM_CURVE) {
@@ -419,10 +430,11 @@ static double gap_from(const psys_sys *s, int32_t i, const cand *c) {
           if (in_closure(s, ki, kc)) add_cell(bk, bnear, bd2, &nb, MAXC, kc, j, INFINITY);
         }
       }
-    } else if (d2 < other2 && !memo_touch(s, &mt, ki, kj)) {
+    } else if ((parts & GAP_OTHER) && d2 < other2 && !memo_touch(s, &mt, ki, kj)) {
       other2 = d2;
     }
   }
+  if (!(parts & GAP_BOUNDARY)) return sqrt(other2);
   /* Distances to the curves: to their polylines of frozen particles near the nearest one found
    * (phase 3), not to that particle alone, so a sparse boundary does not look farther away than
    * it is. */
@@ -448,7 +460,7 @@ static double gap_from(const psys_sys *s, int32_t i, const cand *c) {
 double psys_gap_distance(const psys_sys *s, int32_t i, double rq) {
   cand c = {0};
   pm_grid_visit(s->grid, &s->xyz[3 * i], rq, PM_GRID_BALL, cand_collect, &c);
-  double g = c.oom ? INFINITY : gap_from(s, i, &c);
+  double g = c.oom ? INFINITY : gap_from(s, i, &c, GAP_BOUNDARY | GAP_OTHER);
   cand_free(&c);
   return g;
 }
@@ -645,29 +657,57 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
       double T = fmin(s->sigma_max, s->sig_curv[i]);
       const double tmax = g * s->sigma[i];
       if (gap_active(s, i)) {
-        /* The gap search (radius tmax / s_tau: a farther particle cannot bring s_tau x gap
-         * below tmax) is the widest of the update. It is redone every third update (staggered
-         * by serial number), and at once where the last gap found, less twice the distance the
-         * particle moved since (the distance to a set is 1-Lipschitz, the width a + b
-         * 2-Lipschitz), could constrain sigma. Between searches new particles on other cells,
-         * or their moves, may shorten the gap unseen for at most two updates; a phase ends only
-         * after quiet iterations, when the searches have caught up. */
+        const double R = tmax / s->p.s_tau;
         double moved = pm_v3_dist(xi, &s->gxyz[3 * i]);
-        if (s->gap[i] < 0 || s->p.s_tau * (s->gap[i] - 2 * moved) < tmax ||
-            (s->serial[i] + (uint64_t)s->iter) % 3 == 0) {
-          const double R = tmax / s->p.s_tau;
+        double G = INFINITY;
+        int fail = 0;
+        if (s->dim[i] == PM_FACE && s->bgrid) {
+          /* Phase 3, faces. The frozen particles (curves and vertices) never move: the width
+           * through the face and the frozen cells that share no vertex with it are searched in
+           * their own, sparse grid at every update. The particles of other faces (across a thin
+           * wall) are searched in the main grid, with radius tmax / s_tau, every third update
+           * (staggered by serial number) or once the particle moved a quarter sigma; in between,
+           * the last distance found less the distance moved since bounds that gap from below
+           * (the distance to a set is 1-Lipschitz), and new particles across the wall are seen
+           * with a delay of at most two updates. */
+          c.n = 0;
+          pm_grid_visit(s->bgrid, xi, R, PM_GRID_BALL, cand_collect, &c);
+          fail |= c.oom;
+          if (!fail) G = gap_from(s, i, &c, GAP_BOUNDARY | GAP_OTHER);
+          if (s->gap[i] < 0 || moved > 0.25 * s->sigma[i] ||
+              (s->serial[i] + (uint64_t)s->iter) % 3 == 0) {
+            c.n = 0;
+            pm_grid_visit(s->grid, xi, R, PM_GRID_BALL, cand_collect, &c);
+            fail |= c.oom;
+            double Go = fail ? INFINITY : gap_from(s, i, &c, GAP_OTHER);
+            s->gap[i] = Go < R ? Go : R;
+            pm_v3_copy(&s->gxyz[3 * i], xi);
+            G = fmin(G, Go);
+          } else {
+            G = fmin(G, s->gap[i] - moved);
+          }
+        } else if (s->gap[i] < 0 || s->p.s_tau * (s->gap[i] - 2 * moved) < tmax ||
+                   (s->serial[i] + (uint64_t)s->iter) % 3 == 0) {
+          /* Curves and vertices (phase 2): the gap search (radius tmax / s_tau: a farther
+           * particle cannot bring s_tau x gap below tmax) is redone every third update
+           * (staggered by serial number), and at once where the last gap found, less twice the
+           * distance the particle moved since, could constrain sigma. Between searches new
+           * particles on other cells, or their moves, may shorten the gap unseen for at most
+           * two updates; a phase ends only after quiet iterations, when the searches have
+           * caught up. */
           c.n = 0;
           pm_grid_visit(s->grid, xi, R, PM_GRID_BALL, cand_collect, &c);
-          if (c.oom) {
-#pragma omp atomic write
-            oom = 1;
-            continue;
-          }
-          double G = gap_from(s, i, &c);
+          fail |= c.oom;
+          G = fail ? INFINITY : gap_from(s, i, &c, GAP_BOUNDARY | GAP_OTHER);
           s->gap[i] = G < R ? G : R;
           pm_v3_copy(&s->gxyz[3 * i], xi);
-          T = fmin(T, s->p.s_tau * G);
         }
+        if (fail) {
+#pragma omp atomic write
+          oom = 1;
+          continue;
+        }
+        T = fmin(T, s->p.s_tau * G);
       }
       c.n = 0;
       pm_grid_visit(s->grid, xi, update_radius(s, i), PM_GRID_MUTUAL, cand_collect, &c);

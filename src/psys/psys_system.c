@@ -221,6 +221,7 @@ void psys_sys_destroy(psys_sys *s) {
   free(s->chain_off), free(s->chain), free(s->chain_pos), free(s->vpart), free(s->face_on);
   free(s->target), free(s->edge_a), free(s->edge_b), free(s->edge_r);
   pm_grid_destroy(s->grid);
+  pm_grid_destroy(s->bgrid);
   free(s);
 }
 
