@@ -8,6 +8,13 @@
  * (section 3: "this bias can be adjusted to stop splits and deletes all together, ensuring
  * termination"; the schedule is ours).
  *
+ * E_ideal on curves (ours). Eq. 6 counts the six particles of a hexagonal one-ring; a curve
+ * particle of an ideal chain has two neighbours, so with the paper's 6 the curves are split down
+ * to a spacing about 0.55 sigma while the faces settle near 0.66 sigma, and the boundary rows of
+ * triangles are squeezed (R / l_min 0.72 against 0.61 inside, measured on a planar square). We
+ * use E_ideal = sigma ring_curve E(beta) on curves, ring_curve = 1.5: a curve then settles at
+ * 0.9 .. 0.95 of the faces' spacing (2 gave 0.88, 1.2 gave 0.94 with no better triangles).
+ *
  * Order (ours; the paper is silent): particles are visited in index order, one thread. A particle
  * whose neighbourhood changed in this pass (a neighbour split or was deleted) waits for the next
  * iteration: its energy no longer describes its surroundings, and acting on it would delete both
