@@ -18,6 +18,12 @@
  * at the boundary of its face or curve stops (velocity zero), the shared rule's "clip to the
  * boundary and stop".
  *
+ * Volume bubbles (the volume phase, bub_volume.c) move freely in 3D: no projection, the RK
+ * stages are free points (they only serve to evaluate forces), and the final step follows the
+ * volumes' one rule, bub_volume_move: taken whole, else shortened, else not taken, so that the
+ * bubble never crosses its volume's walls and ends at least BUB_VMARGIN of its diameter from
+ * them; a bubble whose step was cut stops (velocity zero), as on faces.
+ *
  * Parameters. c = 2 zeta sqrt(m k0) (003 eq. 14 with k = k0, 004 section 2.2). The step is
  * h = dt T0 with T0 = 2 pi sqrt(m / k0) the natural period of eq. 13 (our choice: 003 leaves the
  * step open). With the force of bub_force.c (spring constant k0 for every size) the equation
@@ -26,8 +32,8 @@
  * discrete steps are therefore the same for every k0 and m: the system is stable for all of
  * them, the thesis's range [0.1, 150] included (000 section 6.4 found k0 > 150 unstable at a fixed
  * step, which our step does not have). Stability itself: the linearized modes have stiffness up
- * to 9 k0 (bub_params.c), so frequencies up to 3 w0 (w0 = sqrt(k0/m)); the default h w0 = 2 pi 0.1
- * = 0.63 puts them at |h s| <= 1.9, inside RK4's region (2.6 to 2.8 along the damped directions),
+ * to 12 k0 (bub_params.c), so frequencies up to 3.5 w0 (w0 = sqrt(k0/m)); the default h w0 = 2 pi 0.1
+ * = 0.63 puts them at |h s| <= 2.2, inside RK4's region (2.6 to 2.8 along the damped directions),
  * and the overdamped fast root -2 zeta w0 stays inside for zeta <= 2.2; Heun's region is smaller
  * (it does not contain the imaginary axis), hence its default 0.05. bub_params_check verifies
  * the chosen step and damping ratios against the exact stability polynomials.
@@ -98,6 +104,7 @@ static pm_status scratch(bub_state *s, pm_error *err) {
 /* Remove the part of w across the cell at a point with derivatives der (curve: keep the part
  * along C'; face: remove the part along Su x Sv). */
 static void tangent_project(int kind, const double *der, double w[3]) {
+  if (kind == BUB_KVOLUME) return; /* free in 3D */
   if (kind == BUB_KCURVE) {
     double g = pm_v3_dot(der, der);
     if (g > 0) {
@@ -155,6 +162,12 @@ static void force_on(const bub_state *s, int32_t i, const double *xs, double f[3
  * and derivatives there. Returns PM_MOVE_FREE / PM_MOVE_CLIPPED. */
 static int stage_move(const bub_state *s, int32_t i, const double dx[3], double *par_out,
                       double *x_out, double *der_out) {
+  if (s->kind[i] == BUB_KVOLUME) { /* a free stage point */
+    pm_v3_add(x_out, &s->x[3 * i], dx);
+    for (int k = 0; k < 6; ++k) der_out[k] = 0;
+    par_out[0] = par_out[1] = 0;
+    return PM_MOVE_FREE;
+  }
   const pm_cell *c = pm_model_cell(s->model, s->kind[i], s->cell[i]);
   double dpar[3] = {0, 0, 0};
   pm_cell_param_delta(c, &s->par[2 * i], &s->der[6 * i], dx, dpar);
@@ -180,7 +193,9 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   pm_status st = scratch(s, err);
   if (!st) st = bub_neighbors_update(s, err);
   if (st) return st;
-  const int32_t n = s->n, a = s->nv, b = s->nf;
+  const int32_t n = s->n;
+  int32_t a, b;
+  bub_moving(s, &a, &b);
   const double m = s->p.mass, h = bub_time_step(&s->p), sq = sqrt(s->p.mass * s->p.k0);
   const double c_norm = 2 * bub_zeta_now(s) * sq, c_odd = 2 * s->p.zeta_odd * sq;
   const int rk4 = s->p.integrator == BUB_RK4, nstage = rk4 ? 4 : 2;
@@ -229,6 +244,7 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
     kin += 0.5 * m * pm_v3_dot(&s->v[3 * i], &s->v[3 * i]);
     pot += s->pot[i];
     if (s->kind[i] == BUB_KFACE) edev += fabs(s->deg[i] - 6.0), ++nface;
+    if (s->kind[i] == BUB_KVOLUME) edev += fabs(s->deg[i] - 12.0), ++nface;
   }
 
   /* The step. */
@@ -237,7 +253,13 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   for (int32_t i = a; i < b; ++i) {
     double dx[3], npar[2] = {0, 0}, nx[3], nder[6];
     pm_v3_scale(dx, &s->sumv[3 * i], h);
-    int r = stage_move(s, i, dx, npar, nx, nder);
+    int r;
+    if (s->kind[i] == BUB_KVOLUME) {
+      r = bub_volume_move(s, i, &s->x0[3 * i], dx, nx);
+      for (int k = 0; k < 6; ++k) nder[k] = 0;
+    } else {
+      r = stage_move(s, i, dx, npar, nx, nder);
+    }
     double *v = &s->v[3 * i];
     pm_v3_axpy(v, v, h, &s->suma[3 * i]);
     tangent_project(s->kind[i], nder, v);

@@ -11,6 +11,9 @@
  * 1.75 (delta_i + delta_j) <= 0.75 s (d_i + d_j), which holds when every bubble moved less than
  * 0.75 s / 1.75 of its diameter: the rebuild threshold below.
  *
+ * Only the moving bubbles (bub_moving) have lists: curve and face bubbles, or volume bubbles in the
+ * volume phase.
+ *
  * Lists are sorted by id, so every per-bubble sum runs in the same order whatever the thread
  * count (the determinism rule of STYLE.md). The build runs in parallel over contiguous ranges of
  * bubbles, each thread filling its own buffer; the buffers are then concatenated in order.
@@ -31,7 +34,9 @@
 
 static int need_rebuild(const bub_state *s) {
   if (!s->lists_valid) return 1;
-  for (int32_t i = s->nv; i < s->nf; ++i)
+  int32_t a, b;
+  bub_moving(s, &a, &b);
+  for (int32_t i = a; i < b; ++i)
     if (pm_v3_dist(&s->x[3 * i], &s->x_build[3 * i]) > REBUILD_FRACTION * s->d_build[i]) {
       return 1;
     }
@@ -76,7 +81,9 @@ pm_status bub_neighbors_update(bub_state *s, pm_error *err) {
   memcpy(s->x_build, s->x, sizeof(double) * 3 * (size_t)s->n);
   memcpy(s->d_build, s->d, sizeof(double) * (size_t)s->n);
 
-  int T = bub_threads_for(s, s->nf - s->nv);
+  int32_t a, b;
+  bub_moving(s, &a, &b);
+  int T = bub_threads_for(s, b - a);
   ibuf *tb = calloc((size_t)T, sizeof(ibuf));
   pm_status *tst = calloc((size_t)T, sizeof(pm_status));
   int32_t *tlo = calloc((size_t)T, sizeof(int32_t));
@@ -84,7 +91,6 @@ pm_status bub_neighbors_update(bub_state *s, pm_error *err) {
     free(tb), free(tst), free(tlo);
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
-  const int32_t a = s->nv, b = s->nf;
   const double reach = 0.75 * (1 + BUB_SKIN);
   for (int32_t i = 0; i <= s->n; ++i) s->nb_off[i] = 0;
 #pragma omp parallel num_threads(T)

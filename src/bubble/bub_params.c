@@ -10,6 +10,7 @@
 
 static const char *const integrators[] = {"rk4", "rk2", NULL};
 static const char *const viscosities[] = {"constant", "sawtooth", NULL};
+static const char *const tet_sources[] = {"bubbles", "tetgen", NULL};
 
 #define F(field) offsetof(bub_params, field)
 
@@ -65,6 +66,12 @@ static const pm_param_desc desc[] = {
     {"curve_excess", PM_PARAM_DOUBLE, F(curve_excess), 8.0 / 3.0, 0, 10, PM_RANGE_LO_OPEN, "",
      "a curve bubble with overlap ratio above this is excess", "our choice: face cut-off x 2/6",
      NULL},
+    {"volume_open", PM_PARAM_DOUBLE, F(volume_open), 10, 0, 40, PM_RANGE_LO_OPEN, "",
+     "a volume bubble with overlap ratio below this is open (standard value 12)",
+     "our choice: face cut-off x 12/6 (bub_population.c)", NULL},
+    {"volume_excess", PM_PARAM_DOUBLE, F(volume_excess), 16, 0, 60, PM_RANGE_LO_OPEN, "",
+     "a volume bubble with overlap ratio above this is excess", "our choice: face cut-off x 12/6",
+     NULL},
     {"insert_k", PM_PARAM_DOUBLE, F(insert_k), 1.8, 0.5, 4, PM_RANGE_CLOSED, "r",
      "a new face bubble is placed k bubble radii from the open one", "000 sec. 4.2.4", NULL},
     {"control_steps", PM_PARAM_INT, F(control_steps), 20, 1, 100000, PM_RANGE_CLOSED, "steps",
@@ -97,6 +104,10 @@ static const pm_param_desc desc[] = {
      "our choice (bub_size.c)", NULL},
     {"size_grade", PM_PARAM_DOUBLE, F(size_grade), 0.3, 0.01, 2, PM_RANGE_CLOSED, "",
      "default size: growth per unit distance away from a small feature", "our choice", NULL},
+    /* volumes */
+    {"tets", PM_PARAM_CHOICE, F(tets), BUB_TETS_BUBBLES, 0, 0, 0, "",
+     "--volume: tets from packed volume bubbles (no Steiner point) or TetGen's refinement",
+     "003 sec. 3.2-3.5; 001 sec. 4.4", tet_sources},
     /* output */
     {"frame_every", PM_PARAM_INT, F(frame_every), 10, 1, 1000000, PM_RANGE_CLOSED, "steps",
      "--frames: one snapshot every this many steps", "-", NULL},
@@ -108,8 +119,9 @@ void bub_params_init(bub_params *p) { pm_params_defaults(&bub_params_table, p); 
 
 /* Stability of the linearized dynamics under the integrator: every mode of a bubble is
  * m s^2 + c s + k = 0 with k between 0 and the largest stiffness of a lattice mode. A hexagonal
- * lattice of pair stiffness k has modes up to 6 k (at the M point of its Brillouin zone), and
- * the cubic's steepest slope is 1.5 k0 (at lambda = 19/30), so k <= 9 k0. The step is stable when
+ * lattice of pair stiffness k has modes up to 6 k (at the M point of its Brillouin zone), a
+ * face-centred cubic one (volume bubbles) up to 8 k (at its X point), and the cubic's steepest
+ * slope is 1.5 k0 (at lambda = 19/30), so k <= 12 k0. The step is stable when
  * the amplification |R(h s)| <= 1 for all of them, R the scheme's stability polynomial. Checked
  * by sampling k. */
 static double amplification(int integrator, double complex z) {
@@ -121,7 +133,7 @@ static double amplification(int integrator, double complex z) {
 static int step_stable(const bub_params *p, double zeta) {
   double h = bub_time_step(p), m = p->mass, c = 2 * zeta * sqrt(m * p->k0);
   for (int k = 0; k <= 400; ++k) {
-    double kk = 9 * p->k0 * k / 400.0;
+    double kk = 12 * p->k0 * k / 400.0;
     double complex disc = csqrt((double complex)(c * c - 4 * m * kk));
     double complex s1 = (-c + disc) / (2 * m), s2 = (-c - disc) / (2 * m);
     if (amplification(p->integrator, h * s1) > 1 + 1e-12) return 0;
@@ -143,6 +155,11 @@ pm_status bub_params_check(const bub_params *p, pm_error *err) {
                          "bubble parameters curve_open=%g and curve_excess=%g must satisfy "
                          "curve_open < 2 < curve_excess",
                          p->curve_open, p->curve_excess);
+  if (!(p->volume_open < 12 && p->volume_excess > 12))
+    return pm_error_setf(err, PM_ERR_ARG,
+                         "bubble parameters volume_open=%g and volume_excess=%g must satisfy "
+                         "volume_open < 12 < volume_excess",
+                         p->volume_open, p->volume_excess);
   /* Every damping ratio the run can use must give a stable step. */
   double zetas[4] = {p->zeta, p->zeta_odd, p->viscosity == BUB_VISC_SAWTOOTH ? p->zeta_max : p->zeta,
                      p->viscosity == BUB_VISC_SAWTOOTH ? fmax(p->zeta, p->zeta_max) : p->zeta};

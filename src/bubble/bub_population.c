@@ -36,6 +36,11 @@
  * bubbles within 1.5 l0 of an insertion or deletion (and the new bubbles) are flagged for the
  * next round, damped with zeta_odd instead of the saw-tooth.
  *
+ * Volumes (the volume phase, once vertex, curve and face bubbles have settled and are frozen):
+ * the same order for volume bubbles alone -- remove excess, insert around open ones, remove
+ * excess -- with the cut-offs volume_open and volume_excess (bub_params.c) and the places of
+ * volume_candidate.
+ *
  * Everything here runs on one thread, in a fixed order: the result is deterministic.
  */
 #include "bubble/bub_private.h"
@@ -126,10 +131,10 @@ static int add_event(ctl *c, const double x[3], double d) {
 }
 
 static double cut_excess(const bub_state *s, int kind) {
-  return kind == BUB_KCURVE ? s->p.curve_excess : s->p.face_excess;
+  return kind == BUB_KCURVE ? s->p.curve_excess : kind == BUB_KVOLUME ? s->p.volume_excess : s->p.face_excess;
 }
 static double cut_open(const bub_state *s, int kind) {
-  return kind == BUB_KCURVE ? s->p.curve_open : s->p.face_open;
+  return kind == BUB_KCURVE ? s->p.curve_open : kind == BUB_KVOLUME ? s->p.volume_open : s->p.face_open;
 }
 
 /* Recompute the ratio of every live curve/face bubble whose ratio counts a bubble of diameter d
@@ -147,7 +152,8 @@ static pm_status update_around(ctl *c, const double x[3], double d, int kind, in
   for (int32_t k = 0; k < n; ++k) {
     int32_t j = ids[k];
     int kj = s->kind[j];
-    if ((kj != BUB_KCURVE && kj != BUB_KFACE) || (s->flags[j] & BUB_FDEAD)) continue;
+    int moving = s->volume_phase ? kj == BUB_KVOLUME : (kj == BUB_KCURVE || kj == BUB_KFACE);
+    if (!moving || (s->flags[j] & BUB_FDEAD)) continue;
     s->alpha[j] = bub_alpha(s, j);
     if (kj != kind || !h) continue;
     if (test > 0 && s->alpha[j] > cut_excess(s, kind) && !(s->flags[j] & BUB_FNEW) &&
@@ -451,6 +457,35 @@ static pm_status face_candidate(ctl *c, int32_t o, cand *best) {
   return st;
 }
 
+/* Volumes: places at k r from the open bubble o in the 26 directions of a cube's faces, edges and
+ * corners (our choice: 000 section 4.2.4 gives the 2D rule only; the face rule's "8 places when
+ * there is no neighbour" carried to 3D, and used whatever the neighbours, since the least overlap
+ * among them already points into the largest gap). A place must be reachable from o along a
+ * straight segment that meets no wall, BUB_VMARGIN d inside (bub_volume_place_ok). */
+static pm_status volume_candidate(ctl *c, int32_t o, cand *best) {
+  bub_state *s = c->s;
+  const double R = s->p.insert_k * 0.5 * s->d[o];
+  for (int a = -1; a <= 1; ++a)
+    for (int b = -1; b <= 1; ++b)
+      for (int q = -1; q <= 1; ++q) {
+        if (!a && !b && !q) continue;
+        double dir[3] = {a, b, q}, x[3];
+        pm_v3_normalize(dir);
+        pm_v3_axpy(x, &s->x[3 * o], R, dir);
+        double dv = pm_sizing_eval(s->size, x);
+        if (!(dv > 0) || !isfinite(dv)) continue; /* outside the field's domain: not a place */
+        if (!bub_volume_place_ok(s, s->cell[o], &s->x[3 * o], x, dv)) continue;
+        double al = bub_alpha_at(s, x, dv, BUB_KVOLUME, s->cell[o], -1);
+        if (!best->ok || al < best->alpha) {
+          best->ok = 1;
+          best->par[0] = best->par[1] = 0;
+          pm_v3_copy(best->x, x);
+          best->d = dv, best->alpha = al;
+        }
+      }
+  return PM_OK;
+}
+
 static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
   bub_state *s = c->s;
   heap h = {0};
@@ -476,17 +511,19 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
     if (kind == BUB_KCURVE && c->lam[s->cell[o]] / (c->ngap[s->cell[o]] + 1) < c->s_excess)
       continue; /* the relaxed chain would be excess with one more */
     cand best = {0};
-    st = kind == BUB_KCURVE ? curve_candidate(c, o, &best) : face_candidate(c, o, &best);
+    st = kind == BUB_KCURVE ? curve_candidate(c, o, &best)
+         : kind == BUB_KVOLUME ? volume_candidate(c, o, &best)
+                               : face_candidate(c, o, &best);
     if (st) break;
     /* Faces: a candidate that is excess already would be removed at once. Curves: the chain
      * test above decided; a snapshot of a chain before it relaxes overstates the ratio of a
      * bubble put into a gap (1.5 l0 split in two reads 3, relaxed it is about 2). */
-    if (!best.ok || (kind == BUB_KFACE && best.alpha > excess)) {
+    if (!best.ok || (kind != BUB_KCURVE && best.alpha > excess)) {
       c->info->failed++;
       continue;
     }
     int32_t id;
-    st = bub_state_add(s, kind, s->cell[o], best.par, NULL, 0, &id, c->err);
+    st = bub_state_add(s, kind, s->cell[o], best.par, best.x, 0, &id, c->err);
     if (st) break;
     s->flags[id] |= BUB_FNEW;
     st = pm_grid_insert(s->grid, id, &s->x[3 * id], BUB_GRID_FACTOR * s->d[id], c->err);
@@ -551,11 +588,19 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   s->grid_valid = 1;
   for (int32_t i = 0; i < s->n; ++i)
     if (s->kind[i] != BUB_KOUT) c.live++;
-  info->before = s->nf - s->nv;
+  info->before = s->volume_phase ? s->nw - s->nf : s->nf - s->nv;
 
+  int32_t k = 0;
+  if (s->volume_phase) {
+    /* Volumes, once the lower dimensions have settled: the same order for one kind. */
+    bub_alpha_all(s);
+    st = remove_excess(&c, BUB_KVOLUME, &k);
+    if (!st) st = insert_open(&c, BUB_KVOLUME, &k);
+    if (!st) st = remove_excess(&c, BUB_KVOLUME, &k);
+    goto finish;
+  }
   if (s->p.outside_layer) st = bub_outside_layer(s, err);
   if (!st) bub_alpha_all(s);
-  int32_t k = 0;
   if (!st) st = remove_excess(&c, BUB_KCURVE, &k);
   if (!st && k) st = refresh_layer(&c);
   if (!st) st = remove_excess(&c, BUB_KFACE, &k);
@@ -566,6 +611,7 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   if (!st && k) st = refresh_layer(&c);
   if (!st) st = remove_excess(&c, BUB_KFACE, &k);
 
+finish:
   /* Odd bubbles (004 section 2.2) once the population has nearly settled. */
   int32_t changed = info->inserted > info->removed ? info->inserted - info->removed
                                                    : info->removed - info->inserted;
@@ -590,7 +636,7 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   pm_idbuf_free(&c.buf);
   free(c.ev), free(c.lam), free(c.ngap), free(c.curve_changed);
   if (!st) st = bub_state_compact(s, err);
-  info->after = s->nf - s->nv;
+  info->after = s->volume_phase ? s->nw - s->nf : s->nf - s->nv;
   s->insertions += info->inserted;
   s->deletions += info->removed;
   s->failed_insertions += info->failed;

@@ -4,6 +4,8 @@
  *   bub_state.c       the bubble arrays, the cell relations of 000 section 4.2.2, the grid
  *   bub_place.c       initial placement by hierarchical spatial subdivision (003 section 3.2,
  *                     000 section 4.1.1, 004 section 2.3)
+ *   bub_volume.c      the volume phase: the surface mesh as the volumes' walls, the octree of
+ *                     rhombohedra in volumes, the rule for a volume bubble's step
  *   bub_neighbors.c   the per-bubble neighbour lists (Verlet lists over the shared grid)
  *   bub_dynamics.c    the equation of motion, RK4 / RK2 with per-stage confinement
  *                     (003 eq. 12-15, 000 section 5.5, 004 section 2.2)
@@ -19,6 +21,8 @@
 
 #include "bubble/bubble.h"
 #include "common/grid.h"
+#include "common/mesh.h"
+#include "common/volume_inside.h"
 
 #include <stdint.h>
 
@@ -28,7 +32,8 @@ enum {
   BUB_KVERTEX = 0, /* on a vertex: fixed (000 section 4.2.2 a) */
   BUB_KCURVE = 1,  /* on a curve, parameter t */
   BUB_KFACE = 2,   /* on a face, parameters (u, v) */
-  BUB_KOUT = 3     /* outside-layer bubble of face `cell`: overlap only (000 section 4.2.1) */
+  BUB_KVOLUME = 3, /* in a volume, free in 3D (bub_volume.c); no parameters */
+  BUB_KOUT = 4     /* outside-layer bubble of face `cell`: overlap only (000 section 4.2.1) */
 };
 
 /* Per-bubble flags. */
@@ -74,10 +79,19 @@ typedef struct bub_state {
   int8_t *kind;          /* [n] BUB_K* */
   int32_t *cell;         /* [n] index of the cell in its dimension */
   uint8_t *flags;        /* [n] BUB_F* */
+  double *wall;          /* [n] volume bubbles: a lower bound on the distance to the walls of
+                            their volume (bub_volume.c), 0 when unknown */
 
-  /* Ranges of the sorted arrays: vertices [0, nv), curves [nv, nc), faces [nc, nf), outside
-   * bubbles [nf, n) (only during population control). */
-  int32_t nv, nc, nf;
+  /* Ranges of the sorted arrays: vertices [0, nv), curves [nv, nc), faces [nc, nf), volume
+   * bubbles [nf, nw), outside bubbles [nw, n) (only during population control). */
+  int32_t nv, nc, nf, nw;
+
+  /* The volume phase (bub_volume.c): once the vertex, curve and face bubbles have settled they
+   * are frozen, the surface mesh is connected from them, and only volume bubbles move and are
+   * controlled. shell[v] (owned) are the walls of volume v, from that surface mesh. */
+  int volume_phase;
+  pm_volume_shell **shell;       /* [count[PM_VOLUME]] owned, NULL before the phase */
+  int64_t round0;        /* rounds done before the phase began (the saw-tooth restarts) */
 
   pm_grid *grid;         /* every bubble, radius d (the overlap boundary of 000 section 3.1.3) */
   int grid_valid;        /* the grid holds ids 0..n-1 at the current x, d */
@@ -94,8 +108,8 @@ typedef struct bub_state {
 
   /* Cell relations (000 section 4.2.2): the sorted keys (bub_key) of the cells in the closure of
    * each curve and face (their boundary cells and embedded cells, recursively). */
-  int32_t *clo_off[3];   /* [count[dim] + 1] for dim 1, 2 */
-  uint32_t *clo[3];
+  int32_t *clo_off[4];   /* [count[dim] + 1] for dim 1, 2, 3 */
+  uint32_t *clo[4];
   uint8_t *seam;         /* [ncurve] 1 when the curve is used twice by one face (a seam) */
 
   /* Dynamics scratch (bub_dynamics.c), [3n] / [6n] / [2n] each. */
@@ -118,6 +132,12 @@ typedef struct bub_state {
 /* Cell key for the relation tables. */
 static inline uint32_t bub_key(int dim, int32_t cell) { return ((uint32_t)dim << 28) | (uint32_t)cell; }
 
+/* The bubbles that move: curve and face bubbles, or volume bubbles in the volume phase. */
+static inline void bub_moving(const bub_state *s, int32_t *a, int32_t *b) {
+  *a = s->volume_phase ? s->nf : s->nv;
+  *b = s->volume_phase ? s->nw : s->nf;
+}
+
 /* Threads for a loop over n items: the run's threads, or 1 below BUB_PARALLEL_MIN items (a
  * parallel region costs a few microseconds, more than a small loop, and much more on a loaded
  * machine). Results never depend on it. */
@@ -132,9 +152,9 @@ pm_status bub_state_create(const pm_model *m, const pm_sizing *size, const bub_p
 void bub_state_destroy(bub_state *s);
 
 /* Append a bubble on cell (kind, cell) at parameters par (NULL for a vertex; ignored for an
- * outside bubble, which is placed at xyz with diameter d). Evaluates position, derivatives and
- * diameter (except for outside bubbles). Writes the new index to *id when not NULL. Does not
- * touch the grid. */
+ * outside bubble, which is placed at xyz with diameter d, and for a volume bubble, placed at xyz).
+ * Evaluates position, derivatives and diameter (except for outside bubbles). Writes the new index
+ * to *id when not NULL. Does not touch the grid. */
 pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
                         const double *xyz, double d, int32_t *id, pm_error *err);
 
@@ -151,10 +171,12 @@ pm_status bub_state_compact(bub_state *s, pm_error *err);
 /* Put every bubble into the grid at its x with radius d (rebuilding it). */
 pm_status bub_state_grid_rebuild(bub_state *s, pm_error *err);
 
-/* 1 when bubble i (a curve or face bubble) feels bubble j in its dynamics and overlap ratio:
- * j is on the same cell or on a cell of the closure of i's cell (000 section 4.2.2: curve
+/* 1 when bubble i (a curve, face or volume bubble) feels bubble j in its dynamics and overlap
+ * ratio: j is on the same cell or on a cell of the closure of i's cell (000 section 4.2.2: curve
  * bubbles feel vertex and curve bubbles, face bubbles all of them, each only those of its own
- * cell and of that cell's boundary). Outside bubbles are never related here. */
+ * cell and of that cell's boundary; carried up one dimension, volume bubbles feel the bubbles of
+ * their volume and of its bounding and embedded faces, curves and vertices, which never feel
+ * them). Outside bubbles are never related here. */
 int bub_related(const bub_state *s, int32_t i, int32_t j);
 
 /* The same test for a hypothetical bubble on (kind, cell) against bubble j. */
@@ -200,10 +222,11 @@ typedef struct bub_step_info {
   double kinetic, potential;  /* at the start of the step */
   double mean_disp, max_disp; /* object-space displacement of the step */
   double max_rel_disp;        /* max displacement / d */
-  double eps_t;               /* mean |neighbours within 1.3 l0 - 6| over face bubbles */
+  double eps_t;               /* mean |neighbours within 1.3 l0 - 6| over face bubbles (- 12
+                                 over volume bubbles in the volume phase) */
 } bub_step_info;
 
-/* One step of the equation of motion for every curve and face bubble. */
+/* One step of the equation of motion for every moving bubble (bub_moving). */
 pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err);
 
 /* ---- overlap ratio (bub_overlap.c) ---------------------------------------------------------- */
@@ -216,7 +239,7 @@ double bub_alpha_at(const bub_state *s, const double x[3], double d, int kind, i
 /* The overlap ratio of bubble i. */
 double bub_alpha(const bub_state *s, int32_t i);
 
-/* Compute alpha of every curve and face bubble (needs a valid grid). */
+/* Compute alpha of every moving bubble (needs a valid grid). */
 void bub_alpha_all(bub_state *s);
 
 /* Replace the outside layer: remove the outside bubbles (from arrays and grid) and place new
@@ -239,9 +262,33 @@ typedef struct bub_control_info {
 
 /* One population control (000 section 4.2.5): remove curve excess, remove face excess, insert
  * around open curve bubbles, insert around open face bubbles, remove excess again; then compact.
+ * In the volume phase the same for volume bubbles only (the lower dimensions have settled).
  * `cap` limits the total number of bubbles. */
 pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *info,
                                  pm_error *err);
+
+/* ---- the volume phase (bub_volume.c) --------------------------------------------------------- */
+
+/* A volume bubble's step ends at least BUB_VMARGIN x its diameter from its volume's walls. */
+#define BUB_VMARGIN 0.25
+
+/* Start the volume phase: freeze the bubbles placed so far and take the walls of every volume
+ * from `surface` (the surface mesh connected from them, classified on the model). */
+pm_status bub_volume_begin(bub_state *s, const pm_mesh *surface, pm_error *err);
+
+/* The octree of rhombohedra in every volume (bub_volume.c): volume bubbles. */
+pm_status bub_place_volumes(bub_state *s, pm_error *err);
+
+/* The rule for a volume bubble's step from x0 by dx: taken whole, shortened, or not taken
+ * (bub_volume.c). Writes the end point to x1; updates s->wall[i]. Returns PM_MOVE_FREE when the
+ * whole step was taken, else PM_MOVE_CLIPPED. */
+int bub_volume_move(bub_state *s, int32_t i, const double x0[3], const double dx[3], double x1[3]);
+
+/* 1 when a volume bubble of diameter d may sit at x, reached from x0 (a point of the volume)
+ * along a straight segment: the segment meets no wall and x is at least BUB_VMARGIN d from
+ * them. */
+int bub_volume_place_ok(const bub_state *s, int32_t volume, const double x0[3], const double x[3],
+                        double d);
 
 /* ---- default size (bub_size.c) -------------------------------------------------------------- */
 

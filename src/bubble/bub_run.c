@@ -25,9 +25,21 @@
  *     (DESIGN.md: "a node budget that would be exceeded" is an error).
  *
  * Nodes for the connection: vertex bubbles (dim 0), curve bubbles (dim 1, t) and face bubbles
- * (dim 2, (u, v)); outside-layer bubbles exist only during a control and are never nodes. With
- * in->volume the surface mesh is filled with TetGen's quality tets (PM_VOLUME_REFINE): bubble
- * volumes are not implemented, so the volume nodes are TetGen's.
+ * (dim 2, (u, v)); outside-layer bubbles exist only during a control and are never nodes.
+ *
+ * Volumes (in->volume). With tets = bubbles (the default; papers/003 sections 3.1-3.5: bubbles on
+ * vertices, curves, faces and volumes in ascending order of dimension, centres connected by
+ * constrained Delaunay tetrahedrization), once the lower dimensions have stopped by the rules above
+ * they are frozen, connected into the surface mesh (pm_connect, no volume), and the volume phase
+ * follows (bub_volume.c): volume bubbles placed by the octree of rhombohedra, relaxed and
+ * controlled by the same rounds and stopping rules (max_steps counts per phase, the saw-tooth
+ * restarts). The volume bubbles then become the nodes of the volumes (dim 3, the volume's index)
+ * and TetGen tetrahedralizes the surface mesh with them and no Steiner point (pm_connect_volumes,
+ * PM_VOLUME_GIVEN; it may add the few interior points boundary recovery needs, counted in
+ * bubble.recovery_points). With tets = tetgen the surface mesh is filled with TetGen's quality
+ * refinement instead (PM_VOLUME_REFINE), for comparison. The trace's `phase` column is 2 in the
+ * surface phase and 3 in the volume phase, where `bubbles` counts volume bubbles and eps_t is
+ * mean |degree - 12|; frames show volume bubbles as dimension 3.
  */
 #include "bubble/bub_private.h"
 
@@ -41,7 +53,8 @@
 
 static const char *const trace_cols[] = {"step",     "bubbles",  "kinetic",   "potential",
                                          "mean_disp", "max_disp", "insertions", "deletions",
-                                         "eps_t",    "zeta",     "max_rel_disp", "round"};
+                                         "eps_t",    "zeta",     "max_rel_disp", "round",
+                                         "phase"};
 #define NCOL ((int)(sizeof trace_cols / sizeof trace_cols[0]))
 
 static pm_status snapshot(bub_state *s, pm_frames *fr, pm_error *err) {
@@ -58,19 +71,21 @@ static pm_status snapshot(bub_state *s, pm_frames *fr, pm_error *err) {
   return st;
 }
 
-static pm_status connect_nodes(const bub_state *s, const pm_run_input *in, pm_mesh **out,
-                               pm_error *err) {
+/* The nodes of the vertex, curve and face bubbles connected: surface (and segments) only when
+ * surface_only, else with TetGen's refined tets when in->volume. */
+static pm_status connect_nodes(const bub_state *s, const pm_run_input *in, int surface_only,
+                               pm_mesh **out, pm_error *err) {
   pm_mesh *mesh = pm_mesh_create();
   if (!mesh) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   pm_status st = pm_mesh_reserve(mesh, s->n, 0, 0, 0, err);
   for (int32_t i = 0; i < s->n && !st; ++i) {
-    if (s->kind[i] == BUB_KOUT || (s->flags[i] & BUB_FDEAD)) continue;
+    if (s->kind[i] > BUB_KFACE || (s->flags[i] & BUB_FDEAD)) continue;
     st = pm_mesh_add_node(mesh, &s->x[3 * i], s->kind[i], s->cell[i], &s->par[2 * i], NULL, err);
   }
   if (!st) {
     pm_connect_params cp;
     pm_connect_params_init(&cp);
-    if (in->volume) {
+    if (in->volume && !surface_only) {
       cp.volume = PM_VOLUME_REFINE;
       cp.max_nodes = in->max_nodes > 0 && in->max_nodes < INT32_MAX ? (int32_t)in->max_nodes : 0;
     }
@@ -82,6 +97,115 @@ static pm_status connect_nodes(const bub_state *s, const pm_run_input *in, pm_me
     return st;
   }
   *out = mesh;
+  return PM_OK;
+}
+
+/* Relaxation rounds with population control until a stop (the header's rules), over the moving
+ * bubbles (bub_moving): the surface phase, then the volume phase. reason receives the stop. */
+static pm_status relax(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
+                       char reason[128], pm_error *err) {
+  const bub_params *p = &s->p;
+  const int64_t step0 = s->step;
+  int settled = 0, final_phase = 0, final_left = 0;
+  int32_t last_change = -1; /* bubbles changed by the last control (-1: none yet) */
+  pm_status st = PM_OK;
+  reason[0] = 0;
+  while (!st) {
+    if (s->step - step0 >= p->max_steps) {
+      snprintf(reason, 128, "max steps (%d)", p->max_steps);
+      break;
+    }
+    bub_step_info info;
+    st = bub_dynamics_step(s, &info, err);
+    if (st) break;
+    bub_control_info ci = {0};
+    int controlled = 0;
+    if (p->population && !final_phase && s->steps_in_round >= p->control_steps &&
+        (info.max_rel_disp <= p->calm || s->steps_in_round >= 4 * p->control_steps)) {
+      st = bub_population_control(s, cap, &ci, err);
+      if (st) break;
+      controlled = 1;
+      s->round++;
+      s->steps_in_round = 0;
+      last_change = ci.inserted + ci.removed;
+      int32_t delta = ci.after > ci.before ? ci.after - ci.before : ci.before - ci.after;
+      if (ci.before > 0 && delta <= p->stop_change * ci.before)
+        ++settled;
+      else
+        settled = 0;
+      if (p->adaptive_stop && settled >= p->stop_rounds) {
+        final_phase = 1, final_left = p->final_steps;
+        snprintf(reason, 128, "converged: bubble count changed by <= %g%% in %d consecutive rounds",
+                 100 * p->stop_change, p->stop_rounds);
+      } else if (s->nw >= cap && budget) {
+        st = pm_error_setf(err, PM_ERR_LIMIT,
+                           "bubble: the node budget of %lld would be exceeded (the size field asks "
+                           "for more nodes)",
+                           (long long)cap);
+        break;
+      } else if (s->nw >= cap) {
+        final_phase = 1, final_left = p->final_steps;
+        snprintf(reason, 128, "bubble cap (%lld) reached", (long long)cap);
+      }
+    }
+    if (in->trace) {
+      int32_t a, b;
+      bub_moving(s, &a, &b);
+      double row[NCOL] = {(double)s->step, (double)(s->volume_phase ? s->nw - s->nf : s->nf - s->nv),
+                          info.kinetic, info.potential, info.mean_disp, info.max_disp, ci.inserted,
+                          ci.removed, info.eps_t, bub_zeta_now(s), info.max_rel_disp,
+                          (double)s->round, s->volume_phase ? 3 : 2};
+      st = pm_trace_add(in->trace, row, err);
+      if (st) break;
+    }
+    if (in->frames && s->step % p->frame_every == 0 && (st = snapshot(s, in->frames, err))) break;
+    if (final_phase) {
+      if (p->final_steps == 0 || --final_left <= 0 || (info.max_rel_disp <= p->disp_tol && !controlled))
+        break;
+    } else if (info.max_rel_disp <= p->disp_tol &&
+               (!p->population || (controlled && last_change == 0))) {
+      snprintf(reason, 128, "converged: no bubble moved more than %g of its diameter in a step",
+               p->disp_tol);
+      break;
+    }
+  }
+  return st;
+}
+
+/* The volume phase and the tets from the volume bubbles (the header's "Volumes"): *mesh receives
+ * the hybrid mesh. */
+static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
+                              char reason[128], pm_mesh **mesh, int32_t *recovery,
+                              double *t_relaxed, pm_error *err) {
+  pm_mesh *surf = NULL;
+  pm_status st = connect_nodes(s, in, 1, &surf, err);
+  if (!st) st = bub_volume_begin(s, surf, err);
+  if (!st) st = bub_place_volumes(s, err);
+  if (!st && s->nw > cap)
+    st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the volume placement has %d bubbles, above the %s of %lld",
+                       (int)s->nw, budget ? "node budget" : "cap max_bubbles", (long long)cap);
+  char vreason[128] = "";
+  if (!st && s->nw > s->nf) st = relax(s, in, cap, budget, vreason, err);
+  if (!st && vreason[0]) snprintf(reason, 128, "%.120s", vreason);
+  *t_relaxed = pm_seconds();
+  for (int32_t i = s->nf; i < s->nw && !st; ++i)
+    st = pm_mesh_add_node(surf, &s->x[3 * i], PM_VOLUME, s->cell[i], NULL, NULL, err);
+  if (!st) {
+    pm_connect_params cp;
+    pm_connect_params_init(&cp);
+    cp.volume = PM_VOLUME_GIVEN;
+    cp.max_nodes = in->max_nodes > 0 && in->max_nodes < INT32_MAX ? (int32_t)in->max_nodes : 0;
+    pm_connect_report rep;
+    memset(&rep, 0, sizeof rep);
+    st = pm_connect_volumes(s->model, surf, &cp, &rep, err);
+    if (st) pm_error_prefix(err, "bubble: tets from %d volume bubbles", (int)(s->nw - s->nf));
+    *recovery = rep.steiner;
+  }
+  if (st) {
+    pm_mesh_destroy(surf);
+    return st;
+  }
+  *mesh = surf;
   return PM_OK;
 }
 
@@ -128,78 +252,29 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   if (!st && in->trace) st = pm_trace_columns(in->trace, NCOL, trace_cols, err);
   if (!st) st = snapshot(s, in->frames, err);
 
-  /* ---- relaxation rounds ---- */
-  int settled = 0, final_phase = 0, final_left = 0;
   char reason[128] = "";
-  int32_t last_change = -1; /* bubbles changed by the last control (-1: none yet) */
-  while (!st) {
-    if (s->step >= p->max_steps) {
-      snprintf(reason, sizeof reason, "max steps (%d)", p->max_steps);
-      break;
-    }
-    bub_step_info info;
-    st = bub_dynamics_step(s, &info, err);
-    if (st) break;
-    bub_control_info ci = {0};
-    int controlled = 0;
-    if (p->population && !final_phase && s->steps_in_round >= p->control_steps &&
-        (info.max_rel_disp <= p->calm || s->steps_in_round >= 4 * p->control_steps)) {
-      st = bub_population_control(s, cap, &ci, err);
-      if (st) break;
-      controlled = 1;
-      s->round++;
-      s->steps_in_round = 0;
-      last_change = ci.inserted + ci.removed;
-      int32_t delta = ci.after > ci.before ? ci.after - ci.before : ci.before - ci.after;
-      if (ci.before > 0 && delta <= p->stop_change * ci.before)
-        ++settled;
-      else
-        settled = 0;
-      if (p->adaptive_stop && settled >= p->stop_rounds) {
-        final_phase = 1, final_left = p->final_steps;
-        snprintf(reason, sizeof reason,
-                 "converged: bubble count changed by <= %g%% in %d consecutive rounds",
-                 100 * p->stop_change, p->stop_rounds);
-      } else if (s->nf >= cap && budget) {
-        st = pm_error_setf(err, PM_ERR_LIMIT,
-                           "bubble: the node budget of %lld would be exceeded (the size field asks "
-                           "for more nodes)",
-                           (long long)cap);
-        break;
-      } else if (s->nf >= cap) {
-        final_phase = 1, final_left = p->final_steps;
-        snprintf(reason, sizeof reason, "bubble cap (%lld) reached", (long long)cap);
-      }
-    }
-    if (in->trace) {
-      double row[NCOL] = {(double)s->step, (double)(s->nf - s->nv), info.kinetic, info.potential,
-                          info.mean_disp, info.max_disp, ci.inserted, ci.removed, info.eps_t,
-                          bub_zeta_now(s), info.max_rel_disp, (double)s->round};
-      st = pm_trace_add(in->trace, row, err);
-      if (st) break;
-    }
-    if (in->frames && s->step % p->frame_every == 0 && (st = snapshot(s, in->frames, err))) break;
-    if (final_phase) {
-      if (p->final_steps == 0 || --final_left <= 0 || (info.max_rel_disp <= p->disp_tol && !controlled))
-        break;
-    } else if (info.max_rel_disp <= p->disp_tol &&
-               (!p->population || (controlled && last_change == 0))) {
-      snprintf(reason, sizeof reason,
-               "converged: no bubble moved more than %g of its diameter in a step", p->disp_tol);
-      break;
-    }
-  }
+  if (!st) st = relax(s, in, cap, budget, reason, err);
   double t_relax = pm_seconds();
-  if (!st && in->frames && s->step % p->frame_every != 0) st = snapshot(s, in->frames, err);
-  if (!st && in->frames) st = pm_frames_finish(in->frames, err);
-
   int32_t border_dropped = 0;
   if (!st) st = bub_border_cleanup(s, &border_dropped, err);
+  int volumes = !st && in->volume && p->tets == BUB_TETS_BUBBLES && m->count[PM_VOLUME] > 0;
   pm_mesh *mesh = NULL;
-  if (!st) st = connect_nodes(s, in, &mesh, err);
+  int32_t recovery = 0;
+  int64_t surface_steps = s ? s->step : 0;
+  int32_t volume_final = 0;
+  double t_vrelax = t_relax;
+  if (volumes) {
+    st = volume_phase(s, in, cap, budget, reason, &mesh, &recovery, &t_vrelax, err);
+  } else if (!st) {
+    st = connect_nodes(s, in, 0, &mesh, err);
+  }
+  if (s && volumes) volume_final = (int32_t)(s->nw - s->nf);
   double t_end = pm_seconds();
+  if (!st && in->frames && s->step % p->frame_every != 0) st = snapshot(s, in->frames, err);
+  if (!st && in->frames) st = pm_frames_finish(in->frames, err);
   if (!st) {
     out->mesh = mesh;
+    mesh = NULL;
     out->iterations = s->step;
     snprintf(out->stop_reason, sizeof out->stop_reason, "%s", reason);
     if (out->stats) {
@@ -207,7 +282,8 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
       pm_error e = {0};
       pm_stats_set_time(S, "place", t_place - t0, &e);
       pm_stats_set_time(S, "relax", t_relax - t_place, &e);
-      pm_stats_set_time(S, "connect", t_end - t_relax, &e);
+      if (volumes) pm_stats_set_time(S, "volume", t_vrelax - t_relax, &e);
+      pm_stats_set_time(S, "connect", t_end - t_vrelax, &e);
       pm_stats_add_number(S, "bubble.initial", initial, &e);
       pm_stats_add_number(S, "bubble.final", s->nf, &e);
       pm_stats_add_number(S, "bubble.steps", (double)s->step, &e);
@@ -218,10 +294,16 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
       pm_stats_add_number(S, "bubble.list_builds", (double)s->list_builds, &e);
       pm_stats_add_number(S, "bubble.border_dropped", border_dropped, &e);
       pm_stats_add_number(S, "bubble.time_step", bub_time_step(p), &e);
+      if (volumes) {
+        pm_stats_add_number(S, "bubble.volume_bubbles", volume_final, &e);
+        pm_stats_add_number(S, "bubble.volume_steps", (double)(s->step - surface_steps), &e);
+        pm_stats_add_number(S, "bubble.recovery_points", recovery, &e);
+      }
       pm_stats_add_text(S, "bubble.stop", reason, &e);
       pm_stats_add_text(S, "bubble.size", pm_sizing_describe(size), &e);
     }
   }
+  pm_mesh_destroy(mesh);
   bub_state_destroy(s);
   pm_sizing_destroy(own_size);
   bub_size_rule_free(rule);

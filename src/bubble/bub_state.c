@@ -11,6 +11,11 @@
  * neighbouring face across a shared curve are never felt: the connection step triangulates each
  * face from its own nodes and its boundary chains only, and a bubble of another face pulling at
  * a sharp edge would only open gaps along it.
+ * Carried up one dimension (000 deals with faces only): a volume bubble feels the bubbles of its
+ * volume and of the cells in its closure -- bounding faces, their curves and vertices, and the
+ * faces, curves and points embedded in the volume -- and no bubble of a lower dimension feels a
+ * volume bubble. Two volumes sharing a face do not feel each other's bubbles, for the same reason
+ * as two faces sharing a curve.
  */
 #include "bubble/bub_private.h"
 
@@ -50,10 +55,10 @@ static int closure_add(const pm_model *m, int dim, int32_t idx, keyvec *v, int d
   if (dim == PM_CURVE) {
     for (int32_t k = 0; k < c->nbound; ++k)
       if (!keyvec_push(v, bub_key(PM_VERTEX, c->bound[k].cell))) return 0;
-  } else if (dim == PM_FACE) {
+  } else if (dim == PM_FACE || dim == PM_VOLUME) {
     for (int32_t k = 0; k < c->nbound; ++k) {
-      if (!keyvec_push(v, bub_key(PM_CURVE, c->bound[k].cell))) return 0;
-      if (!closure_add(m, PM_CURVE, c->bound[k].cell, v, depth + 1)) return 0;
+      if (!keyvec_push(v, bub_key(dim - 1, c->bound[k].cell))) return 0;
+      if (!closure_add(m, dim - 1, c->bound[k].cell, v, depth + 1)) return 0;
     }
   }
   for (int32_t k = 0; k < c->nembed; ++k) {
@@ -67,7 +72,7 @@ static int closure_add(const pm_model *m, int dim, int32_t idx, keyvec *v, int d
 
 static pm_status build_closures(bub_state *s, pm_error *err) {
   const pm_model *m = s->model;
-  for (int dim = 1; dim <= 2; ++dim) {
+  for (int dim = 1; dim <= 3; ++dim) {
     int32_t nc = m->count[dim];
     s->clo_off[dim] = calloc((size_t)nc + 1, sizeof(int32_t));
     if (!s->clo_off[dim]) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
@@ -105,7 +110,7 @@ static pm_status build_closures(bub_state *s, pm_error *err) {
 }
 
 static int in_closure(const bub_state *s, int dim, int32_t cell, uint32_t key) {
-  if (dim < 1 || dim > 2) return 0;
+  if (dim < 1 || dim > 3) return 0;
   const uint32_t *k = s->clo[dim];
   int32_t lo = s->clo_off[dim][cell], hi = s->clo_off[dim][cell + 1];
   while (lo < hi) {
@@ -152,6 +157,7 @@ static pm_status grow(bub_state *s, int32_t need, pm_error *err) {
   GROW(kind, 1);
   GROW(cell, 1);
   GROW(flags, 1);
+  GROW(wall, 1);
 #undef GROW
   s->cap = nc;
   return PM_OK;
@@ -180,10 +186,13 @@ pm_status bub_state_create(const pm_model *m, const pm_sizing *size, const bub_p
 void bub_state_destroy(bub_state *s) {
   if (!s) return;
   free(s->x), free(s->v), free(s->par), free(s->der), free(s->d), free(s->dmoved), free(s->alpha);
-  free(s->kind), free(s->cell), free(s->flags);
+  free(s->kind), free(s->cell), free(s->flags), free(s->wall);
+  if (s->shell)
+    for (int32_t v = 0; v < s->model->count[PM_VOLUME]; ++v) pm_volume_shell_destroy(s->shell[v]);
+  free(s->shell);
   pm_grid_destroy(s->grid);
   free(s->nb_off), free(s->nb), free(s->x_build), free(s->d_build);
-  for (int k = 0; k < 3; ++k) free(s->clo_off[k]), free(s->clo[k]);
+  for (int k = 0; k < 4; ++k) free(s->clo_off[k]), free(s->clo[k]);
   free(s->seam);
   free(s->xs), free(s->vs), free(s->as), free(s->ders), free(s->pars), free(s->sumv);
   free(s->suma), free(s->x0), free(s->pot), free(s->disp), free(s->deg);
@@ -227,6 +236,7 @@ pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
   int32_t i = s->n;
   s->kind[i] = (int8_t)kind, s->cell[i] = cell, s->flags[i] = 0, s->alpha[i] = 0;
   s->dmoved[i] = 0;
+  s->wall[i] = 0;
   s->par[2 * i] = par && kind >= BUB_KCURVE && kind <= BUB_KFACE ? par[0] : 0;
   s->par[2 * i + 1] = par && kind == BUB_KFACE ? par[1] : 0;
   pm_v3_zero(&s->v[3 * i]);
@@ -237,6 +247,8 @@ pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
   } else if (kind == BUB_KOUT) {
     pm_v3_copy(&s->x[3 * i], xyz);
     s->d[i] = d;
+  } else if (kind == BUB_KVOLUME) {
+    pm_v3_copy(&s->x[3 * i], xyz);
   } else {
     bub_state_eval(s, i);
   }
@@ -301,19 +313,22 @@ pm_status bub_state_compact(bub_state *s, pm_error *err) {
   PERMUTE(kind, 1, int8_t);
   PERMUTE(cell, 1, int32_t);
   PERMUTE(flags, 1, uint8_t);
+  PERMUTE(wall, 1, double);
 #undef PERMUTE
   free(buf);
   free(keys);
   s->n = n;
-  s->nv = s->nc = s->nf = 0;
+  s->nv = s->nc = s->nf = s->nw = 0;
   for (int32_t i = 0; i < n; ++i) {
     s->flags[i] &= (uint8_t)~(BUB_FNEW | BUB_FDONE);
     if (s->kind[i] <= BUB_KVERTEX) s->nv = i + 1;
     if (s->kind[i] <= BUB_KCURVE) s->nc = i + 1;
     if (s->kind[i] <= BUB_KFACE) s->nf = i + 1;
+    if (s->kind[i] <= BUB_KVOLUME) s->nw = i + 1;
   }
   if (s->nc < s->nv) s->nc = s->nv;
   if (s->nf < s->nc) s->nf = s->nc;
+  if (s->nw < s->nf) s->nw = s->nf;
   s->grid_valid = 0;
   s->lists_valid = 0;
   return PM_OK;

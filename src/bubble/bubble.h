@@ -1,13 +1,15 @@
 /* The bubble mesher: Shimada & Gossard's bubble mesh (papers/003), with the details of Saini's
- * thesis (papers/000) and the accelerations of Qi, Nie & Zhang (papers/004), on vertices, curves
- * and faces (planar domains and trimmed CAD surfaces).
+ * thesis (papers/000) and the accelerations of Qi, Nie & Zhang (papers/004), on vertices, curves,
+ * faces (planar domains and trimmed CAD surfaces) and, with --volume, volumes (non-manifold models
+ * included: embedded faces and dangling curves become triangles and segments inside the tets).
  *
  *   1. bubbles on every vertex, binary subdivision on curves, a rhombic (60 degree) quadtree on
  *      faces (003 section 3.2, 000 section 4.1.1, 004 section 2.3: weights w1, w2);
  *   2. the cubic inter-bubble force (003 eq. 10-11, 004 eq. 2.1);
  *   3. damped dynamics m x'' + c x' = f integrated by RK4 (or the second-order scheme of 004),
  *      every stage confined to the bubble's cell by geom.h's shared displacement rule
- *      (003 eq. 12-15, 000 section 5.5);
+ *      (003 eq. 12-15, 000 section 5.5); volume bubbles, once the others have settled, free in 3D
+ *      inside their volume, placed by an octree of 60-degree rhombohedra (bub_volume.c);
  *   4. adaptive population control by the overlap ratio (003 eq. 16, 000 sections 3.1.3,
  *      4.1.2, 4.2.1-4.2.6);
  *   5. the accelerations of 004 (saw-tooth viscosity with c_odd, w1/w2, the self-adaptive stop);
@@ -31,6 +33,8 @@ extern "C" {
 enum { BUB_RK4 = 0, BUB_RK2 = 1 };
 /* Viscosity schedules. */
 enum { BUB_VISC_CONSTANT = 0, BUB_VISC_SAWTOOTH = 1 };
+/* Where the tets' interior nodes come from with --volume. */
+enum { BUB_TETS_BUBBLES = 0, BUB_TETS_TETGEN = 1 };
 
 /* The parameters of the bubble method. Defaults are set in exactly one place, the table in
  * bub_params.c (bub_params_init); the doc line of every field gives its meaning, range, default
@@ -74,6 +78,10 @@ typedef struct bub_params {
   double curve_open;  /* curve bubble open below; (0, 4], < 2, default 5/3 (our choice: the face
                          cut-offs scaled by 2/6, the same spacing window; bub_population.c) */
   double curve_excess; /* curve bubble excess above; (0, 10], > 2, default 8/3 (same rule) */
+  double volume_open;   /* volume bubble is open below this overlap ratio; (0, 40], < 12, default
+                           10 (our choice: the face cut-offs' fractions of their standard value,
+                           5/6 x 12; bub_population.c, bub_overlap.c) */
+  double volume_excess; /* volume bubble is excess above; (0, 60], > 12, default 16 (8/6 x 12) */
   double insert_k;  /* insertion distance factor k (a new face bubble at k r); [0.5, 4],
                        default 1.8 (000 section 4.2.4) */
   int control_steps; /* relaxation steps between two population controls; [1, 100000],
@@ -100,6 +108,11 @@ typedef struct bub_params {
   double size_div;  /* default size: bounding-box diagonal / size_div; [1, 1e6], default 30 */
   double size_grade; /* growth rate of the default size away from small features; [0.01, 2],
                         default 0.3 */
+  /* ---- volumes (with --volume; bub_volume.c) ---- */
+  int tets;         /* BUB_TETS_BUBBLES: volume bubbles packed in every volume become the tets'
+                       interior nodes, no Steiner point (003 section 3: the bubble hypothesis);
+                       BUB_TETS_TETGEN: TetGen's quality refinement of the bubble surface mesh
+                       (for comparison); default bubbles */
   /* ---- output ---- */
   int frame_every;  /* --frames: a snapshot every this many steps; [1, 1e6], default 10 */
 } bub_params;

@@ -18,6 +18,7 @@
 #include "common/tet_flip.h"
 #include "common/tet_tetgen.h"
 #include "common/vec3.h"
+#include "common/volume_inside.h"
 
 /* The triangles of each face: tri[start[f] .. start[f+1]) are indices into mesh->tri. */
 typedef struct face_tris {
@@ -47,22 +48,6 @@ static void face_tris_free(face_tris *ft) {
 }
 
 
-/* Does the segment p-q cross triangle (a, b, c)? 1 yes, 0 no, -1 degenerate (touches an edge or
- * a vertex, or p lies in the triangle's plane): the caller picks another ray. */
-static int segment_hits(const double *p, const double *q, const double *a, const double *b,
-                        const double *c) {
-  int s1 = pm_orient3d(a, b, c, p), s2 = pm_orient3d(a, b, c, q);
-  if (s1 == 0 || s2 == 0) return s1 == s2 ? 0 : -1;
-  if (s1 == s2) return 0;
-  int e1 = pm_orient3d(p, q, a, b), e2 = pm_orient3d(p, q, b, c), e3 = pm_orient3d(p, q, c, a);
-  if ((e1 > 0 && e2 > 0 && e3 > 0) || (e1 < 0 && e2 < 0 && e3 < 0)) return 1;
-  if (e1 == 0 || e2 == 0 || e3 == 0) {
-    int pos = (e1 > 0) + (e2 > 0) + (e3 > 0), neg = (e1 < 0) + (e2 < 0) + (e3 < 0);
-    if (pos == 0 || neg == 0) return -1;
-  }
-  return 0;
-}
-
 /* Parity of crossings of rays from x with the triangles of volume v's shell: 1 inside, 0 outside,
  * -1 undecided (every ray touched an edge). */
 static int inside_shell(const pm_model *m, const pm_mesh *mesh, const face_tris *ft,
@@ -78,7 +63,7 @@ static int inside_shell(const pm_model *m, const pm_mesh *mesh, const face_tris 
       int32_t f = v->bound[b].cell;
       for (int32_t i = ft->start[f]; i < ft->start[f + 1] && !bad; ++i) {
         const int32_t *t = &mesh->tri[3 * ft->tri[i]];
-        int h = segment_hits(x, q, &mesh->xyz[3 * t[0]], &mesh->xyz[3 * t[1]], &mesh->xyz[3 * t[2]]);
+        int h = pm_segment_triangle_cross(x, q, &mesh->xyz[3 * t[0]], &mesh->xyz[3 * t[1]], &mesh->xyz[3 * t[2]]);
         if (h < 0) bad = 1;
         parity ^= h > 0;
       }
