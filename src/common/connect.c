@@ -304,7 +304,16 @@ typedef struct face_work {
   int32_t *node;  /* [np] mesh node of each point */
   int32_t nc, capc;
   int32_t *cons;  /* [2*nc] constraint edges between points */
-  /* the triangulation, in point indices, and its adjacency */
+  /* the face's distinct nodes, numbered locally: points map to them (loc[p]); each has the
+   * surface's unit normal at it (zero at a pole, where the surface has none) */
+  int32_t nloc;
+  int32_t *loc;   /* [np] local node of each point */
+  int32_t *gnode; /* [nloc] mesh node of each local node */
+  double *nrm;    /* [3*nloc] */
+  int32_t npole, cappole;
+  int32_t *pole;  /* mesh nodes that are poles of this face (their points are copies) */
+  /* the triangulation, in point indices until it is chosen, then in local nodes (the flips work
+   * on nodes: two fan triangles at a pole or two sides of a seam share nodes, not points) */
   int32_t ntri;
   int32_t *tri;   /* [3*ntri] */
   int32_t *nbr;   /* [3*ntri] triangle across edge (tri[3t+k], tri[3t+(k+1)%3]), -1 none */
@@ -324,6 +333,7 @@ typedef struct face_out {
 
 static void face_work_free(face_work *w) {
   free(w->next_of_node), free(w->head);
+  free(w->loc), free(w->gnode), free(w->nrm), free(w->pole);
   free(w->uv), free(w->xy), free(w->node), free(w->cons), free(w->tri), free(w->nbr), free(w->fixed);
   memset(w, 0, sizeof *w);
 }
@@ -374,9 +384,11 @@ static int add_constraint(face_work *w, int32_t a, int32_t b) {
 
 /* A pole (the image of a degenerate curve: a sphere's pole, a cone's apex) is one node, but a
  * segment in the face's parameter space. Copies of its node are placed along that segment, as a
- * chain of constraint edges: at the segment's start (its end is the next use's start), at the
- * parameters where the face nodes closest to the pole project onto it, and evenly every 1/32 of
- * it. Each node next to the pole then finds a copy right "above" it, so the parameter-space
+ * chain of constraint edges: at the segment's start (its end is the next use's start) and at the
+ * parameters where the face nodes closest to the pole project onto it. (Copies anywhere else --
+ * an even spacing was tried -- put a copy just beside the end of a seam through the pole, where
+ * the parameter-space triangulation then joins it to two seam nodes: a triangle on a straight
+ * ruling of a cone, of zero area in 3D.) Each node next to the pole then finds a copy right "above" it, so the parameter-space
  * triangles around the pole lift to a fan in angular order around it; triangles between two
  * copies collapse onto the pole and are dropped. With only the two end copies, a node close to
  * the pole would be joined to a copy far away along the segment, giving a triangle that wraps
@@ -398,7 +410,7 @@ static pm_status add_pole_copies(const pm_cell *f, const pm_use *use, double tlo
   double *s = malloc(sizeof(double) * ((size_t)nf + 40));
   if (!s) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   int32_t ns = 0;
-  for (int k = 0; k < 32; ++k) s[ns++] = k / 32.0;
+  s[ns++] = 0;
   if (len2 > 0 && nf > 0) {
     /* The face nodes nearest to the segment: within three times the smallest distance. */
     double dmin = INFINITY;
@@ -415,6 +427,16 @@ static pm_status add_pole_copies(const pm_cell *f, const pm_use *use, double tlo
     }
   }
   qsort(s, (size_t)ns, sizeof(double), cmp_double);
+  if (w->npole == w->cappole) {
+    int32_t cap = w->cappole ? 2 * w->cappole : 4;
+    int32_t *g = realloc(w->pole, sizeof(int32_t) * (size_t)cap);
+    if (!g) {
+      free(s);
+      return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    }
+    w->pole = g, w->cappole = cap;
+  }
+  w->pole[w->npole++] = node;
   pm_status st = PM_OK;
   double last = -1;
   for (int32_t k = 0; k < ns; ++k) {
@@ -499,6 +521,55 @@ static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const p
   return PM_OK;
 }
 
+/* Number the face's distinct nodes locally and give each the surface's unit normal, from the
+ * (u, v) of its first point; a pole has no normal (zero). */
+static pm_status local_nodes(const pm_cell *f, face_work *w, pm_error *err) {
+  w->loc = malloc(sizeof(int32_t) * (size_t)(w->np ? w->np : 1));
+  w->gnode = malloc(sizeof(int32_t) * (size_t)(w->np ? w->np : 1));
+  w->nrm = malloc(sizeof(double) * 3 * (size_t)(w->np ? w->np : 1));
+  if (!w->loc || !w->gnode || !w->nrm) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  w->nloc = 0;
+  for (int32_t p = 0; p < w->np; ++p) {
+    /* head[node] chains the node's points from the last added: the node's local number is set
+     * when its first point in index order is reached. */
+    int32_t first = p;
+    for (int32_t q = w->head[w->node[p]]; q >= 0; q = w->next_of_node[q]) first = q < first ? q : first;
+    if (first < p) {
+      w->loc[p] = w->loc[first];
+      continue;
+    }
+    int32_t l = w->nloc++;
+    w->loc[p] = l;
+    w->gnode[l] = w->node[p];
+    double *n = &w->nrm[3 * l];
+    pm_v3_zero(n);
+    int pole = 0;
+    for (int32_t k = 0; k < w->npole; ++k) pole |= w->pole[k] == w->node[p];
+    if (pole) continue;
+    pm_face_point fp;
+    pm_face_eval(f, &w->uv[2 * p], 1, &fp);
+    pm_v3_cross(n, fp.su, fp.sv);
+    double su = pm_v3_norm(fp.su), sv = pm_v3_norm(fp.sv), nn = pm_v3_norm(n);
+    /* A singular point that is not a listed pole (a seam vertex at an apex): no normal either. */
+    if (!(nn > 1e-10 * su * sv)) pm_v3_zero(n);
+    else pm_v3_scale(n, n, 1.0 / nn);
+  }
+  return PM_OK;
+}
+
+/* Convert the chosen triangulation from points to local nodes (a constraint between two copies
+ * of one pole vanishes; a seam segment stays a constraint between its two nodes). */
+static void to_local_nodes(face_work *w) {
+  for (int32_t i = 0; i < 3 * w->ntri; ++i) w->tri[i] = w->loc[w->tri[i]];
+  int32_t n = 0;
+  for (int32_t k = 0; k < w->nc; ++k) {
+    int32_t a = w->loc[w->cons[2 * k]], b = w->loc[w->cons[2 * k + 1]];
+    if (a == b) continue;
+    w->cons[2 * n] = a, w->cons[2 * n + 1] = b, ++n;
+  }
+  w->nc = n;
+}
+
 /* papers/001 eq. 16: the linear map A of the parameter plane that best preserves distances,
  * min sum (|A du_ij| - |r_ij|)^2 over neighbouring pairs. We solve it in squared form, for the
  * symmetric positive definite Q = A^T A: min sum w_ij (du_ij^T Q du_ij - |r_ij|^2)^2 with
@@ -561,7 +632,7 @@ static pm_status build_adjacency(face_work *w, pm_error *err) {
   if (!w->nbr || !w->fixed) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   for (int32_t i = 0; i < 3 * w->ntri; ++i) w->nbr[i] = -1;
   pm_edges e = {0};
-  pm_status s = pm_edges_build(w->np, w->tri, w->ntri, 3, &e, err);
+  pm_status s = pm_edges_build(w->nloc, w->tri, w->ntri, 3, &e, err);
   if (s) return s;
   for (int64_t k = 0; k < e.nedge; ++k) {
     if (e.off[k + 1] - e.off[k] != 2) continue;
@@ -615,32 +686,25 @@ static int in_ball(const double *a, const double *b, const double *c, const doub
   return pm_v3_dist2(p, ctr) < *r2 * (1 - 1e-12);
 }
 
-static const double *P3(const face_work *w, const pm_mesh *mesh, int32_t p) {
-  return &mesh->xyz[3 * w->node[p]];
+/* The 3D position of local node l. */
+static const double *P3(const face_work *w, const pm_mesh *mesh, int32_t l) {
+  return &mesh->xyz[3 * w->gnode[l]];
 }
 
-/* The natural normal Su x Sv at the centroid of three parameter points. */
-static void surface_normal(const pm_cell *f, const face_work *w, int32_t a, int32_t b, int32_t c,
-                           double n[3]) {
-  double uv[2] = {(w->uv[2 * a] + w->uv[2 * b] + w->uv[2 * c]) / 3,
-                  (w->uv[2 * a + 1] + w->uv[2 * b + 1] + w->uv[2 * c + 1]) / 3};
-  pm_face_point fp;
-  pm_face_eval(f, uv, 1, &fp);
-  pm_v3_cross(n, fp.su, fp.sv);
-}
-
-/* A triangle of points (a, b, c) is acceptable when it is not degenerate in 3D and its normal
- * agrees with the surface's natural normal (so that a flip never folds the mesh over). */
-static int acceptable(const pm_cell *f, const face_work *w, const pm_mesh *mesh, int32_t a,
-                      int32_t b, int32_t c) {
+/* A triangle of local nodes (a, b, c) is acceptable when it is not degenerate in 3D and its
+ * normal agrees with the surface's normal at each of its nodes that has one -- so a flip never
+ * folds the mesh over, and a triangle reaching round a pole or an apex is refused. */
+static int acceptable(const face_work *w, const pm_mesh *mesh, int32_t a, int32_t b, int32_t c) {
   const double *A = P3(w, mesh, a), *B = P3(w, mesh, b), *C = P3(w, mesh, c);
-  double ab[3], ac[3], n[3], ns[3];
+  double ab[3], ac[3], n[3];
   pm_v3_sub(ab, B, A), pm_v3_sub(ac, C, A);
   pm_v3_cross(n, ab, ac);
   double scale = pm_v3_dot(ab, ab) + pm_v3_dot(ac, ac);
   if (!(pm_v3_dot(n, n) > 1e-20 * scale * scale)) return 0;
-  surface_normal(f, w, a, b, c, ns);
-  return pm_v3_dot(n, ns) > 0;
+  const int32_t v[3] = {a, b, c};
+  for (int k = 0; k < 3; ++k)
+    if (pm_v3_dot(n, &w->nrm[3 * v[k]]) < 0) return 0;
+  return 1;
 }
 
 /* Edge flips towards empty diametric balls (papers/001 section 4.3): an edge (a, b) shared by
@@ -652,13 +716,12 @@ static int acceptable(const pm_cell *f, const face_work *w, const pm_mesh *mesh,
  * be acceptable (non-degenerate, agreeing with the surface normal); the new edge must not exist
  * yet (no duplicate triangle); at most max_flips flips (termination is then guaranteed whatever
  * the surface; the cap is counted when hit). */
-static void flip_face(const pm_cell *f, face_work *w, const pm_mesh *mesh, int64_t max_flips,
-                      face_out *out) {
+static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face_out *out) {
   if (w->ntri < 2) return;
   pairset edges;
   if (!pairset_init(&edges, 3 * (int64_t)w->ntri)) return;
   for (int32_t t = 0; t < w->ntri; ++t)
-    for (int q = 0; q < 3; ++q) pairset_add(&edges, w->node[w->tri[3 * t + q]], w->node[w->tri[3 * t + (q + 1) % 3]]);
+    for (int q = 0; q < 3; ++q) pairset_add(&edges, w->tri[3 * t + q], w->tri[3 * t + (q + 1) % 3]);
   /* A FIFO of half-edges (t, q), with an in-queue flag; each edge enters through one side. */
   int64_t cap = 3 * (int64_t)w->ntri;
   int32_t *queue = malloc(sizeof(int32_t) * (size_t)cap);
@@ -686,12 +749,11 @@ static void flip_face(const pm_cell *f, face_work *w, const pm_mesh *mesh, int64
     if (q2 == 3) continue; /* inconsistent orientation: leave it */
     int32_t d = w->tri[3 * t2 + (q2 + 2) % 3];
     const double *A = P3(w, mesh, a), *B = P3(w, mesh, b), *C = P3(w, mesh, c), *D = P3(w, mesh, d);
-    int32_t nc = w->node[c], nd = w->node[d];
-    if (nc == nd || pairset_has(&edges, nc, nd)) continue;
+    if (c == d || pairset_has(&edges, c, d)) continue;
     /* A pair with an inverted or degenerate triangle (left by the parameter-space triangulation
      * where the parametrization is strongly distorted) is flipped whenever the flipped pair is
      * acceptable: untangling comes before the ball criterion. */
-    int tangled = !acceptable(f, w, mesh, a, b, c) || !acceptable(f, w, mesh, b, a, d);
+    int tangled = !acceptable(w, mesh, a, b, c) || !acceptable(w, mesh, b, a, d);
     if (!tangled) {
       double r1, r2, r3, r4;
       int bad_old = in_ball(A, B, C, D, &r1) | in_ball(B, A, D, C, &r2);
@@ -699,7 +761,7 @@ static void flip_face(const pm_cell *f, face_work *w, const pm_mesh *mesh, int64
       int bad_new = in_ball(A, D, C, B, &r3) | in_ball(B, C, D, A, &r4);
       if (bad_new && !(fmin(r3, r4) > fmin(r1, r2))) continue;
     }
-    if (!acceptable(f, w, mesh, a, d, c) || !acceptable(f, w, mesh, b, c, d)) continue;
+    if (!acceptable(w, mesh, a, d, c) || !acceptable(w, mesh, b, c, d)) continue;
     if (flips >= max_flips) {
       out->cap_hit = 1;
       break;
@@ -724,8 +786,8 @@ static void flip_face(const pm_cell *f, face_work *w, const pm_mesh *mesh, int64
     if (n_bc >= 0)
       for (int q = 0; q < 3; ++q)
         if (w->nbr[3 * n_bc + q] == t1) w->nbr[3 * n_bc + q] = t2;
-    pairset_del(&edges, w->node[a], w->node[b]);
-    pairset_add(&edges, nc, nd);
+    pairset_del(&edges, a, b);
+    pairset_add(&edges, c, d);
     ++flips;
     /* The four outer edges may now violate. */
     int32_t re[4] = {3 * t1 + 0, 3 * t1 + 2, 3 * t2 + 0, 3 * t2 + 2};
@@ -796,15 +858,13 @@ static pm_status take_triangles(face_work *w, const pm_cdt_result *cdt, int32_t 
   return PM_OK;
 }
 
-static int32_t count_unacceptable_in(const pm_cell *f, const face_work *w, const pm_mesh *mesh,
-                                     const int32_t *tri, int32_t ntri) {
+/* Unacceptable triangles of a triangulation given in point indices. */
+static int32_t count_unacceptable_in(const face_work *w, const pm_mesh *mesh, const int32_t *tri,
+                                     int32_t ntri) {
   int32_t n = 0;
-  for (int32_t t = 0; t < ntri; ++t) n += !acceptable(f, w, mesh, tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]);
+  for (int32_t t = 0; t < ntri; ++t)
+    n += !acceptable(w, mesh, w->loc[tri[3 * t]], w->loc[tri[3 * t + 1]], w->loc[tri[3 * t + 2]]);
   return n;
-}
-
-static int32_t count_unacceptable(const pm_cell *f, const face_work *w, const pm_mesh *mesh) {
-  return count_unacceptable_in(f, w, mesh, w->tri, w->ntri);
 }
 
 static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mesh, const chains *ch,
@@ -818,6 +878,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
     s = pm_error_setf(err, PM_ERR_GEOM, "face %d has fewer than 3 nodes", f->tag);
     goto fail;
   }
+  if ((s = local_nodes(f, &w, err))) goto fail;
   /* The unscaled triangulation; with the affine scaling (eq. 16) a second one in the scaled
    * plane, kept unless it lifts to more inverted triangles than the first (one affine map cannot
    * undo the distortion of a whole sphere near its poles). */
@@ -836,7 +897,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
       free(raw_tri);
       goto fail;
     }
-    if (count_unacceptable(f, &w, mesh) > count_unacceptable_in(f, &w, mesh, raw_tri, raw_n)) {
+    if (count_unacceptable_in(&w, mesh, w.tri, w.ntri) > count_unacceptable_in(&w, mesh, raw_tri, raw_n)) {
       free(w.tri);
       w.tri = raw_tri, w.ntri = raw_n, out->pole = raw_pole;
     } else {
@@ -845,12 +906,13 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
     }
   }
   pm_cdt_result_free(&cdt);
+  to_local_nodes(&w);
   out->curved = face_is_curved(f, m->diagonal);
   if (out->curved) out->asp_before = sum_aspect(&w, mesh, &out->max_before, &out->degen_before);
   if (p->flips != PM_FLIP_NONE && w.ntri > 1) {
     s = build_adjacency(&w, err);
     if (s) goto fail;
-    flip_face(f, &w, mesh, (int64_t)p->max_flips_per_tri * w.ntri, out);
+    flip_face(&w, mesh, (int64_t)p->max_flips_per_tri * w.ntri, out);
   }
   if (out->curved) out->asp_after = sum_aspect(&w, mesh, &out->max_after, &out->degen_after);
   out->tri = malloc(sizeof(int32_t) * 3 * (size_t)(w.ntri ? w.ntri : 1));
@@ -860,7 +922,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
   }
   int sign = pm_face_mesh_sign(m, f->index);
   for (int32_t t = 0; t < w.ntri; ++t) {
-    int32_t a = w.node[w.tri[3 * t]], b = w.node[w.tri[3 * t + 1]], c = w.node[w.tri[3 * t + 2]];
+    int32_t a = w.gnode[w.tri[3 * t]], b = w.gnode[w.tri[3 * t + 1]], c = w.gnode[w.tri[3 * t + 2]];
     out->tri[3 * t] = a;
     out->tri[3 * t + 1] = sign > 0 ? b : c;
     out->tri[3 * t + 2] = sign > 0 ? c : b;
