@@ -38,8 +38,17 @@
  *
  * Volumes (the volume phase, once vertex, curve and face bubbles have settled and are frozen):
  * the same order for volume bubbles alone -- remove excess, insert around open ones, remove
- * excess -- with the cut-offs volume_open and volume_excess (bub_params.c) and the places of
- * volume_candidate.
+ * excess -- with the cut-offs volume_open and volume_excess and the places of volume_candidate.
+ * The cut-offs (our choice, 000 gives the faces' only) are read the way the faces' 5 and 8 can be
+ * read on the hexagonal packing (standard value 6, bub_overlap.c's formula): a bubble pushed into
+ * the packing reads 7.95 at the midpoint of a bond and 7.6 at the centre of a triangle, so 8 is
+ * about where such an intruder is excess; a neighbour of one vacancy reads 5, one of 6 neighbours
+ * missing. In the face-centred cubic packing (standard value 12, bub_overlap.c's volume formula)
+ * an intruder reads 14.2 at a bond's midpoint, 13.9 in an octahedral hole and 14.7 in a
+ * tetrahedral one: excess above 13.5 removes every intruder, while the relaxed interior bubbles of
+ * a sphere read 11.1-13.2 (10th-90th percentile, test_bub_volume) and stay. Open below 10: two of
+ * 12 neighbours missing, the faces' one of 6 (a single vacancy, read 11 by its neighbours, is left
+ * to the relaxation, as on faces where its neighbours read exactly the cut-off 5).
  *
  * Everything here runs on one thread, in a fixed order: the result is deterministic.
  */

@@ -290,6 +290,21 @@ int bub_volume_move(bub_state *s, int32_t i, const double x0[3], const double dx
 int bub_volume_place_ok(const bub_state *s, int32_t volume, const double x0[3], const double x[3],
                         double d);
 
+/* ---- the run (bub_run.c) ----------------------------------------------------------------------- */
+
+/* Relaxation rounds with population control until a stop (bub_run.c's rules), over the moving
+ * bubbles (bub_moving): the surface phase, then the volume phase. in->trace and in->frames (may be
+ * NULL) receive rows and snapshots; cap limits the bubbles (a node budget when budget is 1: an
+ * error when reached); reason receives the stop. */
+pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
+                    char reason[128], pm_error *err);
+
+/* The vertex, curve and face bubbles connected by pm_connect: the surface mesh (and segments)
+ * only when surface_only, else with TetGen's refined tets when in->volume. *out is the caller's
+ * (pm_mesh_destroy). */
+pm_status bub_connect_nodes(const bub_state *s, const pm_run_input *in, int surface_only,
+                            pm_mesh **out, pm_error *err);
+
 /* ---- default size (bub_size.c) -------------------------------------------------------------- */
 
 /* bub_default_size is declared in bubble.h. The exact rule as a callback field, for bub_run:

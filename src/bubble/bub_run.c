@@ -71,9 +71,7 @@ static pm_status snapshot(bub_state *s, pm_frames *fr, pm_error *err) {
   return st;
 }
 
-/* The nodes of the vertex, curve and face bubbles connected: surface (and segments) only when
- * surface_only, else with TetGen's refined tets when in->volume. */
-static pm_status connect_nodes(const bub_state *s, const pm_run_input *in, int surface_only,
+pm_status bub_connect_nodes(const bub_state *s, const pm_run_input *in, int surface_only,
                                pm_mesh **out, pm_error *err) {
   pm_mesh *mesh = pm_mesh_create();
   if (!mesh) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
@@ -100,10 +98,8 @@ static pm_status connect_nodes(const bub_state *s, const pm_run_input *in, int s
   return PM_OK;
 }
 
-/* Relaxation rounds with population control until a stop (the header's rules), over the moving
- * bubbles (bub_moving): the surface phase, then the volume phase. reason receives the stop. */
-static pm_status relax(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
-                       char reason[128], pm_error *err) {
+pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
+                    char reason[128], pm_error *err) {
   const bub_params *p = &s->p;
   const int64_t step0 = s->step;
   int settled = 0, final_phase = 0, final_left = 0;
@@ -178,14 +174,14 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
                               char reason[128], pm_mesh **mesh, int32_t *recovery,
                               double *t_relaxed, pm_error *err) {
   pm_mesh *surf = NULL;
-  pm_status st = connect_nodes(s, in, 1, &surf, err);
+  pm_status st = bub_connect_nodes(s, in, 1, &surf, err);
   if (!st) st = bub_volume_begin(s, surf, err);
   if (!st) st = bub_place_volumes(s, err);
   if (!st && s->nw > cap)
     st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the volume placement has %d bubbles, above the %s of %lld",
                        (int)s->nw, budget ? "node budget" : "cap max_bubbles", (long long)cap);
   char vreason[128] = "";
-  if (!st && s->nw > s->nf) st = relax(s, in, cap, budget, vreason, err);
+  if (!st && s->nw > s->nf) st = bub_relax(s, in, cap, budget, vreason, err);
   if (!st && vreason[0]) snprintf(reason, 128, "%.120s", vreason);
   *t_relaxed = pm_seconds();
   for (int32_t i = s->nf; i < s->nw && !st; ++i)
@@ -253,7 +249,7 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   if (!st) st = snapshot(s, in->frames, err);
 
   char reason[128] = "";
-  if (!st) st = relax(s, in, cap, budget, reason, err);
+  if (!st) st = bub_relax(s, in, cap, budget, reason, err);
   double t_relax = pm_seconds();
   int32_t border_dropped = 0;
   if (!st) st = bub_border_cleanup(s, &border_dropped, err);
@@ -266,7 +262,7 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   if (volumes) {
     st = volume_phase(s, in, cap, budget, reason, &mesh, &recovery, &t_vrelax, err);
   } else if (!st) {
-    st = connect_nodes(s, in, 0, &mesh, err);
+    st = bub_connect_nodes(s, in, 0, &mesh, err);
   }
   if (s && volumes) volume_final = (int32_t)(s->nw - s->nf);
   double t_end = pm_seconds();

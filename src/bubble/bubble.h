@@ -79,9 +79,11 @@ typedef struct bub_params {
                          cut-offs scaled by 2/6, the same spacing window; bub_population.c) */
   double curve_excess; /* curve bubble excess above; (0, 10], > 2, default 8/3 (same rule) */
   double volume_open;   /* volume bubble is open below this overlap ratio; (0, 40], < 12, default
-                           10 (our choice: the face cut-offs' fractions of their standard value,
-                           5/6 x 12; bub_population.c, bub_overlap.c) */
-  double volume_excess; /* volume bubble is excess above; (0, 60], > 12, default 16 (8/6 x 12) */
+                           10 (our choice: two of 12 neighbours missing, the faces' one of 6;
+                           bub_population.c) */
+  double volume_excess; /* volume bubble is excess above; (0, 60], > 12, default 13.5 (our
+                           choice: below the 13.9 of a bubble pushed into the close packing's
+                           roomiest hole, as the faces' 8 is at a pushed bubble's 7.6-7.95) */
   double insert_k;  /* insertion distance factor k (a new face bubble at k r); [0.5, 4],
                        default 1.8 (000 section 4.2.4) */
   int control_steps; /* relaxation steps between two population controls; [1, 100000],

@@ -95,7 +95,8 @@ static void help(void **state) {
   char *o = NULL, *e = NULL;
   assert_int_equal(pm_test_cli(dir, "mesh --method bubble --help", &o, &e), 0);
   const char *keys[] = {"k0", "zeta", "w1", "w2", "face_open", "face_excess", "curve_open",
-                        "control_steps", "viscosity", "integrator", "adaptive_stop", "max_steps"};
+                        "control_steps", "viscosity", "integrator", "adaptive_stop", "max_steps",
+                        "volume_open", "volume_excess", "tets"};
   for (size_t k = 0; k < sizeof keys / sizeof keys[0]; ++k) assert_non_null(strstr(o, keys[k]));
   assert_non_null(strstr(o, "000 sec. 4.1.2"));
   free(o), free(e);
@@ -155,11 +156,49 @@ static void cad_and_volume(void **state) {
   cJSON_Delete(j);
 }
 
+/* --volume on a solid: tets from the volume bubbles (the default), then TetGen's refinement of the
+ * same kind of surface (--set tets=tetgen): the JSON has tets, their quality figures, the volume
+ * bubbles, and the bubble tets' median radius ratio is above the refined tets'. */
+static void volume_bubbles(void **state) {
+  (void)state;
+  char args[4096], out[512], js[2][512];
+  double median[2], tets[2];
+  const char *mode[2] = {"bubbles", "tetgen"};
+  for (int k = 0; k < 2; ++k) {
+    snprintf(out, sizeof out, "%s/vol_%s.vtk", dir, mode[k]);
+    snprintf(js[k], sizeof js[k], "%s/vol_%s.json", dir, mode[k]);
+    snprintf(args, sizeof args,
+             "mesh case:sphere --method bubble --volume --set tets=%s -o '%s' --stats '%s'", mode[k],
+             out, js[k]);
+    char *o = NULL, *e = NULL;
+    int rc = pm_test_cli(dir, args, &o, &e);
+    if (rc) fail_msg("exit %d: %s", rc, e);
+    free(o), free(e);
+    cJSON *j = read_json(js[k]);
+    assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "valid")));
+    tets[k] = num(j, "tets", NULL, NULL);
+    median[k] = num(j, "tet", "radius_ratio", "median");
+    assert_true(num(j, "tet", "radius_ratio", "min") > 0);
+    assert_true(num(j, "tet", "min_dihedral_deg", "min") > 0);
+    assert_true(num(j, "tet", "aspect_ratio", "median") > 0);
+    if (k == 0) {
+      assert_true(num(j, "bubble", "volume_bubbles", NULL) > 300);
+      assert_true(num(j, "bubble", "recovery_points", NULL) >= 0);
+    }
+    cJSON_Delete(j);
+  }
+  print_message("sphere: bubble tets %g (median radius ratio %.3f), TetGen-refined %g (%.3f)\n",
+                tets[0], median[0], tets[1], median[1]);
+  assert_true(tets[0] > 1000 && tets[1] > 500);
+  assert_true(median[0] > 0.85);
+  assert_true(median[0] > median[1] + 0.1);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(qi3_stats),    cmocka_unit_test(bad_sets),
       cmocka_unit_test(help),         cmocka_unit_test(trace_frames),
-      cmocka_unit_test(cad_and_volume),
+      cmocka_unit_test(cad_and_volume), cmocka_unit_test(volume_bubbles),
   };
   return cmocka_run_group_tests(tests, setup, teardown);
 }
