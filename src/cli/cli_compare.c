@@ -103,6 +103,37 @@ static void invocation_text(int argc, char **argv, const char *prefix, char *out
   }
 }
 
+int pm_cmp_parse_option(const char *command, int argc, char **argv, int *i, const char **dir,
+                        pm_cmp_options *o, int *code) {
+  const char *a = argv[*i], *v = NULL;
+  int r;
+  *code = 0;
+  if (strcmp(a, "-o") == 0) {
+    if (*i + 1 >= argc) return *code = pm_cli_usage(command, "-o needs a folder"), 1;
+    *dir = argv[*i + 1];
+    *i += 2;
+    return 1;
+  }
+  if ((r = pm_cli_option(argc, argv, i, "output", &v)) != 0) {
+    if (r < 0) return *code = pm_cli_usage(command, "--output needs a folder"), 1;
+    *dir = v;
+    return 1;
+  }
+  if ((r = pm_cli_option(argc, argv, i, "jobs", &v)) != 0) {
+    long n;
+    if (r < 0 || !pm_cli_parse_long(v, 1, 1024, &n))
+      return *code = pm_cli_usage(command, "--jobs takes a whole number from 1 to 1024"), 1;
+    o->jobs = (int)n;
+    return 1;
+  }
+  if (pm_cli_flag(a, "quiet")) {
+    o->quiet = 1;
+    ++*i;
+    return 1;
+  }
+  return 0;
+}
+
 int pm_cli_compare(int argc, char **argv) {
   const char *suite = NULL, *dir = NULL;
   pm_cmp_options o = {0};
@@ -113,22 +144,9 @@ int pm_cli_compare(int argc, char **argv) {
       fputs(usage_text, stdout);
       return PM_EXIT_OK;
     }
-    if (strcmp(a, "-o") == 0) {
-      if (i + 1 >= argc) return pm_cli_usage("compare", "-o needs a folder");
-      dir = argv[i + 1];
-      i += 2;
-      continue;
-    }
-    if ((r = pm_cli_option(argc, argv, &i, "output", &v)) != 0) {
-      if (r < 0) return pm_cli_usage("compare", "--output needs a folder");
-      dir = v;
-      continue;
-    }
-    if ((r = pm_cli_option(argc, argv, &i, "jobs", &v)) != 0) {
-      long n;
-      if (r < 0 || !pm_cli_parse_long(v, 1, 1024, &n))
-        return pm_cli_usage("compare", "--jobs takes a whole number from 1 to 1024");
-      o.jobs = (int)n;
+    int code = 0;
+    if (pm_cmp_parse_option("compare", argc, argv, &i, &dir, &o, &code)) {
+      if (code) return code;
       continue;
     }
     if ((r = pm_cli_option(argc, argv, &i, "timeout", &v)) != 0) {
@@ -140,11 +158,6 @@ int pm_cli_compare(int argc, char **argv) {
     }
     if (pm_cli_flag(a, "retry-failed")) {
       o.retry_failed = 1;
-      ++i;
-      continue;
-    }
-    if (pm_cli_flag(a, "quiet")) {
-      o.quiet = 1;
       ++i;
       continue;
     }

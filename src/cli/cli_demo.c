@@ -43,33 +43,14 @@ int pm_cli_demo(int argc, char **argv) {
   const char *dir = "packmesh-demo";
   pm_cmp_options o = {0};
   for (int i = 1; i < argc;) {
-    const char *a = argv[i], *v = NULL;
-    int r;
+    const char *a = argv[i];
     if (pm_cli_flag(a, "help") || strcmp(a, "-h") == 0) {
       fputs(usage_text, stdout);
       return PM_EXIT_OK;
     }
-    if (strcmp(a, "-o") == 0) {
-      if (i + 1 >= argc) return pm_cli_usage("demo", "-o needs a folder");
-      dir = argv[i + 1];
-      i += 2;
-      continue;
-    }
-    if ((r = pm_cli_option(argc, argv, &i, "output", &v)) != 0) {
-      if (r < 0) return pm_cli_usage("demo", "--output needs a folder");
-      dir = v;
-      continue;
-    }
-    if ((r = pm_cli_option(argc, argv, &i, "jobs", &v)) != 0) {
-      long n;
-      if (r < 0 || !pm_cli_parse_long(v, 1, 1024, &n))
-        return pm_cli_usage("demo", "--jobs takes a whole number from 1 to 1024");
-      o.jobs = (int)n;
-      continue;
-    }
-    if (pm_cli_flag(a, "quiet")) {
-      o.quiet = 1;
-      ++i;
+    int code = 0;
+    if (pm_cmp_parse_option("demo", argc, argv, &i, &dir, &o, &code)) {
+      if (code) return code;
       continue;
     }
     return pm_cli_usage("demo", "unknown argument '%s'", a);

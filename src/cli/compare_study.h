@@ -225,6 +225,12 @@ typedef struct pm_cmp_options {
 int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
                    const char *invocation);
 
+/* The study options that compare and demo share: -o DIR / --output DIR, --jobs N, --quiet.
+ * Returns 1 when argv[*i] is one of them (consumed; *i moves past it), with *code the usage
+ * exit code when its value is wrong (0 when fine); 0 when it is not one of them. */
+int pm_cmp_parse_option(const char *command, int argc, char **argv, int *i, const char **dir,
+                        pm_cmp_options *o, int *code);
+
 /* ---- helpers shared by the files above ---------------------------------------------------- */
 
 /* Append text to a growing string (*buf malloc'ed); 0 on success, -1 out of memory. */

@@ -246,41 +246,35 @@ static void add_size(jb *b, cJSON *parent, const pm_kind_quality *k) {
   add_num(b, o, "max", k->size_ratio.max);
 }
 
+/* The keys one element kind has (DESIGN.md, stats): summaries, errors, size ratio, counts;
+ * min_key / max_key name its angle (triangles) or dihedral angle (tets) summaries. */
+static cJSON *add_kind(jb *b, cJSON *root, const char *name, const pm_kind_quality *k,
+                       const char *min_key, const char *max_key) {
+  cJSON *t = add_obj(b, root, name);
+  add_summary(b, t, "radius_ratio", &k->s_radius_ratio);
+  add_summary(b, t, "aspect_ratio", &k->s_aspect_ratio);
+  add_summary(b, t, min_key, &k->s_min_angle);
+  add_summary(b, t, max_key, &k->s_max_angle);
+  if (k->eps_t_nodes > 0) add_num(b, t, "eps_t", k->eps_t);
+  add_num(b, t, "eps_g", k->eps_g);
+  add_size(b, t, k);
+  add_num(b, t, "count", k->n);
+  add_num(b, t, "degenerate", k->degenerate);
+  add_num(b, t, "eps_t_nodes", k->eps_t_nodes);
+  return t;
+}
+
 static void add_quality(jb *b, cJSON *root, const pm_quality *q) {
   static const char *const bins[6] = {"0_10", "10_20", "20_30", "30_40", "40_50", "50_60"};
   static const char *const over[3] = {"90", "120", "150"};
   if (q->tri.n > 0) {
-    const pm_kind_quality *k = &q->tri;
-    cJSON *t = add_obj(b, root, "tri");
-    add_summary(b, t, "radius_ratio", &k->s_radius_ratio);
-    add_summary(b, t, "aspect_ratio", &k->s_aspect_ratio);
-    add_summary(b, t, "min_angle_deg", &k->s_min_angle);
-    add_summary(b, t, "max_angle_deg", &k->s_max_angle);
-    if (k->eps_t_nodes > 0) add_num(b, t, "eps_t", k->eps_t);
-    add_num(b, t, "eps_g", k->eps_g);
-    add_size(b, t, k);
-    add_num(b, t, "count", k->n);
-    add_num(b, t, "degenerate", k->degenerate);
-    add_num(b, t, "eps_t_nodes", k->eps_t_nodes);
+    cJSON *t = add_kind(b, root, "tri", &q->tri, "min_angle_deg", "max_angle_deg");
     cJSON *h = t ? add_obj(b, t, "min_angle_bins") : NULL;
     for (int i = 0; i < 6; ++i) add_num(b, h, bins[i], (double)q->tri_min_angle_bins[i]);
     cJSON *o = t ? add_obj(b, t, "max_angle_over") : NULL;
     for (int i = 0; i < 3; ++i) add_num(b, o, over[i], (double)q->tri_max_angle_over[i]);
   }
-  if (q->tet.n > 0) {
-    const pm_kind_quality *k = &q->tet;
-    cJSON *t = add_obj(b, root, "tet");
-    add_summary(b, t, "radius_ratio", &k->s_radius_ratio);
-    add_summary(b, t, "aspect_ratio", &k->s_aspect_ratio);
-    add_summary(b, t, "min_dihedral_deg", &k->s_min_angle);
-    add_summary(b, t, "max_dihedral_deg", &k->s_max_angle);
-    if (k->eps_t_nodes > 0) add_num(b, t, "eps_t", k->eps_t);
-    add_num(b, t, "eps_g", k->eps_g);
-    add_size(b, t, k);
-    add_num(b, t, "count", k->n);
-    add_num(b, t, "degenerate", k->degenerate);
-    add_num(b, t, "eps_t_nodes", k->eps_t_nodes);
-  }
+  if (q->tet.n > 0) add_kind(b, root, "tet", &q->tet, "min_dihedral_deg", "max_dihedral_deg");
 }
 
 /* Put an extra item at its dotted path, creating the intermediate objects. */
