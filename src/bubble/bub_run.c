@@ -37,7 +37,15 @@
  * and TetGen tetrahedralizes the surface mesh with them and no Steiner point (pm_connect_volumes,
  * PM_VOLUME_GIVEN; it may add the few interior points boundary recovery needs, counted in
  * bubble.recovery_points). With tets = tetgen the surface mesh is filled with TetGen's quality
- * refinement instead (PM_VOLUME_REFINE), for comparison. The trace's `phase` column is 2 in the
+ * refinement instead (PM_VOLUME_REFINE), for comparison.
+ *
+ * Slivers (our addition; papers/003 does not discuss them): Delaunay tets of well-spaced points
+ * include slivers, four nearly cospherical points spanning almost no volume, whatever the
+ * spacing. With sliver_angle > 0, after the tetrahedralization every tet whose smallest dihedral
+ * angle is below sliver_angle drops one volume bubble at its corners (the lowest-numbered: a
+ * fixed choice), and the volumes are tetrahedralized again without them, up to 4 rounds. A sliver
+ * whose four corners lie on the surface has no volume bubble to drop and stays. The dropped count
+ * is bubble.sliver_dropped. The trace's `phase` column is 2 in the
  * surface phase and 3 in the volume phase, where `bubbles` counts volume bubbles and eps_t is
  * mean |degree - 12|; frames show volume bubbles as dimension 3.
  */
@@ -50,6 +58,10 @@
 
 #include "common/clock.h"
 #include "common/connect.h"
+#include "common/quality.h"
+
+/* Re-tetrahedralizations of the sliver step at most (header). */
+#define SLIVER_ROUNDS 4
 
 static const char *const trace_cols[] = {"step",     "bubbles",  "kinetic",   "potential",
                                          "mean_disp", "max_disp", "insertions", "deletions",
@@ -172,7 +184,7 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
  * the hybrid mesh. */
 static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
                               char reason[128], pm_mesh **mesh, int32_t *recovery,
-                              double *t_relaxed, pm_error *err) {
+                              int32_t *slivers, double *t_relaxed, pm_error *err) {
   pm_mesh *surf = NULL;
   pm_status st = bub_connect_nodes(s, in, 1, &surf, err);
   if (!st) st = bub_volume_begin(s, surf, err);
@@ -184,9 +196,18 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
   if (!st && s->nw > s->nf) st = bub_relax(s, in, cap, budget, vreason, err);
   if (!st && vreason[0]) snprintf(reason, 128, "%.120s", vreason);
   *t_relaxed = pm_seconds();
-  for (int32_t i = s->nf; i < s->nw && !st; ++i)
-    st = pm_mesh_add_node(surf, &s->x[3 * i], PM_VOLUME, s->cell[i], NULL, NULL, err);
-  if (!st) {
+  /* Tets from the surface and the volume bubbles; then the sliver step (header): volume bubbles
+   * at a corner of a tet flatter than sliver_angle are dropped and the volumes tetrahedralized
+   * again, at most SLIVER_ROUNDS times. */
+  const int32_t base = surf ? surf->nnode : 0;
+  const int32_t nvb = s->nw - s->nf;
+  uint8_t *drop = st ? NULL : calloc((size_t)nvb + 1, 1);
+  if (!st && !drop) st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int round = 0; !st; ++round) {
+    surf->nnode = base, surf->ntet = 0; /* no tet refers to a volume node any more */
+    for (int32_t k = 0; k < nvb && !st; ++k)
+      if (!drop[k]) st = pm_mesh_add_node(surf, &s->x[3 * (s->nf + k)], PM_VOLUME, s->cell[s->nf + k], NULL, NULL, err);
+    if (st) break;
     pm_connect_params cp;
     pm_connect_params_init(&cp);
     cp.volume = PM_VOLUME_GIVEN;
@@ -194,9 +215,43 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
     pm_connect_report rep;
     memset(&rep, 0, sizeof rep);
     st = pm_connect_volumes(s->model, surf, &cp, &rep, err);
-    if (st) pm_error_prefix(err, "bubble: tets from %d volume bubbles", (int)(s->nw - s->nf));
+    if (st) {
+      pm_error_prefix(err, "bubble: tets from %d volume bubbles", (int)nvb);
+      break;
+    }
     *recovery = rep.steiner;
+    if (!(s->p.sliver_angle > 0) || round >= SLIVER_ROUNDS) break;
+    /* Mesh node -> volume bubble: the kept ones in order from base. */
+    int32_t *which = malloc(sizeof(int32_t) * ((size_t)nvb + 1));
+    if (!which) {
+      st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+      break;
+    }
+    int32_t nk = 0;
+    for (int32_t k = 0; k < nvb; ++k)
+      if (!drop[k]) which[nk++] = k;
+    int32_t dropped = 0;
+    for (int32_t t = 0; t < surf->ntet; ++t) {
+      const int32_t *v = &surf->tet[4 * t];
+      pm_tet_measure tm;
+      pm_tet_measure_eval(&surf->xyz[3 * v[0]], &surf->xyz[3 * v[1]], &surf->xyz[3 * v[2]],
+                          &surf->xyz[3 * v[3]], &tm);
+      if (tm.min_dihedral >= s->p.sliver_angle) continue;
+      int32_t pick = -1; /* the lowest-numbered volume bubble at a corner */
+      for (int q = 0; q < 4; ++q)
+        if (v[q] >= base && v[q] < base + nk && (pick < 0 || which[v[q] - base] < pick)) pick = which[v[q] - base];
+      if (pick >= 0 && !drop[pick]) drop[pick] = 1, ++dropped;
+    }
+    free(which);
+    *slivers += dropped;
+    if (!dropped) break;
   }
+  if (!st) { /* the dropped bubbles leave the state too (frames, counts) */
+    for (int32_t k = 0; k < nvb; ++k)
+      if (drop[k]) s->flags[s->nf + k] |= BUB_FDEAD;
+    if (*slivers) st = bub_state_compact(s, err);
+  }
+  free(drop);
   if (st) {
     pm_mesh_destroy(surf);
     return st;
@@ -255,12 +310,12 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   if (!st) st = bub_border_cleanup(s, &border_dropped, err);
   int volumes = !st && in->volume && p->tets == BUB_TETS_BUBBLES && m->count[PM_VOLUME] > 0;
   pm_mesh *mesh = NULL;
-  int32_t recovery = 0;
+  int32_t recovery = 0, sliver_dropped = 0;
   int64_t surface_steps = s ? s->step : 0;
   int32_t volume_final = 0;
   double t_vrelax = t_relax;
   if (volumes) {
-    st = volume_phase(s, in, cap, budget, reason, &mesh, &recovery, &t_vrelax, err);
+    st = volume_phase(s, in, cap, budget, reason, &mesh, &recovery, &sliver_dropped, &t_vrelax, err);
   } else if (!st) {
     st = bub_connect_nodes(s, in, 0, &mesh, err);
   }
@@ -294,6 +349,7 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
         pm_stats_add_number(S, "bubble.volume_bubbles", volume_final, &e);
         pm_stats_add_number(S, "bubble.volume_steps", (double)(s->step - surface_steps), &e);
         pm_stats_add_number(S, "bubble.recovery_points", recovery, &e);
+        pm_stats_add_number(S, "bubble.sliver_dropped", sliver_dropped, &e);
       }
       pm_stats_add_text(S, "bubble.stop", reason, &e);
       pm_stats_add_text(S, "bubble.size", pm_sizing_describe(size), &e);

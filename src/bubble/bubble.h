@@ -115,6 +115,11 @@ typedef struct bub_params {
                        interior nodes, no Steiner point (003 section 3: the bubble hypothesis);
                        BUB_TETS_TETGEN: TetGen's quality refinement of the bubble surface mesh
                        (for comparison); default bubbles */
+  double sliver_angle; /* tets=bubbles: a tet with a dihedral angle below this (degrees) drops a
+                          volume bubble at its corners and the volume is tetrahedralized again
+                          (up to 4 rounds; bub_run.c); [0, 30], 0 = off, default 10 (our
+                          addition: slivers are the weakness of Delaunay tets from well-spaced
+                          points) */
   /* ---- output ---- */
   int frame_every;  /* --frames: a snapshot every this many steps; [1, 1e6], default 10 */
 } bub_params;
