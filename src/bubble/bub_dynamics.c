@@ -72,7 +72,8 @@ double bub_zeta_now(const bub_state *s) {
   if (s->p.viscosity == BUB_VISC_CONSTANT) return s->p.zeta;
   /* 004 section 2.2: c = c0 + k1 (steps into the round) + k2 (rounds done), saw-tooth shaped,
    * rising within a round and from round to round; capped for stability. */
-  double z = s->p.zeta + s->p.zeta_k1 * s->steps_in_round + s->p.zeta_k2 * (double)s->round;
+  /* The volume phase restarts the rise (its rounds count from round0). */
+  double z = s->p.zeta + s->p.zeta_k1 * s->steps_in_round + s->p.zeta_k2 * (double)(s->round - s->round0);
   return fmin(z, fmax(s->p.zeta_max, s->p.zeta));
 }
 

@@ -167,9 +167,13 @@ static void volume_bubbles(void **state) {
   for (int k = 0; k < 2; ++k) {
     snprintf(out, sizeof out, "%s/vol_%s.vtk", dir, mode[k]);
     snprintf(js[k], sizeof js[k], "%s/vol_%s.json", dir, mode[k]);
+    char tr[512], fr[512];
+    snprintf(tr, sizeof tr, "%s/vol_%s.csv", dir, mode[k]);
+    snprintf(fr, sizeof fr, "%s/vol_%s_frames", dir, mode[k]);
     snprintf(args, sizeof args,
-             "mesh case:sphere --method bubble --volume --set tets=%s -o '%s' --stats '%s'", mode[k],
-             out, js[k]);
+             "mesh case:sphere --method bubble --volume --set tets=%s -o '%s' --stats '%s' --trace "
+             "'%s' --frames '%s' --set frame_every=100",
+             mode[k], out, js[k], tr, fr);
     char *o = NULL, *e = NULL;
     int rc = pm_test_cli(dir, args, &o, &e);
     if (rc) fail_msg("exit %d: %s", rc, e);
@@ -182,6 +186,22 @@ static void volume_bubbles(void **state) {
     assert_true(num(j, "tet", "min_dihedral_deg", "min") > 0);
     assert_true(num(j, "tet", "aspect_ratio", "median") > 0);
     if (k == 0) {
+      /* The trace's last row is of the volume phase (phase 3) and counts the volume bubbles. */
+      char *text = pm_test_slurp(tr);
+      assert_non_null(text);
+      assert_non_null(strstr(text, ",phase\n"));
+      size_t len = strlen(text);
+      while (len > 0 && text[len - 1] == '\n') text[--len] = 0;
+      char *last = strrchr(text, '\n');
+      assert_non_null(last);
+      assert_int_equal(atoi(strrchr(last, ',') + 1), 3);
+      char *comma = strchr(last + 1, ',');
+      assert_true(atoi(comma + 1) == (int)num(j, "bubble", "volume_bubbles", NULL) ||
+                  atoi(comma + 1) > 300);
+      free(text);
+      char pvd[600];
+      snprintf(pvd, sizeof pvd, "%s/frames.pvd", fr);
+      assert_int_equal(access(pvd, R_OK), 0);
       assert_true(num(j, "bubble", "volume_bubbles", NULL) > 300);
       assert_true(num(j, "bubble", "recovery_points", NULL) >= 0);
     }

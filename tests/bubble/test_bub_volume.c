@@ -165,8 +165,8 @@ static void pushed_removed_hole_refilled(void **state) {
   bub_state *s = r.s;
   pm_error e = {0};
   const int32_t N = count_volume(s);
-  /* Push a bubble into the packing: at the centroid of the tetrahedron of the centre bubble and
-   * three mutual neighbours (a tetrahedral hole; the most compact triple within 1.3 d). */
+  /* Push a bubble into the packing: towards the centroid of the tetrahedron of the centre bubble
+   * and three mutual neighbours (a tetrahedral hole; the most compact triple within 1.3 d). */
   double o[3] = {0, 0, 0};
   int32_t c = nearest_volume(s, o);
   int32_t nbs[64], nn = 0;
@@ -186,6 +186,16 @@ static void pushed_removed_hole_refilled(void **state) {
         }
       }
   assert_true(isfinite(best));
+  /* The intruder sits 0.15 d from the centre bubble, towards that hole: an intruder right in the
+   * hole of an amorphous packing reads about as much as its neighbours (12.4-14 against the cut-off
+   * 14: the ratio alone cannot tell it apart, relaxation spreads it), one pushed onto a bubble is
+   * the excess the control must catch. */
+  {
+    double dir[3];
+    pm_v3_sub(dir, mid, &s->x[3 * c]);
+    pm_v3_normalize(dir);
+    pm_v3_axpy(mid, &s->x[3 * c], 0.15 * s->d[c], dir);
+  }
   const double sp0 = min_spacing(s, mid);
   assert_true(sp0 > 0.75);
   int32_t id;
@@ -193,12 +203,12 @@ static void pushed_removed_hole_refilled(void **state) {
   PM_ASSERT_OK(bub_state_compact(s, &e), e);
   assert_int_equal(count_volume(s), N + 1);
   const double sp1 = min_spacing(s, mid);
-  assert_true(sp1 < 0.7);
+  assert_true(sp1 < 0.2);
   PM_ASSERT_OK(bub_state_grid_rebuild(s, &e), e);
   double amax = 0;
   for (int32_t i = s->nf; i < s->nw; ++i) amax = fmax(amax, bub_alpha(s, i));
   print_message("pushed: its overlap ratio %.2f, the largest %.2f\n", bub_alpha(s, nearest_volume(s, mid)), amax);
-  assert_true(amax > s->p.volume_excess);
+  assert_true(bub_alpha(s, nearest_volume(s, mid)) > s->p.volume_excess);
   bub_control_info ci;
   PM_ASSERT_OK(bub_population_control(s, 1000000, &ci, &e), e);
   print_message("control: removed %d inserted %d\n", (int)ci.removed, (int)ci.inserted);
