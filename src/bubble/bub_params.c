@@ -110,8 +110,8 @@ static const pm_param_desc desc[] = {
      "--volume: tets from packed volume bubbles (no Steiner point) or TetGen's refinement",
      "003 sec. 3.2-3.5; 001 sec. 4.4", tet_sources},
     {"sliver_angle", PM_PARAM_DOUBLE, F(sliver_angle), 10, 0, 30, PM_RANGE_CLOSED, "deg",
-     "tets=bubbles: drop a volume bubble of each tet with a dihedral angle below this, "
-     "tetrahedralize again (0 = off)",
+     "tets=bubbles: drop a volume bubble of each tet with a dihedral angle below this (a node "
+     "at the centroid of one with surface corners only), tetrahedralize again (0 = off)",
      "our addition (bub_run.c)", NULL},
     /* output */
     {"frame_every", PM_PARAM_INT, F(frame_every), 10, 1, 1000000, PM_RANGE_CLOSED, "steps",

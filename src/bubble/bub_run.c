@@ -43,9 +43,14 @@
  * include slivers, four nearly cospherical points spanning almost no volume, whatever the
  * spacing. With sliver_angle > 0, after the tetrahedralization every tet whose smallest dihedral
  * angle is below sliver_angle drops one volume bubble at its corners (the lowest-numbered: a
- * fixed choice), and the volumes are tetrahedralized again without them, up to 4 rounds. A sliver
- * whose four corners lie on the surface has no volume bubble to drop and stays. The dropped count
- * is bubble.sliver_dropped. The trace's `phase` column is 2 in the
+ * fixed choice), and the volumes are tetrahedralized again without them, up to 10 rounds (the
+ * built-in non-manifold case needed 5). A sliver whose four corners lie on the surface has no
+ * volume bubble to drop: it sits where two faces meet at an edge, its corners two nodes on each
+ * face, cospherical about a point of the edge, in the gap that the wall rule keeps free of volume
+ * bubbles. There a node is added at the sliver's centroid (inside its volume, and inside the
+ * circumsphere, so the four corners no longer form a Delaunay tet); an added node that is a
+ * corner of a later sliver is dropped again. The counts are bubble.sliver_dropped and
+ * bubble.sliver_added. The trace's `phase` column is 2 in the
  * surface phase and 3 in the volume phase, where `bubbles` counts volume bubbles and eps_t is
  * mean |degree - 12|; frames show volume bubbles as dimension 3.
  */
@@ -61,7 +66,7 @@
 #include "common/quality.h"
 
 /* Re-tetrahedralizations of the sliver step at most (header). */
-#define SLIVER_ROUNDS 4
+#define SLIVER_ROUNDS 10
 
 static const char *const trace_cols[] = {"step",     "bubbles",  "kinetic",   "potential",
                                          "mean_disp", "max_disp", "insertions", "deletions",
@@ -184,7 +189,7 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
  * the hybrid mesh. */
 static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
                               char reason[128], pm_mesh **mesh, int32_t *recovery,
-                              int32_t *slivers, double *t_relaxed, pm_error *err) {
+                              int32_t *slivers, int32_t *added, double *t_relaxed, pm_error *err) {
   pm_mesh *surf = NULL;
   pm_status st = bub_connect_nodes(s, in, 1, &surf, err);
   if (!st) st = bub_volume_begin(s, surf, err);
@@ -203,11 +208,29 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
   const int32_t nvb = s->nw - s->nf;
   uint8_t *drop = st ? NULL : calloc((size_t)nvb + 1, 1);
   if (!st && !drop) st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  /* Nodes added at the centroids of all-surface slivers (header), at most one per sliver a round;
+   * a dropped one is marked dead. */
+  double *ex = NULL;
+  int32_t *ex_cell = NULL;
+  uint8_t *ex_dead = NULL;
+  int32_t nex = 0, capex = 0;
   for (int round = 0; !st; ++round) {
     surf->nnode = base, surf->ntet = 0; /* no tet refers to a volume node any more */
     for (int32_t k = 0; k < nvb && !st; ++k)
       if (!drop[k]) st = pm_mesh_add_node(surf, &s->x[3 * (s->nf + k)], PM_VOLUME, s->cell[s->nf + k], NULL, NULL, err);
-    if (st) break;
+    const int32_t ex_base = surf->nnode;
+    int32_t *ex_of = nex ? malloc(sizeof(int32_t) * (size_t)nex) : NULL; /* mesh node -> extra */
+    if (nex && !ex_of) st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    int32_t nlive = 0;
+    for (int32_t k = 0; k < nex && !st; ++k)
+      if (!ex_dead[k]) {
+        ex_of[nlive++] = k;
+        st = pm_mesh_add_node(surf, &ex[3 * k], PM_VOLUME, ex_cell[k], NULL, NULL, err);
+      }
+    if (st) {
+      free(ex_of);
+      break;
+    }
     pm_connect_params cp;
     pm_connect_params_init(&cp);
     cp.volume = PM_VOLUME_GIVEN;
@@ -216,21 +239,26 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
     memset(&rep, 0, sizeof rep);
     st = pm_connect_volumes(s->model, surf, &cp, &rep, err);
     if (st) {
+      free(ex_of);
       pm_error_prefix(err, "bubble: tets from %d volume bubbles", (int)nvb);
       break;
     }
     *recovery = rep.steiner;
-    if (!(s->p.sliver_angle > 0) || round >= SLIVER_ROUNDS) break;
+    if (!(s->p.sliver_angle > 0) || round >= SLIVER_ROUNDS) {
+      free(ex_of);
+      break;
+    }
     /* Mesh node -> volume bubble: the kept ones in order from base. */
     int32_t *which = malloc(sizeof(int32_t) * ((size_t)nvb + 1));
     if (!which) {
+      free(ex_of);
       st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
       break;
     }
     int32_t nk = 0;
     for (int32_t k = 0; k < nvb; ++k)
       if (!drop[k]) which[nk++] = k;
-    int32_t dropped = 0;
+    int32_t dropped = 0, changed = 0; /* bubbles dropped; added nodes added or dropped */
     for (int32_t t = 0; t < surf->ntet; ++t) {
       const int32_t *v = &surf->tet[4 * t];
       pm_tet_measure tm;
@@ -240,12 +268,46 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
       int32_t pick = -1; /* the lowest-numbered volume bubble at a corner */
       for (int q = 0; q < 4; ++q)
         if (v[q] >= base && v[q] < base + nk && (pick < 0 || which[v[q] - base] < pick)) pick = which[v[q] - base];
-      if (pick >= 0 && !drop[pick]) drop[pick] = 1, ++dropped;
+      if (pick >= 0) {
+        if (!drop[pick]) drop[pick] = 1, ++dropped;
+        continue;
+      }
+      int surface_only = 1; /* no added node at a corner either */
+      for (int q = 0; q < 4; ++q)
+        if (v[q] >= ex_base) {
+          surface_only = 0;
+          if (!ex_dead[ex_of[v[q] - ex_base]]) ex_dead[ex_of[v[q] - ex_base]] = 1, ++changed;
+          break;
+        }
+      if (!surface_only) continue;
+      if (nex == capex) {
+        int32_t c = capex ? 2 * capex : 16;
+        double *g = realloc(ex, sizeof(double) * 3 * (size_t)c);
+        if (g) ex = g;
+        int32_t *gc = realloc(ex_cell, sizeof(int32_t) * (size_t)c);
+        if (gc) ex_cell = gc;
+        uint8_t *gd = realloc(ex_dead, (size_t)c);
+        if (gd) ex_dead = gd;
+        if (!g || !gc || !gd) {
+          st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+          break;
+        }
+        capex = c;
+      }
+      for (int k = 0; k < 3; ++k)
+        ex[3 * nex + k] = 0.25 * (surf->xyz[3 * v[0] + k] + surf->xyz[3 * v[1] + k] +
+                                  surf->xyz[3 * v[2] + k] + surf->xyz[3 * v[3] + k]);
+      ex_cell[nex] = surf->tet_cell[t];
+      ex_dead[nex++] = 0;
+      ++changed;
     }
     free(which);
+    free(ex_of);
     *slivers += dropped;
-    if (!dropped) break;
+    if (st || (!dropped && !changed)) break;
   }
+  for (int32_t k = 0; k < nex; ++k) *added += !ex_dead[k];
+  free(ex), free(ex_cell), free(ex_dead);
   if (!st) { /* the dropped bubbles leave the state too (frames, counts) */
     for (int32_t k = 0; k < nvb; ++k)
       if (drop[k]) s->flags[s->nf + k] |= BUB_FDEAD;
@@ -310,12 +372,13 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   if (!st) st = bub_border_cleanup(s, &border_dropped, err);
   int volumes = !st && in->volume && p->tets == BUB_TETS_BUBBLES && m->count[PM_VOLUME] > 0;
   pm_mesh *mesh = NULL;
-  int32_t recovery = 0, sliver_dropped = 0;
+  int32_t recovery = 0, sliver_dropped = 0, sliver_added = 0;
   int64_t surface_steps = s ? s->step : 0;
   int32_t volume_final = 0;
   double t_vrelax = t_relax;
   if (volumes) {
-    st = volume_phase(s, in, cap, budget, reason, &mesh, &recovery, &sliver_dropped, &t_vrelax, err);
+    st = volume_phase(s, in, cap, budget, reason, &mesh, &recovery, &sliver_dropped, &sliver_added,
+                      &t_vrelax, err);
   } else if (!st) {
     st = bub_connect_nodes(s, in, 0, &mesh, err);
   }
@@ -350,6 +413,7 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
         pm_stats_add_number(S, "bubble.volume_steps", (double)(s->step - surface_steps), &e);
         pm_stats_add_number(S, "bubble.recovery_points", recovery, &e);
         pm_stats_add_number(S, "bubble.sliver_dropped", sliver_dropped, &e);
+        pm_stats_add_number(S, "bubble.sliver_added", sliver_added, &e);
       }
       pm_stats_add_text(S, "bubble.stop", reason, &e);
       pm_stats_add_text(S, "bubble.size", pm_sizing_describe(size), &e);

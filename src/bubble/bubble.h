@@ -116,8 +116,9 @@ typedef struct bub_params {
                        BUB_TETS_TETGEN: TetGen's quality refinement of the bubble surface mesh
                        (for comparison); default bubbles */
   double sliver_angle; /* tets=bubbles: a tet with a dihedral angle below this (degrees) drops a
-                          volume bubble at its corners and the volume is tetrahedralized again
-                          (up to 4 rounds; bub_run.c); [0, 30], 0 = off, default 10 (our
+                          volume bubble at its corners (a sliver with only surface corners gets
+                          a node at its centroid) and the volume is tetrahedralized again (up
+                          to 10 rounds; bub_run.c); [0, 30], 0 = off, default 10 (our
                           addition: slivers are the weakness of Delaunay tets from well-spaced
                           points) */
   /* ---- output ---- */
