@@ -45,12 +45,15 @@
  * angle is below sliver_angle drops one volume bubble at its corners (the lowest-numbered: a
  * fixed choice), and the volumes are tetrahedralized again without them, up to 10 rounds (the
  * built-in non-manifold case needed 5). A sliver whose four corners lie on the surface has no
- * volume bubble to drop: it sits where two faces meet at an edge, its corners two nodes on each
- * face, cospherical about a point of the edge, in the gap that the wall rule keeps free of volume
- * bubbles. There a node is added at the sliver's centroid (inside its volume, and inside the
- * circumsphere, so the four corners no longer form a Delaunay tet); an added node that is a
- * corner of a later sliver is dropped again. The counts are bubble.sliver_dropped and
- * bubble.sliver_added. The trace's `phase` column is 2 in the
+ * volume bubble to drop: it sits where two faces meet at an edge (two nodes on each face,
+ * cospherical about a point of the edge, in the gap the wall rule keeps free of volume bubbles)
+ * or under a face curved towards the volume (four nodes of one face). There a node is added
+ * inside the sliver's circumsphere, so that the four corners no longer form a Delaunay tet: on
+ * the line from its centroid through its circumcentre, on either side, 0.15 to 0.5 of its mean
+ * edge length L from the centroid, the candidate inside the volume and farthest from the walls
+ * (at least BUB_VMARGIN L from them, reached from the centroid without crossing one); none
+ * such, nothing is added. An added node that is a corner of a later sliver is dropped again. The
+ * counts are bubble.sliver_dropped and bubble.sliver_added. The trace's `phase` column is 2 in the
  * surface phase and 3 in the volume phase, where `bubbles` counts volume bubbles and eps_t is
  * mean |degree - 12|; frames show volume bubbles as dimension 3.
  */
@@ -64,6 +67,7 @@
 #include "common/clock.h"
 #include "common/connect.h"
 #include "common/quality.h"
+#include "common/vec3.h"
 
 /* Re-tetrahedralizations of the sliver step at most (header). */
 #define SLIVER_ROUNDS 10
@@ -185,6 +189,38 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
   return st;
 }
 
+/* A node for a sliver whose corners all lie on the surface (header, "Slivers"): 1 and *x
+ * when a candidate qualifies. */
+static int sliver_node(const bub_state *s, int32_t volume, const double *P[4], double x[3]) {
+  double g[3] = {0, 0, 0}, L = 0;
+  for (int q = 0; q < 4; ++q) pm_v3_axpy(g, g, 0.25, P[q]);
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) L += pm_v3_dist(P[i], P[j]) / 6;
+  /* circumcentre - a = (|u|^2 (v x w) + |v|^2 (w x u) + |w|^2 (u x v)) / (2 u.(v x w)) */
+  double u[3], v[3], w[3], vw[3], wu[3], uv[3], cc[3];
+  pm_v3_sub(u, P[1], P[0]), pm_v3_sub(v, P[2], P[0]), pm_v3_sub(w, P[3], P[0]);
+  pm_v3_cross(vw, v, w), pm_v3_cross(wu, w, u), pm_v3_cross(uv, u, v);
+  double den = 2 * pm_v3_dot(u, vw);
+  if (!(fabs(den) > 0) || !(L > 0)) return 0;
+  for (int k = 0; k < 3; ++k)
+    cc[k] = P[0][k] + (pm_v3_dot(u, u) * vw[k] + pm_v3_dot(v, v) * wu[k] + pm_v3_dot(w, w) * uv[k]) / den;
+  double R = pm_v3_dist(cc, P[0]), dir[3];
+  pm_v3_sub(dir, cc, g);
+  if (!(pm_v3_normalize(dir) > 0) || !isfinite(R)) return 0;
+  static const double steps[4] = {0.5, 0.35, 0.25, 0.15};
+  double best = -1;
+  for (int side = -1; side <= 1; side += 2)
+    for (int k = 0; k < 4; ++k) {
+      double c[3];
+      pm_v3_axpy(c, g, side * steps[k] * L, dir);
+      if (!(pm_v3_dist(c, cc) < 0.95 * R)) continue;
+      if (!bub_volume_place_ok(s, volume, g, c, L)) continue;
+      double dw = pm_volume_shell_distance(s->shell[volume], c, L);
+      if (dw > best) best = dw, pm_v3_copy(x, c);
+    }
+  return best >= 0;
+}
+
 /* The volume phase and the tets from the volume bubbles (the header's "Volumes"): *mesh receives
  * the hybrid mesh. */
 static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
@@ -294,9 +330,9 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
         }
         capex = c;
       }
-      for (int k = 0; k < 3; ++k)
-        ex[3 * nex + k] = 0.25 * (surf->xyz[3 * v[0] + k] + surf->xyz[3 * v[1] + k] +
-                                  surf->xyz[3 * v[2] + k] + surf->xyz[3 * v[3] + k]);
+      const double *P[4] = {&surf->xyz[3 * v[0]], &surf->xyz[3 * v[1]], &surf->xyz[3 * v[2]],
+                            &surf->xyz[3 * v[3]]};
+      if (!sliver_node(s, surf->tet_cell[t], P, &ex[3 * nex])) continue;
       ex_cell[nex] = surf->tet_cell[t];
       ex_dead[nex++] = 0;
       ++changed;
