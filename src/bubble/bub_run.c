@@ -49,8 +49,9 @@
  * cospherical about a point of the edge, in the gap the wall rule keeps free of volume bubbles)
  * or under a face curved towards the volume (four nodes of one face). There a node is added
  * inside the sliver's circumsphere, so that the four corners no longer form a Delaunay tet: on
- * the line from its centroid through its circumcentre, on either side, 0.15 to 0.5 of its mean
- * edge length L from the centroid, the candidate inside the volume and farthest from the walls
+ * the line from its centroid through its circumcentre or across it (normal to two opposite
+ * edges), on either side, 0.15 to 0.5 of its mean edge length L from the centroid, the
+ * candidate inside the volume and farthest from the walls
  * (at least BUB_VMARGIN L from them, reached from the centroid without crossing one); none
  * such, nothing is added. An added node that is a corner of a later sliver is dropped again. The
  * counts are bubble.sliver_dropped and bubble.sliver_added. The trace's `phase` column is 2 in the
@@ -204,20 +205,35 @@ static int sliver_node(const bub_state *s, int32_t volume, const double *P[4], d
   if (!(fabs(den) > 0) || !(L > 0)) return 0;
   for (int k = 0; k < 3; ++k)
     cc[k] = P[0][k] + (pm_v3_dot(u, u) * vw[k] + pm_v3_dot(v, v) * wu[k] + pm_v3_dot(w, w) * uv[k]) / den;
-  double R = pm_v3_dist(cc, P[0]), dir[3];
-  pm_v3_sub(dir, cc, g);
-  if (!(pm_v3_normalize(dir) > 0) || !isfinite(R)) return 0;
+  double R = pm_v3_dist(cc, P[0]);
+  if (!isfinite(R)) return 0;
+  /* Two directions: towards the circumcentre, and across the sliver (the cross product of the
+   * pair of opposite edges with the largest one): when the centroid is near the circumcentre
+   * (four corners near a great circle) only the second is defined. */
+  double dirs[2][3];
+  int ndir = 0;
+  pm_v3_sub(dirs[ndir], cc, g);
+  if (pm_v3_normalize(dirs[ndir]) > 1e-9 * L) ++ndir;
+  static const int opp[3][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2}};
+  double big = 0;
+  for (int k = 0; k < 3; ++k) {
+    double e1[3], e2[3], n[3];
+    pm_v3_sub(e1, P[opp[k][1]], P[opp[k][0]]), pm_v3_sub(e2, P[opp[k][3]], P[opp[k][2]]);
+    pm_v3_cross(n, e1, e2);
+    double nn = pm_v3_norm(n);
+    if (nn > big) big = nn, pm_v3_scale(dirs[ndir], n, 1 / nn);
+  }
+  if (big > 0) ++ndir;
   static const double steps[4] = {0.5, 0.35, 0.25, 0.15};
   double best = -1;
-  for (int side = -1; side <= 1; side += 2)
-    for (int k = 0; k < 4; ++k) {
-      double c[3];
-      pm_v3_axpy(c, g, side * steps[k] * L, dir);
-      if (!(pm_v3_dist(c, cc) < 0.95 * R)) continue;
-      if (!bub_volume_place_ok(s, volume, g, c, L)) continue;
-      double dw = pm_volume_shell_distance(s->shell[volume], c, L);
-      if (dw > best) best = dw, pm_v3_copy(x, c);
-    }
+  for (int m = 0; m < 8 * ndir; ++m) { /* direction m / 8, side, step */
+    double c[3];
+    pm_v3_axpy(c, g, (m % 2 ? 1 : -1) * steps[(m / 2) % 4] * L, dirs[m / 8]);
+    if (!(pm_v3_dist(c, cc) < 0.95 * R)) continue;
+    if (!bub_volume_place_ok(s, volume, g, c, L)) continue;
+    double dw = pm_volume_shell_distance(s->shell[volume], c, L);
+    if (dw > best) best = dw, pm_v3_copy(x, c);
+  }
   return best >= 0;
 }
 
