@@ -490,18 +490,8 @@ static pm_status place_face(bub_state *s, int32_t face, int64_t cap, pm_error *e
     double d;
     st = bub_size_at(s, pt->x, &d, err);
     if (st) break;
-    /* Neighbours within reach: grid radius is d_j, query radius d covers dist < d + d_j. */
-    st = pm_grid_query_overlap(s->grid, pt->x, 0.5 * d, &buf, err);
     int skip = 0;
-    for (int32_t b = 0; b < buf.n && !st && !skip; ++b) {
-      int32_t j = buf.ids[b];
-      double dist = pm_v3_dist(pt->x, &s->x[3 * j]), l0 = 0.5 * (d + s->d[j]);
-      if (s->kind[j] == BUB_KFACE && s->cell[j] == face) {
-        if (dist < 0.25 * l0) skip = 1;
-      } else if (bub_related_cell(s, BUB_KFACE, face, j)) {
-        if (dist < 0.5 * l0) skip = 1;
-      }
-    }
+    st = bub_place_crowded(s, BUB_KFACE, face, pt->x, d, &buf, &skip, err);
     if (st || skip) continue;
     if (s->n >= cap) {
       st = pm_error_setf(err, PM_ERR_LIMIT,
@@ -520,6 +510,23 @@ static pm_status place_face(bub_state *s, int32_t face, int64_t cap, pm_error *e
 }
 
 /* ---- all cells ---------------------------------------------------------------------------- */
+
+pm_status bub_place_crowded(const bub_state *s, int kind, int32_t cell, const double x[3], double d,
+                            pm_idbuf *buf, int *crowded, pm_error *err) {
+  *crowded = 0;
+  /* Neighbours within reach: grid radius is d_j, query radius d covers dist < d + d_j. */
+  pm_status st = pm_grid_query_overlap(s->grid, x, 0.5 * d, buf, err);
+  for (int32_t b = 0; b < buf->n && !st && !*crowded; ++b) {
+    int32_t j = buf->ids[b];
+    double dist = pm_v3_dist(x, &s->x[3 * j]), l0 = 0.5 * (d + s->d[j]);
+    if (s->kind[j] == kind && s->cell[j] == cell) {
+      if (dist < 0.25 * l0) *crowded = 1;
+    } else if (bub_related_cell(s, kind, cell, j)) {
+      if (dist < 0.5 * l0) *crowded = 1;
+    }
+  }
+  return st;
+}
 
 pm_status bub_place(bub_state *s, pm_error *err) {
   const pm_model *m = s->model;

@@ -192,6 +192,12 @@ pm_status bub_place(bub_state *s, pm_error *err);
 pm_status bub_place_curve(const bub_state *s, int32_t curve, double **t, int32_t *nt,
                           pm_error *err);
 
+/* Whether a lattice point x (diameter d) of the placement on (kind, cell) is crowded: closer than
+ * a quarter of l0 to a bubble of the same cell, or half of l0 to one of a related cell (their
+ * bubbles came first). `buf` is scratch for the grid query. */
+pm_status bub_place_crowded(const bub_state *s, int kind, int32_t cell, const double x[3], double d,
+                            pm_idbuf *buf, int *crowded, pm_error *err);
+
 /* Arc length of a curve between t1 and t2 (Gauss-Legendre). */
 double bub_curve_length(const pm_cell *c, double t1, double t2);
 

@@ -312,17 +312,8 @@ static pm_status place_volume(bub_state *s, int32_t vol, int64_t cap, pm_error *
     double wall = pm_volume_shell_distance(o.sh, pt->x, 2.5 * d);
     if (wall < 0.5 * d) continue;
     if (pt->used == OCT_BOUNDARY && pm_volume_shell_inside(o.sh, pt->x) != 1) continue;
-    st = pm_grid_query_overlap(s->grid, pt->x, 0.5 * d, &buf, err);
     int skip = 0;
-    for (int32_t b = 0; b < buf.n && !st && !skip; ++b) {
-      int32_t j = buf.ids[b];
-      double dist = pm_v3_dist(pt->x, &s->x[3 * j]), l0 = 0.5 * (d + s->d[j]);
-      if (s->kind[j] == BUB_KVOLUME && s->cell[j] == vol) {
-        if (dist < 0.25 * l0) skip = 1;
-      } else if (bub_related_cell(s, BUB_KVOLUME, vol, j)) {
-        if (dist < 0.5 * l0) skip = 1;
-      }
-    }
+    st = bub_place_crowded(s, BUB_KVOLUME, vol, pt->x, d, &buf, &skip, err);
     if (st || skip) continue;
     if (s->n >= cap) {
       st = pm_error_setf(err, PM_ERR_LIMIT,
