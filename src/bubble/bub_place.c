@@ -51,6 +51,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/keyindex.h"
 #include "common/vec3.h"
 
 /* ---- curves ------------------------------------------------------------------------------- */
@@ -167,8 +168,7 @@ typedef struct face_ctx {
   /* lattice point hash */
   qpoint *pts;
   int32_t npts, cap_pts;
-  int32_t *table;       /* open addressing, -1 empty */
-  uint64_t tmask;
+  pm_keyindex index;     /* lattice key -> point */
   /* leaf corners collected: indices into pts, with the segment list of the leaf */
   uint8_t *used;        /* [cap_pts] corner of a kept leaf */
   double *near_seg;     /* [cap_pts] scaled distance to the nearest crossing segment seen */
@@ -179,30 +179,6 @@ typedef struct face_ctx {
   pm_status st;
   pm_error *err;
 } face_ctx;
-
-static uint64_t hash64(uint64_t k) {
-  k ^= k >> 33;
-  k *= 0xff51afd7ed558ccdULL;
-  k ^= k >> 33;
-  k *= 0xc4ceb9fe1a85ec53ULL;
-  k ^= k >> 33;
-  return k;
-}
-
-static int table_grow(face_ctx *fx) {
-  uint64_t nsize = fx->table ? 2 * (fx->tmask + 1) : 1024;
-  int32_t *nt = malloc(sizeof(int32_t) * nsize);
-  if (!nt) return 0;
-  for (uint64_t k = 0; k < nsize; ++k) nt[k] = -1;
-  for (int32_t i = 0; i < fx->npts; ++i) {
-    uint64_t h = hash64(fx->pts[i].key) & (nsize - 1);
-    while (nt[h] >= 0) h = (h + 1) & (nsize - 1);
-    nt[h] = i;
-  }
-  free(fx->table);
-  fx->table = nt, fx->tmask = nsize - 1;
-  return 1;
-}
 
 static void scaled_to_uv(const face_ctx *fx, double U, double V, double uv[2]) {
   uv[0] = fx->f->lo[0] + U / fx->scale[0];
@@ -218,16 +194,12 @@ static void lattice_scaled(const face_ctx *fx, int64_t i, int64_t j, double *U, 
 static int32_t lattice_point(face_ctx *fx, int64_t i, int64_t j) {
   if (fx->st) return -1;
   uint64_t key = ((uint64_t)(uint32_t)i << 32) | (uint64_t)(uint32_t)j;
-  if (!fx->table || 2 * (uint64_t)(fx->npts + 1) > fx->tmask + 1)
-    if (!table_grow(fx)) {
-      fx->st = pm_error_setf(fx->err, PM_ERR_NOMEM, "out of memory");
-      return -1;
-    }
-  uint64_t h = hash64(key) & fx->tmask;
-  while (fx->table[h] >= 0) {
-    if (fx->pts[fx->table[h]].key == key) return fx->table[h];
-    h = (h + 1) & fx->tmask;
+  if (!pm_keyindex_reserve(&fx->index, fx->npts + 1)) {
+    fx->st = pm_error_setf(fx->err, PM_ERR_NOMEM, "out of memory");
+    return -1;
   }
+  int32_t found = pm_keyindex_get(&fx->index, key);
+  if (found >= 0) return found;
   if (fx->npts >= fx->budget) {
     fx->st = pm_error_setf(fx->err, PM_ERR_LIMIT,
                            "bubble placement on face %d: the quadtree exceeds %lld lattice points "
@@ -262,7 +234,7 @@ static int32_t lattice_point(face_ctx *fx, int64_t i, int64_t j) {
   q->d = (d > 0 && isfinite(d)) ? d : fx->dref;
   fx->used[id] = 0;
   fx->near_seg[id] = INFINITY;
-  fx->table[h] = id;
+  pm_keyindex_put(&fx->index, key, id);
   return id;
 }
 
@@ -379,7 +351,7 @@ static void quad_cell(face_ctx *fx, int64_t i, int64_t j, int k, int state, int6
 }
 
 static void face_ctx_free(face_ctx *fx) {
-  free(fx->seg), free(fx->pts), free(fx->table), free(fx->used), free(fx->near_seg);
+  free(fx->seg), free(fx->pts), pm_keyindex_free(&fx->index), free(fx->used), free(fx->near_seg);
   free(fx->segstack);
 }
 

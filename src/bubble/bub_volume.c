@@ -52,6 +52,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/keyindex.h"
 #include "common/vec3.h"
 
 /* ---- the phase and the rule ------------------------------------------------------------------ */
@@ -136,55 +137,26 @@ typedef struct oct_ctx {
   double dref;
   opoint *pts;
   int32_t npts, cap_pts;
-  int32_t *table;
-  uint64_t tmask;
+  pm_keyindex index;  /* lattice key -> point */
   int64_t budget;
   pm_status st;
   pm_error *err;
 } oct_ctx;
-
-static uint64_t mix64(uint64_t k) {
-  k ^= k >> 33;
-  k *= 0xff51afd7ed558ccdULL;
-  k ^= k >> 33;
-  k *= 0xc4ceb9fe1a85ec53ULL;
-  k ^= k >> 33;
-  return k;
-}
 
 static void lattice_xyz(const oct_ctx *o, double i, double j, double k, double x[3]) {
   double l[3] = {o->origin[0] + i * o->h, o->origin[1] + j * o->h, o->origin[2] + k * o->h};
   for (int r = 0; r < 3; ++r) x[r] = A[r][0] * l[0] + A[r][1] * l[1] + A[r][2] * l[2];
 }
 
-static int table_grow(oct_ctx *o) {
-  uint64_t nsize = o->table ? 2 * (o->tmask + 1) : 1024;
-  int32_t *nt = malloc(sizeof(int32_t) * nsize);
-  if (!nt) return 0;
-  for (uint64_t k = 0; k < nsize; ++k) nt[k] = -1;
-  for (int32_t q = 0; q < o->npts; ++q) {
-    uint64_t h = mix64(o->pts[q].key) & (nsize - 1);
-    while (nt[h] >= 0) h = (h + 1) & (nsize - 1);
-    nt[h] = q;
-  }
-  free(o->table);
-  o->table = nt, o->tmask = nsize - 1;
-  return 1;
-}
-
 static int32_t lattice_point(oct_ctx *o, int64_t i, int64_t j, int64_t k) {
   if (o->st) return -1;
   uint64_t key = (uint64_t)i | ((uint64_t)j << 21) | ((uint64_t)k << 42);
-  if (!o->table || 2 * (uint64_t)(o->npts + 1) > o->tmask + 1)
-    if (!table_grow(o)) {
-      o->st = pm_error_setf(o->err, PM_ERR_NOMEM, "out of memory");
-      return -1;
-    }
-  uint64_t h = mix64(key) & o->tmask;
-  while (o->table[h] >= 0) {
-    if (o->pts[o->table[h]].key == key) return o->table[h];
-    h = (h + 1) & o->tmask;
+  if (!pm_keyindex_reserve(&o->index, o->npts + 1)) {
+    o->st = pm_error_setf(o->err, PM_ERR_NOMEM, "out of memory");
+    return -1;
   }
+  int32_t found = pm_keyindex_get(&o->index, key);
+  if (found >= 0) return found;
   if (o->npts >= o->budget) {
     o->st = pm_error_setf(o->err, PM_ERR_LIMIT,
                           "bubble placement in volume %d: the octree exceeds %lld lattice points",
@@ -207,7 +179,7 @@ static int32_t lattice_point(oct_ctx *o, int64_t i, int64_t j, int64_t k) {
   double d = pm_sizing_eval(o->s->size, q->x);
   q->d = (d > 0 && isfinite(d)) ? d : o->dref;
   q->used = 0;
-  o->table[h] = id;
+  pm_keyindex_put(&o->index, key, id);
   return id;
 }
 
@@ -329,7 +301,7 @@ static pm_status place_volume(bub_state *s, int32_t vol, int64_t cap, pm_error *
     }
   }
   pm_idbuf_free(&buf);
-  free(o.pts), free(o.table);
+  free(o.pts), pm_keyindex_free(&o.index);
   return st;
 }
 
