@@ -1,74 +1,22 @@
 /* The psys method end to end through the library (pm_method): valid meshes of the inferred
  * field, the same seed giving the same mesh with 1 or 2 threads, volumes, the trace and frames.
  * Every mesh goes through pm_mesh_check. */
-#include "test_psys_util.h"
+#include "test_psys_run_util.h"
 
 #include <unistd.h>
-
-#include "common/input.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
-
-static pm_model *open_input(const char *spec) {
-  pm_model *m = NULL;
-  pm_error e = {0};
-  PM_ASSERT_OK(pm_input_open(spec, &m, NULL, &e), e);
-  return m;
-}
-
-/* Run psys on m with size (may be NULL) and the given overrides ("KEY=VALUE", NULL-ended). */
-static pm_mesh *run(const pm_model *m, const pm_sizing *size, uint64_t seed, int threads,
-                    int volume, const char *const *sets, pm_stats *stats, pm_trace *trace,
-                    pm_frames *frames) {
-  psys_params p;
-  psys_params_init(&p);
-  pm_error e = {0};
-  for (int k = 0; sets && sets[k]; ++k) PM_ASSERT_OK(pm_params_set_pair(&psys_param_table, &p, sets[k], &e), e);
-  PM_ASSERT_OK(pm_params_check(&psys_param_table, &p, &e), e);
-  pm_run_input in;
-  memset(&in, 0, sizeof in);
-  in.model = m, in.size = size, in.seed = seed, in.threads = threads, in.volume = volume;
-  in.max_nodes = PM_DEFAULT_MAX_NODES, in.trace = trace, in.frames = frames;
-  pm_run_output out;
-  memset(&out, 0, sizeof out);
-  out.stats = stats;
-  PM_ASSERT_OK(psys_method.run(&in, &p, &out, &e), e);
-  assert_non_null(out.mesh);
-  assert_true(out.iterations > 0);
-  assert_true(strlen(out.stop_reason) > 0);
-  return out.mesh;
-}
-
-static void assert_valid(const pm_mesh *mesh, const pm_model *m) {
-  pm_check_report r;
-  pm_error e = {0};
-  PM_ASSERT_OK(pm_mesh_check(mesh, m, &r, &e), e);
-  if (!r.valid) fail_msg("mesh check: %s", r.nproblem ? r.problem[0] : "invalid");
-  pm_check_report_clear(&r);
-}
-
-static pm_summary aspect(const pm_mesh *mesh, const pm_sizing *size, double *size_ratio) {
-  pm_quality q;
-  pm_error e = {0};
-  PM_ASSERT_OK(pm_quality_compute(mesh, size, &q, &e), e);
-  pm_summary s = q.tri.s_aspect_ratio;
-  if (size_ratio) *size_ratio = q.tri.size_ratio.mean;
-  pm_quality_clear(&q);
-  return s;
-}
 
 /* The inferred field on built-in solids: valid, decent meshes, the stats keys. */
 static void inferred_field_meshes(void **state) {
   (void)state;
   const char *cases[] = {"case:boxhole", "case:torus", "case:cylinder"};
   for (int k = 0; k < 3; ++k) {
-    pm_model *m = open_input(cases[k]);
+    pm_model *m = psys_test_open(cases[k]);
     pm_stats st;
     pm_stats_init(&st);
-    pm_mesh *mesh = run(m, NULL, 1, 2, 0, NULL, &st, NULL, NULL);
-    assert_valid(mesh, m);
+    pm_mesh *mesh = psys_test_run(m, NULL, 1, 2, 0, NULL, &st, NULL, NULL);
+    psys_test_assert_valid(mesh, m);
     assert_true(mesh->ntri > 200);
-    pm_summary a = aspect(mesh, NULL, NULL);
+    pm_summary a = psys_test_aspect(mesh, NULL, NULL);
     /* an equilateral triangle has 0.577; a particle packing stays close (papers/001 Fig. 11) */
     if (!(a.median < 0.68 && a.p75 < 0.75 && a.max < 3))
       fail_msg("%s: R/l_min median %g p75 %g max %g", cases[k], a.median, a.p75, a.max);
@@ -95,11 +43,11 @@ static void inferred_field_meshes(void **state) {
  * gives another mesh. */
 static void same_seed_same_mesh(void **state) {
   (void)state;
-  pm_model *m = open_input("case:boxhole");
-  pm_mesh *a = run(m, NULL, 42, 1, 0, NULL, NULL, NULL, NULL);
-  pm_mesh *b = run(m, NULL, 42, 1, 0, NULL, NULL, NULL, NULL);
-  pm_mesh *c = run(m, NULL, 42, 2, 0, NULL, NULL, NULL, NULL);
-  pm_mesh *d = run(m, NULL, 43, 2, 0, NULL, NULL, NULL, NULL);
+  pm_model *m = psys_test_open("case:boxhole");
+  pm_mesh *a = psys_test_run(m, NULL, 42, 1, 0, NULL, NULL, NULL, NULL);
+  pm_mesh *b = psys_test_run(m, NULL, 42, 1, 0, NULL, NULL, NULL, NULL);
+  pm_mesh *c = psys_test_run(m, NULL, 42, 2, 0, NULL, NULL, NULL, NULL);
+  pm_mesh *d = psys_test_run(m, NULL, 43, 2, 0, NULL, NULL, NULL, NULL);
   const pm_mesh *same[2] = {b, c};
   for (int k = 0; k < 2; ++k) {
     assert_int_equal(a->nnode, same[k]->nnode);
@@ -117,9 +65,9 @@ static void same_seed_same_mesh(void **state) {
 /* --volume: TetGen's quality refinement of the surface mesh (papers/001 section 4.4). */
 static void volume_with_tets(void **state) {
   (void)state;
-  pm_model *m = open_input("case:cylinder");
-  pm_mesh *mesh = run(m, NULL, 1, 2, 1, NULL, NULL, NULL, NULL);
-  assert_valid(mesh, m);
+  pm_model *m = psys_test_open("case:cylinder");
+  pm_mesh *mesh = psys_test_run(m, NULL, 1, 2, 1, NULL, NULL, NULL, NULL);
+  psys_test_assert_valid(mesh, m);
   assert_true(mesh->ntet > 100);
   pm_quality q;
   pm_error e = {0};
@@ -136,7 +84,7 @@ static void volume_with_tets(void **state) {
 /* --trace rows and --frames snapshots. */
 static void trace_and_frames(void **state) {
   (void)state;
-  pm_model *m = open_input("case:cylinder");
+  pm_model *m = psys_test_open("case:cylinder");
   pm_trace *tr = NULL;
   pm_frames *fr = NULL;
   pm_error e = {0};
@@ -147,7 +95,7 @@ static void trace_and_frames(void **state) {
   const char *sets[] = {"frame_every=5", NULL};
   pm_stats st;
   pm_stats_init(&st);
-  pm_mesh *mesh = run(m, NULL, 1, 1, 0, sets, &st, tr, fr);
+  pm_mesh *mesh = psys_test_run(m, NULL, 1, 1, 0, sets, &st, tr, fr);
   PM_ASSERT_OK(pm_frames_finish(fr, &e), e);
   const char *cols[] = {"iteration", "phase", "particles", "energy", "mean_move", "max_move",
                         "splits", "deletes", "mean_sigma"};

@@ -1,61 +1,9 @@
 /* The psys method with given and inferred sizes: the calibration of a given size (mean edge / d
  * within 5% of 1 on uniform fields), graded fields, the sizing inference handed out as a sampled
  * field, and the error paths. Every mesh goes through pm_mesh_check. */
-#include "test_psys_util.h"
+#include "test_psys_run_util.h"
 
 #include <unistd.h>
-
-#include "common/input.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
-
-static pm_model *open_input(const char *spec) {
-  pm_model *m = NULL;
-  pm_error e = {0};
-  PM_ASSERT_OK(pm_input_open(spec, &m, NULL, &e), e);
-  return m;
-}
-
-/* Run psys on m with size (may be NULL) and the given overrides ("KEY=VALUE", NULL-ended). */
-static pm_mesh *run(const pm_model *m, const pm_sizing *size, uint64_t seed, int threads,
-                    int volume, const char *const *sets, pm_stats *stats, pm_trace *trace,
-                    pm_frames *frames) {
-  psys_params p;
-  psys_params_init(&p);
-  pm_error e = {0};
-  for (int k = 0; sets && sets[k]; ++k) PM_ASSERT_OK(pm_params_set_pair(&psys_param_table, &p, sets[k], &e), e);
-  PM_ASSERT_OK(pm_params_check(&psys_param_table, &p, &e), e);
-  pm_run_input in;
-  memset(&in, 0, sizeof in);
-  in.model = m, in.size = size, in.seed = seed, in.threads = threads, in.volume = volume;
-  in.max_nodes = PM_DEFAULT_MAX_NODES, in.trace = trace, in.frames = frames;
-  pm_run_output out;
-  memset(&out, 0, sizeof out);
-  out.stats = stats;
-  PM_ASSERT_OK(psys_method.run(&in, &p, &out, &e), e);
-  assert_non_null(out.mesh);
-  assert_true(out.iterations > 0);
-  assert_true(strlen(out.stop_reason) > 0);
-  return out.mesh;
-}
-
-static void assert_valid(const pm_mesh *mesh, const pm_model *m) {
-  pm_check_report r;
-  pm_error e = {0};
-  PM_ASSERT_OK(pm_mesh_check(mesh, m, &r, &e), e);
-  if (!r.valid) fail_msg("mesh check: %s", r.nproblem ? r.problem[0] : "invalid");
-  pm_check_report_clear(&r);
-}
-
-static pm_summary aspect(const pm_mesh *mesh, const pm_sizing *size, double *size_ratio) {
-  pm_quality q;
-  pm_error e = {0};
-  PM_ASSERT_OK(pm_quality_compute(mesh, size, &q, &e), e);
-  pm_summary s = q.tri.s_aspect_ratio;
-  if (size_ratio) *size_ratio = q.tri.size_ratio.mean;
-  pm_quality_clear(&q);
-  return s;
-}
 
 /* A given uniform size d: sigma = d / edge_per_sigma makes the mean edge length d within 5%,
  * on a plane, a sphere and a solid with curved and flat faces. */
@@ -66,14 +14,14 @@ static void uniform_size_calibration(void **state) {
     double d;
   } runs[] = {{"case:qi1", 0.1}, {"case:sphere", 0.1}, {"case:boxhole", 0.06}};
   for (int k = 0; k < 3; ++k) {
-    pm_model *m = open_input(runs[k].input);
+    pm_model *m = psys_test_open(runs[k].input);
     pm_sizing *size = NULL;
     pm_error e = {0};
     PM_ASSERT_OK(pm_sizing_constant(runs[k].d, &size, &e), e);
-    pm_mesh *mesh = run(m, size, 1, 2, 0, NULL, NULL, NULL, NULL);
-    assert_valid(mesh, m);
+    pm_mesh *mesh = psys_test_run(m, size, 1, 2, 0, NULL, NULL, NULL, NULL);
+    psys_test_assert_valid(mesh, m);
     double ratio = 0;
-    pm_summary a = aspect(mesh, size, &ratio);
+    pm_summary a = psys_test_aspect(mesh, size, &ratio);
     if (!(fabs(ratio - 1) <= 0.05))
       fail_msg("%s, d = %g: mean edge / d = %.4f", runs[k].input, runs[k].d, ratio);
     assert_true(a.median < 0.66);
@@ -86,14 +34,14 @@ static void uniform_size_calibration(void **state) {
 /* A given graded field is followed: the edges near the fine end are shorter. */
 static void graded_size_is_followed(void **state) {
   (void)state;
-  pm_model *m = open_input("case:qi1");
+  pm_model *m = psys_test_open("case:qi1");
   pm_sizing *size = NULL;
   pm_error e = {0};
   PM_ASSERT_OK(pm_sizing_parse("0.04+0.04*(y+2)", &size, &e), e);
-  pm_mesh *mesh = run(m, size, 1, 2, 0, NULL, NULL, NULL, NULL);
-  assert_valid(mesh, m);
+  pm_mesh *mesh = psys_test_run(m, size, 1, 2, 0, NULL, NULL, NULL, NULL);
+  psys_test_assert_valid(mesh, m);
   double ratio = 0;
-  aspect(mesh, size, &ratio);
+  psys_test_aspect(mesh, size, &ratio);
   assert_true(fabs(ratio - 1) < 0.1);
   /* mean edge length in the lowest and highest quarter */
   double lo = 0, hi = 0;
@@ -116,7 +64,7 @@ static void graded_size_is_followed(void **state) {
  * where the inferred sigma is (the hole of case:boxhole: curvature 4 and a 0.25 wall). */
 static void inferred_field_as_sizing(void **state) {
   (void)state;
-  pm_model *m = open_input("case:boxhole");
+  pm_model *m = psys_test_open("case:boxhole");
   pm_sizing *f = NULL;
   pm_error e = {0};
   PM_ASSERT_OK(psys_infer_size(m, NULL, 1, 2, &f, &e), e);
@@ -133,8 +81,8 @@ static void inferred_field_as_sizing(void **state) {
   assert_true(dc <= p.edge_per_sigma * diag / 10 * (1 + 1e-9));
   assert_true(strstr(pm_sizing_describe(f), "sampled") != NULL);
   /* and it drives psys itself as a given field */
-  pm_mesh *mesh = run(m, f, 1, 2, 0, NULL, NULL, NULL, NULL);
-  assert_valid(mesh, m);
+  pm_mesh *mesh = psys_test_run(m, f, 1, 2, 0, NULL, NULL, NULL, NULL);
+  psys_test_assert_valid(mesh, m);
   pm_mesh_destroy(mesh);
   /* the method's default field for callers that scale it (--target-nodes) is the same */
   pm_sizing *g = NULL;
@@ -148,7 +96,7 @@ static void inferred_field_as_sizing(void **state) {
 /* Bad input: one-line errors, no mesh. */
 static void errors(void **state) {
   (void)state;
-  pm_model *m = open_input("case:cylinder");
+  pm_model *m = psys_test_open("case:cylinder");
   psys_params p;
   psys_params_init(&p);
   pm_error e = {0};
