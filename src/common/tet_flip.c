@@ -146,12 +146,18 @@ static void try_triangulation(tri_enum *e, void *user) {
   int32_t tets[2 * (RING_MAX - 2)][4];
   int n = 0;
   double worst = INFINITY;
+  int side = 0;
   for (int t = 0; t < e->ntri; ++t) {
     int32_t a = c->ring[e->tri[t][0]], b = c->ring[e->tri[t][1]], d = c->ring[e->tri[t][2]];
     const double *A = &c->xyz[3 * a], *B = &c->xyz[3 * b], *D = &c->xyz[3 * d];
     int sp = pm_orient3d(A, B, D, &c->xyz[3 * c->p]), sq = pm_orient3d(A, B, D, &c->xyz[3 * c->q]);
-    /* Each triangle must separate p from q, strictly: then the new tets tile the removed ring. */
+    /* Each triangle, its corners taken in ring order, must have p strictly on one and the same
+     * side and q strictly on the other: then every new tet is positive and they tile the removed
+     * ring. A triangle with p on the other side is folded over its neighbours (a reflex corner of
+     * the ring); its tets would overlap the rest of the mesh. */
     if (sp == 0 || sq == 0 || sp == sq) return;
+    if (side == 0) side = sp;
+    else if (sp != side) return;
     int32_t t1[4] = {a, b, d, c->p}, t2[4] = {a, d, b, c->q};
     if (sp < 0) t1[1] = d, t1[2] = b, t2[1] = b, t2[2] = d;
     for (int k = 0; k < 4; ++k) tets[n][k] = t1[k], tets[n + 1][k] = t2[k];

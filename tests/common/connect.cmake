@@ -1,5 +1,7 @@
 # The connection layer (connect.c).
 pm_add_test(test_connect LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_connect.c)
+# Edge removal of flat tets (tet_flip.c).
+pm_add_test(test_tet_flip LABELS unit SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_tet_flip.c)
 
 # Nodes of gmsh's own mesh of every shared CAD model, connected by pm_connect: one ctest entry
 # per model (a crash of gmsh's mesher on one model stays that model's failure).
