@@ -2,14 +2,17 @@
  * parameters (the inferred sizing field), and the throughput of one iteration at 10^4 and 10^5
  * particles on a curved face.
  *
- *   bench_psys [models|throughput|all] [--threads N] [--volume] [--only NAME] [CAD_DIR]
+ *   bench_psys [models|throughput|all] [--threads N] [--volume] [--peers] [--only NAME] [CAD_DIR]
  *
  * models:     per model: nodes, iterations per phase, times, the mesh checker's verdict, and the
  *             triangle aspect ratio R / l_min as min / p25 / median / p75 / max (the statistic of
  *             papers/001 Fig. 11; an equilateral triangle has 0.577); with --volume the solids
  *             are also tetrahedralized (TetGen quality refinement) and their tets summarized the
  *             same way. The last column tells whether the target (median <= 0.60 and
- *             p75 <= 0.65) is met.
+ *             p75 <= 0.65) is met. With --peers, two more rows per model: gmsh's Frontal-Delaunay
+ *             and the bubble mesher on psys's inferred field (psys_infer_size, the field
+ *             `--size inferred` gives), surface only, summarized the same way: the same field,
+ *             so a difference is a difference in node placement and connection.
  * throughput: case:sphere (radius 1) with a uniform size giving about 10^4 and 10^5 particles:
  *             phase-3 particle-iterations per second and seconds per iteration at the final
  *             count; equal rates at both sizes mean a cost linear in the particle count.
@@ -30,6 +33,8 @@
 #include "common/input.h"
 #include "common/mesh_check.h"
 #include "common/quality.h"
+#include "bubble/bubble.h"
+#include "peers/peers.h"
 #include "psys/psys.h"
 
 static void machine_info(int argc, char **argv, int threads) {
@@ -87,8 +92,57 @@ static double stat_extra(const pm_stats *st, const char *key) {
   return 0;
 }
 
+/* A peer method on psys's inferred field: one summary row. */
+static void bench_peer(const pm_model *m, const pm_sizing *field, const pm_method *method,
+                       int threads) {
+  pm_error e = {0};
+  void *params = calloc(1, method->params_size);
+  if (!params) return;
+  method->params_init(params);
+  pm_run_input in;
+  memset(&in, 0, sizeof in);
+  in.model = m, in.size = field, in.seed = 1, in.threads = threads;
+  in.max_nodes = PM_DEFAULT_MAX_NODES;
+  pm_run_output out;
+  memset(&out, 0, sizeof out);
+  double t0 = pm_seconds();
+  if (method->run(&in, params, &out, &e)) {
+    printf("  %-20s FAILED: %s\n", method->name, e.msg);
+  } else {
+    pm_check_report cr;
+    memset(&cr, 0, sizeof cr);
+    pm_mesh_check(out.mesh, m, &cr, &e);
+    pm_quality q;
+    memset(&q, 0, sizeof q);
+    pm_quality_compute(out.mesh, NULL, &q, &e);
+    printf("  %-20s nodes %7d  same field  time %7.1f s  %s ", method->name, out.mesh->nnode,
+           pm_seconds() - t0, cr.valid ? "valid" : "INVALID");
+    print_summary("tri", &q.tri.s_aspect_ratio);
+    int met = q.tri.s_aspect_ratio.median <= 0.60 && q.tri.s_aspect_ratio.p75 <= 0.65;
+    printf("  target %s\n", met ? "met" : "MISSED");
+    pm_quality_clear(&q);
+    pm_check_report_clear(&cr);
+  }
+  fflush(stdout);
+  pm_mesh_destroy(out.mesh);
+  free(params);
+}
+
+/* The peers on psys's inferred field (the one `--size inferred` hands to other methods). */
+static void bench_peers_on_field(const pm_model *m, int threads) {
+  pm_error e = {0};
+  pm_sizing *field = NULL;
+  if (psys_infer_size(m, NULL, 1, threads, &field, &e)) {
+    printf("  peers: no inferred field: %s\n", e.msg);
+    return;
+  }
+  bench_peer(m, field, &peer_gmsh_frontal, threads);
+  bench_peer(m, field, &bub_method, threads);
+  pm_sizing_destroy(field);
+}
+
 /* One model: mesh, check, measure, print one line. Returns 1 when the target is met. */
-static int bench_model(const char *path, const char *name, int threads, int volume) {
+static int bench_model(const char *path, const char *name, int threads, int volume, int peers) {
   pm_error e = {0};
   pm_model *m = NULL;
   pm_stats st;
@@ -138,6 +192,7 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   if (!cr.valid)
     for (int32_t k = 0; k < cr.nproblem; ++k) printf("    problem: %s\n", cr.problem[k]);
   fflush(stdout);
+  if (peers) bench_peers_on_field(m, threads);
   pm_quality_clear(&q);
   pm_check_report_clear(&cr);
   pm_mesh_destroy(out.mesh);
@@ -146,7 +201,7 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   return met;
 }
 
-static void models(const char *dir, int threads, int volume, const char *only) {
+static void models(const char *dir, int threads, int volume, int peers, const char *only) {
   DIR *d = opendir(dir);
   if (!d) {
     printf("no CAD folder %s: models skipped\n\n", dir);
@@ -170,7 +225,7 @@ static void models(const char *dir, int threads, int volume, const char *only) {
     }
     char path[1024];
     snprintf(path, sizeof path, "%s/%s", dir, names[i]);
-    met += bench_model(path, names[i], threads, volume);
+    met += bench_model(path, names[i], threads, volume, peers);
     ++tried;
     free(names[i]);
   }
@@ -235,12 +290,14 @@ static void throughput(int threads) {
 
 int main(int argc, char **argv) {
   const char *mode = "all", *dir = PM_CAD_DIR, *only = NULL;
-  int threads = 1, volume = 0;
+  int threads = 1, volume = 0, peers = 0;
   for (int i = 1; i < argc; ++i) {
     if (!strcmp(argv[i], "--threads") && i + 1 < argc)
       threads = atoi(argv[++i]);
     else if (!strcmp(argv[i], "--volume"))
       volume = 1;
+    else if (!strcmp(argv[i], "--peers"))
+      peers = 1;
     else if (!strcmp(argv[i], "--only") && i + 1 < argc)
       only = argv[++i];
     else if (!strcmp(argv[i], "models") || !strcmp(argv[i], "throughput") ||
@@ -252,6 +309,6 @@ int main(int argc, char **argv) {
   if (threads < 1) threads = 1;
   machine_info(argc, argv, threads);
   if (!strcmp(mode, "throughput") || !strcmp(mode, "all")) throughput(threads);
-  if (!strcmp(mode, "models") || !strcmp(mode, "all")) models(dir, threads, volume, only);
+  if (!strcmp(mode, "models") || !strcmp(mode, "all")) models(dir, threads, volume, peers, only);
   return 0;
 }
