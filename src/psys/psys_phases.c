@@ -13,8 +13,14 @@
  * positions. The population is left to the split/delete rules until the particle count has
  * settled -- it moved by at most max(2, pop_tol n) (pop_tol = 0.5%) over the last 10
  * iterations: the random bias keeps a few splits and deletes going at any time, so their number
- * says less than their balance -- or until anneal_after (150) iterations have passed; then the
- * annealing weight a of psys_population.c is multiplied by anneal_rate (0.75) every iteration,
+ * says less than their balance -- and no particle is "hungry" (its E_i below half the split
+ * threshold, so eq. 4 splits it whatever its eps: the front of a chain still growing into an
+ * empty stretch of its curve). A curve grows from its one seed by about two particles per front
+ * every few iterations; on a model with many curves the global count settles long before a long
+ * curve is filled, and annealing then froze the curve with empty ends (the bottle's thread
+ * helices: a third of each left empty, the faces along them folded over; see test_psys_phases).
+ * Population control ends at the latest after anneal_after (150) iterations; then the annealing
+ * weight a of psys_population.c is multiplied by anneal_rate (0.75) every iteration,
  * and once it falls below anneal_off (0.02, about 14 iterations) splits and deletes stop for
  * good. The phase ends at the first iteration after that whose mean move is below move_tol
  * (0.2%) of sigma, or at max_iter (1500) iterations. (A tighter move_tol buys little: on
@@ -166,6 +172,7 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
     int32_t sp = 0, de = 0;
     if ((st = psys_sigma_update(s, err))) return st;
     if ((st = psys_move_pass(s, &mi, err))) return st;
+    const int32_t hungry = pop_on && a == 1 ? psys_hungry_count(s) : 0; /* fresh energies */
     if (pop_on && (st = psys_population_pass(s, a, &sp, &de, err))) return st;
     rep->iterations = it + 1;
     /* the count POP_WINDOW iterations ago, then this one in its place */
@@ -176,7 +183,8 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
       if (a == 1) {
         /* the count has settled when it moved by at most max(2, pop_tol n) over the window */
         int32_t tol = (int32_t)fmax(2.0, s->p.pop_tol * s->n);
-        int calm = then >= 0 && abs(s->n - then) <= tol;
+        int calm = then >= 0 && abs(s->n - then) <= tol && hungry == 0;
+
         if (calm || it + 1 >= s->p.anneal_after) a *= s->p.anneal_rate;
       } else {
         a *= s->p.anneal_rate;

@@ -219,6 +219,20 @@ out:
   return st;
 }
 
+/* E_ideal of eq. 6 for particle i; on a curve the one-ring of the ideal lattice has ring_curve
+ * particles (see the file comment). */
+static double ideal_energy_of(const psys_sys *s, int32_t i) {
+  double eid = psys_ideal_energy(s->sigma[i]);
+  return s->dim[i] == PM_CURVE ? eid * s->p.ring_curve / 6.0 : eid;
+}
+
+int32_t psys_hungry_count(const psys_sys *s) {
+  int32_t n = 0;
+  for (int32_t i = 0; i < s->n; ++i)
+    n += !s->fixed[i] && s->energy[i] < 0.5 * s->p.split_ratio * ideal_energy_of(s, i);
+  return n;
+}
+
 pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *deletes,
                                pm_error *err) {
   *splits = *deletes = 0;
@@ -239,9 +253,7 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
     if (s->dim[i] > PM_VERTEX) count[(s->dim[i] == PM_FACE ? nc : 0) + s->cell[i]]++;
   for (int32_t i = 0; i < n0; ++i) {
     if (s->fixed[i] || mark[i]) continue;
-    /* eq. 6; on a curve the one-ring of the ideal lattice has ring_curve particles (below) */
-    double eid = psys_ideal_energy(s->sigma[i]);
-    if (s->dim[i] == PM_CURVE) eid *= s->p.ring_curve / 6.0;
+    const double eid = ideal_energy_of(s, i); /* eq. 6 */
     const double es = s->energy[i] * (1 + a * psys_random(s, i, RND_EPS)); /* eq. 3 */
     /* a face particle on its face's boundary polyline (see the file comment) */
     const int on_boundary =

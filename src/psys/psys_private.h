@@ -227,6 +227,10 @@ pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err);
 pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *deletes,
                                pm_error *err);
 
+/* The movable particles that eq. 4 splits whatever their eps: E_i below half the split threshold
+ * (a front of particles still growing into an empty stretch of its cell). */
+int32_t psys_hungry_count(const psys_sys *s);
+
 /* ---- phases (psys_phases.c) ------------------------------------------------------------- */
 
 typedef struct psys_phase_report {
