@@ -185,7 +185,7 @@ static void section_planar(const bub_params *p, int threads, const char *only) {
       printf("%-8s FAILED: %s\n", paper[k].name, r.err);
     } else {
       print_row(paper[k].name, &r);
-      printf("         paper: %s | issue: %s\n", paper[k].paper, paper[k].gmsh);
+      printf("         paper: %s | reference: %s\n", paper[k].paper, paper[k].gmsh);
     }
     /* gmsh's Frontal-Delaunay on the same domain and size field, and the bubble mesher with the
      * size field scaled until its node count is within 1% of gmsh's (the comparison at the same

@@ -1,4 +1,4 @@
-/* Tets of the bubble method against TetGen's refinement and gmsh's 3D Delaunay (issue: bubble
+/* Tets of the bubble method against TetGen's refinement and gmsh's 3D Delaunay (bubble
  * volumes). For the built-in solids at their default (uniform) size and a few shared CAD solids
  * at diagonal / 15:
  *   bubble    volume bubbles as interior nodes, no Steiner point (--set tets=bubbles);

@@ -92,6 +92,20 @@ static double stat_extra(const pm_stats *st, const char *key) {
   return 0;
 }
 
+/* The checker's verdict and the quality measures of a mesh. */
+static void measure(const pm_mesh *mesh, const pm_model *m, pm_check_report *cr, pm_quality *q) {
+  pm_error e = {0};
+  memset(cr, 0, sizeof *cr);
+  memset(q, 0, sizeof *q);
+  pm_mesh_check(mesh, m, cr, &e);
+  pm_quality_compute(mesh, NULL, q, &e);
+}
+
+/* The target for triangles: median R / l_min <= 0.60 and p75 <= 0.65. */
+static int target_met(const pm_quality *q) {
+  return q->tri.s_aspect_ratio.median <= 0.60 && q->tri.s_aspect_ratio.p75 <= 0.65;
+}
+
 /* A peer method on psys's inferred field: one summary row. */
 static void bench_peer(const pm_model *m, const pm_sizing *field, const pm_method *method,
                        int threads) {
@@ -110,16 +124,12 @@ static void bench_peer(const pm_model *m, const pm_sizing *field, const pm_metho
     printf("  %-20s FAILED: %s\n", method->name, e.msg);
   } else {
     pm_check_report cr;
-    memset(&cr, 0, sizeof cr);
-    pm_mesh_check(out.mesh, m, &cr, &e);
     pm_quality q;
-    memset(&q, 0, sizeof q);
-    pm_quality_compute(out.mesh, NULL, &q, &e);
+    measure(out.mesh, m, &cr, &q);
     printf("  %-20s nodes %7d  same field  time %7.1f s  %s ", method->name, out.mesh->nnode,
            pm_seconds() - t0, cr.valid ? "valid" : "INVALID");
     print_summary("tri", &q.tri.s_aspect_ratio);
-    int met = q.tri.s_aspect_ratio.median <= 0.60 && q.tri.s_aspect_ratio.p75 <= 0.65;
-    printf("  target %s\n", met ? "met" : "MISSED");
+    printf("  target %s\n", target_met(&q) ? "met" : "MISSED");
     pm_quality_clear(&q);
     pm_check_report_clear(&cr);
   }
@@ -174,11 +184,8 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   }
   double t_run = pm_seconds() - t0;
   pm_check_report cr;
-  memset(&cr, 0, sizeof cr);
-  pm_mesh_check(out.mesh, m, &cr, &e);
   pm_quality q;
-  memset(&q, 0, sizeof q);
-  pm_quality_compute(out.mesh, NULL, &q, &e);
+  measure(out.mesh, m, &cr, &q);
   printf("%-22s nodes %7d  it %4.0f/%4.0f/%4.0f  time %7.1f s (p1 %.1f p2 %.1f p3 %.1f conn %.1f)"
          "  %s ",
          name, out.mesh->nnode, stat_extra(&st, "psys.iterations.phase1"),
@@ -187,7 +194,7 @@ static int bench_model(const char *path, const char *name, int threads, int volu
          stat_time(&st, "connect"), cr.valid ? "valid" : "INVALID");
   print_summary("tri", &q.tri.s_aspect_ratio);
   if (out.mesh->ntet) print_summary(" tet", &q.tet.s_aspect_ratio);
-  met = q.tri.s_aspect_ratio.median <= 0.60 && q.tri.s_aspect_ratio.p75 <= 0.65;
+  met = target_met(&q);
   printf("  target %s\n", met ? "met" : "MISSED");
   if (!cr.valid)
     for (int32_t k = 0; k < cr.nproblem; ++k) printf("    problem: %s\n", cr.problem[k]);

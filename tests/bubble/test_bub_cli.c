@@ -40,7 +40,7 @@ static cJSON *read_json(const char *path) {
   return j;
 }
 
-/* The example: qi3 with --stats. */
+/* The documented example: qi3 with --stats. */
 static void qi3_stats(void **state) {
   (void)state;
   char args[4096], out[512], js[512];
