@@ -26,6 +26,17 @@
  * end vertices: only particles split, so an empty cell would stay empty however fine the field
  * around it becomes.
  *
+ * Gaps along curves (ours). A curve starts from one particle at its middle (section 4.1), and
+ * eq. 4 grows it outward one particle per front every few iterations: a long curve, or one whose
+ * sigma shrinks towards a sharp vertex (Lipschitz), needed more iterations than a phase allows,
+ * and was left with empty ends (the bottle's thread helices: 11 long, with a sigma of 1.5; the
+ * faces along them folded over). In phases 1-2, two consecutive particles of a curve (its end
+ * vertices included, in parameter order) more than 1.2 sigma apart -- the larger sigma of the
+ * two; they do not interact at all beyond 1 -- get a particle at the middle of their parameter
+ * interval, so a gap halves every iteration. The paper remarks (section 5) that its naive seeding
+ * makes particles "generated during the early stages" and that bootstrapping would help; this is
+ * the least of that.
+ *
  * The last particle of a cell (ours). Particles of different cells repel each other in world
  * space, and before the gap size is known (phase 1) the particle of a long curve can sit within
  * a far smaller distance than its sigma of another curve's particle (the two outlines of a thin
@@ -219,6 +230,70 @@ out:
   return st;
 }
 
+/* Gaps along curves (see the file comment): in phases 1-2, two consecutive particles of a curve
+ * (its end vertices included, in parameter order) farther apart than GAP_FILL times the larger of
+ * their sigma get a particle at the middle of their parameter interval. */
+typedef struct curve_slot {
+  double t;
+  int32_t i;
+} curve_slot;
+
+static int by_param(const void *a, const void *b) {
+  const curve_slot *x = a, *y = b;
+  return x->t < y->t ? -1 : x->t > y->t ? 1 : (x->i > y->i) - (x->i < y->i);
+}
+
+#define GAP_FILL 1.2 /* a gap is filled when consecutive particles are this many sigma apart */
+
+static pm_status fill_curve_gaps(psys_sys *s, int32_t *added, pm_error *err) {
+  if (s->phase >= 3) return PM_OK;
+  const pm_model *m = s->model;
+  const int32_t nc = m->count[PM_CURVE], nv = m->count[PM_VERTEX], n0 = s->n;
+  /* curve c's slots: slot[start[c] .. fill[c]), room for its particles and two end vertices */
+  int32_t *start = calloc((size_t)nc + 1, sizeof(int32_t));
+  int32_t *fill = calloc((size_t)nc + 1, sizeof(int32_t));
+  int32_t *vpart = malloc(sizeof(int32_t) * ((size_t)nv + 1)); /* each vertex's particle */
+  curve_slot *slot = malloc(sizeof(curve_slot) * ((size_t)n0 + 2 * (size_t)nc + 1));
+  pm_status st = PM_OK;
+  if (!start || !fill || !vpart || !slot) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+  for (int32_t v = 0; v < nv; ++v) vpart[v] = -1;
+  for (int32_t i = 0; i < n0; ++i) {
+    if (s->dim[i] == PM_VERTEX) vpart[s->cell[i]] = i;
+    if (s->dim[i] == PM_CURVE) fill[s->cell[i]]++;
+  }
+  for (int32_t c = 0, at = 0; c < nc; ++c) start[c] = at, at += fill[c] + 2, fill[c] = start[c];
+  for (int32_t i = 0; i < n0; ++i)
+    if (s->dim[i] == PM_CURVE) slot[fill[s->cell[i]]++] = (curve_slot){s->par[2 * i], i};
+  for (int32_t c = 0; c < nc && !st; ++c) {
+    const pm_cell *cu = pm_model_cell(m, PM_CURVE, c);
+    const int32_t a = start[c];
+    int32_t b = fill[c];
+    if (b == a || cu->degenerate) continue; /* an empty curve is refill's */
+    for (int32_t k = 0; k < cu->nbound && k < 2; ++k) {
+      const int32_t v = vpart[cu->bound[k].cell];
+      if (v >= 0) slot[b++] = (curve_slot){k == 0 ? cu->lo[0] : cu->hi[0], v};
+    }
+    qsort(slot + a, (size_t)(b - a), sizeof *slot, by_param);
+    for (int32_t k = a; k + 1 < b && !st; ++k) {
+      const int32_t p = slot[k].i, q = slot[k + 1].i;
+      const double sg = fmax(s->sigma[p], s->sigma[q]);
+      if (!(pm_v3_dist(&s->xyz[3 * p], &s->xyz[3 * q]) > GAP_FILL * sg)) continue;
+      const int32_t parent = s->dim[p] == PM_CURVE ? p : q;
+      double t = 0.5 * (slot[k].t + slot[k + 1].t);
+      int32_t child = -1;
+      if ((st = psys_add_child(s, parent, &t, &child, err))) break;
+      s->grace[child] = s->iter + 1 + s->p.delete_grace;
+      ++*added;
+    }
+  }
+out:
+  free(start), free(fill), free(vpart), free(slot);
+  return st;
+}
+
 /* E_ideal of eq. 6 for particle i; on a curve the one-ring of the ideal lattice has ring_curve
  * particles (see the file comment). */
 static double ideal_energy_of(const psys_sys *s, int32_t i) {
@@ -290,6 +365,7 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
   {
     int32_t added = 0;
     if ((st = refill(s, &added, err))) goto out;
+    if ((st = fill_curve_gaps(s, &added, err))) goto out;
     *splits += added;
   }
   s->splits_total += *splits;

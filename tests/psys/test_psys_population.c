@@ -68,6 +68,63 @@ static void crowded_patch_deletes(void **state) {
   pm_model_destroy(m);
 }
 
+/* Gaps along a curve (phases 1-2): a chain of particles in the middle of one side of the square,
+ * the side's vertices far from it. Each population pass puts a particle in the middle of every
+ * stretch longer than 1.2 sigma between consecutive particles (vertices included), so the gaps
+ * halve pass after pass instead of waiting for the chain's ends to split outward one particle
+ * at a time; an almost annealed bias (a = 0.005) leaves eq. 4 out of it. */
+static void curve_gaps_are_halved(void **state) {
+  (void)state;
+  pm_model *m = psys_test_square(2);
+  psys_sys *s = psys_test_system(m, NULL, 1);
+  pm_error e = {0};
+  const double sigma = 0.1;
+  for (int32_t v = 0; v < m->count[PM_VERTEX]; ++v)
+    PM_ASSERT_OK(psys_add(s, PM_VERTEX, v, NULL, sigma, NULL, &e), e);
+  const pm_cell *c = pm_model_cell(m, PM_CURVE, 0);
+  const double lo = c->lo[0], hi = c->hi[0], len = 2;
+  for (int k = -2; k <= 2; ++k) {
+    double t = 0.5 * (lo + hi) + k * 0.06 * (hi - lo) / len;
+    PM_ASSERT_OK(psys_add(s, PM_CURVE, 0, &t, sigma, NULL, &e), e);
+  }
+  psys_test_energies(s);
+  int32_t sp, de;
+  const int32_t n0 = s->n;
+  PM_ASSERT_OK(psys_population_pass(s, 0.005, &sp, &de, &e), e);
+  assert_int_equal(de, 0);
+  /* the two stretches of 0.88 between the chain and the vertices: one particle each, at the
+   * middle (the three empty sides get theirs from the empty-cell rule) */
+  int32_t added = 0;
+  for (int32_t i = n0; i < s->n; ++i) {
+    if (s->dim[i] != PM_CURVE || s->cell[i] != 0) continue;
+    double from_mid = fabs(s->par[2 * i] - 0.5 * (lo + hi)) * len / (hi - lo);
+    PM_ASSERT_NEAR(from_mid, 0.12 + 0.44, 1e-9);
+    ++added;
+  }
+  assert_int_equal(added, 2);
+  /* log2(0.88 / 0.12) = 3 halvings: after three more passes no stretch of the side is longer
+   * than 1.2 sigma (the isolated children, E_i = 0, also split by eq. 4 meanwhile) */
+  for (int pass = 0; pass < 3; ++pass) {
+    psys_test_energies(s);
+    PM_ASSERT_OK(psys_population_pass(s, 0.005, &sp, &de, &e), e);
+  }
+  double t[64];
+  int nt = 0;
+  t[nt++] = 0, t[nt++] = len;
+  for (int32_t i = 0; i < s->n && nt < 64; ++i)
+    if (s->dim[i] == PM_CURVE && s->cell[i] == 0) t[nt++] = (s->par[2 * i] - lo) * len / (hi - lo);
+  for (int i = 1; i < nt; ++i)
+    for (int j = i; j > 0 && t[j] < t[j - 1]; --j) {
+      double x = t[j];
+      t[j] = t[j - 1], t[j - 1] = x;
+    }
+  double widest = 0;
+  for (int i = 0; i + 1 < nt; ++i) widest = fmax(widest, t[i + 1] - t[i]);
+  assert_true(widest <= 1.2 * sigma);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+}
+
 /* The annealing weight a: E* = E (1 + a eps); split below 0.35 a E_ideal, delete above
  * 1.75 E_ideal / a. As a falls both stop. */
 static void annealing_stops_splits_and_deletes(void **state) {
@@ -124,6 +181,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(sparse_patch_splits),
       cmocka_unit_test(crowded_patch_deletes),
+      cmocka_unit_test(curve_gaps_are_halved),
       cmocka_unit_test(annealing_stops_splits_and_deletes),
       cmocka_unit_test(bias_draws_follow_the_seed),
   };
