@@ -215,35 +215,22 @@ static int32_t repair_flat_tets(pm_mesh *mesh, const int32_t *rtet, int32_t rnte
   return removed;
 }
 
-/* The tets that leave the volume step must tile their volumes: no face in more than two tets, and
- * two tets on a face lie on its opposite sides. TetGen's output does; the flips and repairs after
- * it are meant to keep that, and this is the proof before the tets become the mesh's -- a failure
- * is an error naming the place, never an invalid mesh handed on as valid. */
-static pm_status check_tets_tile(const pm_model *m, const double *xyz, int32_t npts,
-                                 const int32_t *tet,
-                                 const int32_t *tet_tag, const uint8_t *keep, int32_t ntet,
+/* The tets that leave the volume step must tile their volumes (pm_tet_find_overlap). TetGen's
+ * output does; the flips and repairs after it are meant to keep that, and this is the proof
+ * before the tets become the mesh's -- a failure is an error naming the place, never an invalid
+ * mesh handed on as valid. */
+static pm_status check_tets_tile(const pm_model *m, const pm_tet_result *res, const uint8_t *keep,
                                  pm_error *err) {
-  int32_t *kept = malloc(sizeof(int32_t) * 4 * ((size_t)ntet + 1));
-  if (!kept) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  int32_t *tag = malloc(sizeof(int32_t) * ((size_t)ntet + 1));
-  if (!tag) return free(kept), pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  int32_t n = 0;
-  for (int32_t t = 0; t < ntet; ++t)
-    if (keep[t]) tag[n] = tet_tag[t], memcpy(&kept[4 * n++], &tet[4 * t], 4 * sizeof(int32_t));
-  pm_faces fc = {0};
-  pm_status s = pm_faces_build(npts, kept, n, &fc, err);
-  for (int64_t f = 0; f < fc.nface && !s; ++f) {
-    int64_t k0 = fc.off[f], nt = fc.off[f + 1] - k0;
-    if (nt <= 1 || (nt == 2 && fc.side[k0] != fc.side[k0 + 1])) continue;
-    const double *a = &xyz[3 * fc.abc[3 * f]];
-    s = pm_error_setf(err, PM_ERR_BACKEND,
-                      "the volume mesh of volume %d overlaps itself near (%.6g, %.6g, %.6g) (%d "
-                      "tets on one face): no valid tetrahedralization",
-                      m->cells[PM_VOLUME][tag[fc.tet[k0]]].tag, a[0], a[1], a[2], (int)nt);
-  }
-  pm_faces_free(&fc);
-  free(kept), free(tag);
-  return s;
+  int found = 0;
+  int32_t t = -1, node = -1, count = 0;
+  pm_status s = pm_tet_find_overlap(res->npts, res->tet, keep, res->ntet, &found, &t, &node,
+                                    &count, err);
+  if (s || !found) return s;
+  const double *a = &res->xyz[3 * node];
+  return pm_error_setf(err, PM_ERR_BACKEND,
+                       "the volume mesh of volume %d overlaps itself near (%.6g, %.6g, %.6g) (%d "
+                       "tets on one face): no valid tetrahedralization",
+                       m->cells[PM_VOLUME][res->tet_tag[t]].tag, a[0], a[1], a[2], (int)count);
 }
 
 /* Tetrahedralize one group of volumes (those with ingroup[v] set): volumes joined by shared or
@@ -479,7 +466,7 @@ static pm_status connect_volume_group(const pm_model *m, pm_mesh *mesh, const fa
     if (removed < 0) s = (pm_status)-removed;
     else rep->flat_tets_repaired += removed;
   }
-  if (!s) s = check_tets_tile(m, res.xyz, res.npts, res.tet, res.tet_tag, keep, res.ntet, err);
+  if (!s) s = check_tets_tile(m, &res, keep, err);
   for (int32_t t = 0; t < res.ntet && !s; ++t) {
     if (!keep[t]) continue;
     s = pm_mesh_add_tet(mesh, back[res.tet[4 * t]], back[res.tet[4 * t + 1]], back[res.tet[4 * t + 2]],

@@ -1,4 +1,4 @@
-/* Edge removal (n-to-m flips) to clear flat tets (see tet_flip.h). */
+/* Edge removal (n-to-m flips) to clear flat tets, and the check that tets tile (see tet_flip.h). */
 #include "common/tet_flip.h"
 
 #include <math.h>
@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "common/hash.h"
+#include "common/mesh_topo.h"
 #include "common/predicates.h"
 #include "common/vec3.h"
 
@@ -308,5 +309,30 @@ done:
   *ntet_io = ntet;
   *flips_out = flips;
   free(dead), free(faces.key), free(edges.key), free(inc.off), free(inc.tet);
+  return s;
+}
+
+pm_status pm_tet_find_overlap(int32_t npts, const int32_t *tet, const uint8_t *keep, int32_t ntet,
+                              int *found, int32_t *tet_at, int32_t *node_at, int32_t *count,
+                              pm_error *err) {
+  *found = 0;
+  int32_t *kept = malloc(sizeof(int32_t) * 4 * ((size_t)ntet + 1));
+  int32_t *orig = malloc(sizeof(int32_t) * ((size_t)ntet + 1)); /* kept index -> tet */
+  if (!kept || !orig) {
+    free(kept), free(orig);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  int32_t n = 0;
+  for (int32_t t = 0; t < ntet; ++t)
+    if (!keep || keep[t]) orig[n] = t, memcpy(&kept[4 * n++], &tet[4 * t], 4 * sizeof(int32_t));
+  pm_faces fc = {0};
+  pm_status s = pm_faces_build(npts, kept, n, &fc, err);
+  for (int64_t f = 0; f < fc.nface && !s && !*found; ++f) {
+    int64_t k0 = fc.off[f], nt = fc.off[f + 1] - k0;
+    if (nt <= 1 || (nt == 2 && fc.side[k0] != fc.side[k0 + 1])) continue;
+    *found = 1, *tet_at = orig[fc.tet[k0]], *node_at = fc.abc[3 * f], *count = (int32_t)nt;
+  }
+  pm_faces_free(&fc);
+  free(kept), free(orig);
   return s;
 }

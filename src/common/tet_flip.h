@@ -34,4 +34,13 @@ typedef struct pm_tet_flip_input {
 pm_status pm_tet_remove_flat(const pm_tet_flip_input *in, int32_t **tet, int32_t **tag,
                              int32_t *ntet, int32_t *remaining, int32_t *flips, pm_error *err);
 
+/* Whether tets tile their space: no face shared by more than two tets, never two tets on one side
+ * of a face (tets positively oriented). Only tets with keep[t] set count (keep NULL: all). When
+ * they do not tile, writes a tet on an offending face to *tet_at, a corner of that face to
+ * *node_at and the number of tets on the face to *count, and sets *found = 1; otherwise
+ * *found = 0. PM_ERR_NOMEM on failure. */
+pm_status pm_tet_find_overlap(int32_t npts, const int32_t *tet, const uint8_t *keep, int32_t ntet,
+                              int *found, int32_t *tet_at, int32_t *node_at, int32_t *count,
+                              pm_error *err);
+
 #endif /* PM_TET_FLIP_H */

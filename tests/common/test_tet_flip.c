@@ -99,10 +99,37 @@ static void reflex_ring_never_folds(void **state) {
   assert_int_equal(r.duplicates, 0);
 }
 
+/* The tiling check: two tets glued on a face tile; the same tet twice, or a third tet on the face,
+ * does not, and the check names the face. */
+static void overlap_is_found(void **state) {
+  (void)state;
+  const double xyz[3 * 5] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1};
+  /* (0 1 2 3) above the face 0 1 2, (0 2 1 4) below it: both positive */
+  int32_t tet[4 * 3] = {0, 1, 2, 3, 0, 2, 1, 4, 0, 1, 2, 3};
+  for (int k = 0; k < 2; ++k)
+    assert_true(pm_orient3d(&xyz[3 * tet[4 * k]], &xyz[3 * tet[4 * k + 1]],
+                            &xyz[3 * tet[4 * k + 2]], &xyz[3 * tet[4 * k + 3]]) > 0);
+  int found = -1;
+  int32_t t = -1, node = -1, count = 0;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_tet_find_overlap(5, tet, NULL, 2, &found, &t, &node, &count, &e), e);
+  assert_int_equal(found, 0);
+  /* the third tet repeats the first: every face of it is in two tets on one side */
+  PM_ASSERT_OK(pm_tet_find_overlap(5, tet, NULL, 3, &found, &t, &node, &count, &e), e);
+  assert_int_equal(found, 1);
+  assert_true(t == 0 || t == 2);
+  assert_true(count >= 2);
+  /* not kept, it does not count */
+  const uint8_t keep[3] = {1, 1, 0};
+  PM_ASSERT_OK(pm_tet_find_overlap(5, tet, keep, 3, &found, &t, &node, &count, &e), e);
+  assert_int_equal(found, 0);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(convex_ring_flat_tet_removed),
       cmocka_unit_test(reflex_ring_never_folds),
+      cmocka_unit_test(overlap_is_found),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
