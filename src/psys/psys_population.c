@@ -233,16 +233,6 @@ out:
 /* Gaps along curves (see the file comment): in phases 1-2, two consecutive particles of a curve
  * (its end vertices included, in parameter order) farther apart than GAP_FILL times the larger of
  * their sigma get a particle at the middle of their parameter interval. */
-typedef struct curve_slot {
-  double t;
-  int32_t i;
-} curve_slot;
-
-static int by_param(const void *a, const void *b) {
-  const curve_slot *x = a, *y = b;
-  return x->t < y->t ? -1 : x->t > y->t ? 1 : (x->i > y->i) - (x->i < y->i);
-}
-
 #define GAP_FILL 1.2 /* a gap is filled when consecutive particles are this many sigma apart */
 
 static pm_status fill_curve_gaps(psys_sys *s, int32_t *added, pm_error *err) {
@@ -253,7 +243,7 @@ static pm_status fill_curve_gaps(psys_sys *s, int32_t *added, pm_error *err) {
   int32_t *start = calloc((size_t)nc + 1, sizeof(int32_t));
   int32_t *fill = calloc((size_t)nc + 1, sizeof(int32_t));
   int32_t *vpart = malloc(sizeof(int32_t) * ((size_t)nv + 1)); /* each vertex's particle */
-  curve_slot *slot = malloc(sizeof(curve_slot) * ((size_t)n0 + 2 * (size_t)nc + 1));
+  psys_tkey *slot = malloc(sizeof(psys_tkey) * ((size_t)n0 + 2 * (size_t)nc + 1));
   pm_status st = PM_OK;
   if (!start || !fill || !vpart || !slot) {
     st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
@@ -266,7 +256,7 @@ static pm_status fill_curve_gaps(psys_sys *s, int32_t *added, pm_error *err) {
   }
   for (int32_t c = 0, at = 0; c < nc; ++c) start[c] = at, at += fill[c] + 2, fill[c] = start[c];
   for (int32_t i = 0; i < n0; ++i)
-    if (s->dim[i] == PM_CURVE) slot[fill[s->cell[i]]++] = (curve_slot){s->par[2 * i], i};
+    if (s->dim[i] == PM_CURVE) slot[fill[s->cell[i]]++] = (psys_tkey){s->par[2 * i], i};
   for (int32_t c = 0; c < nc && !st; ++c) {
     const pm_cell *cu = pm_model_cell(m, PM_CURVE, c);
     const int32_t a = start[c];
@@ -274,11 +264,11 @@ static pm_status fill_curve_gaps(psys_sys *s, int32_t *added, pm_error *err) {
     if (b == a || cu->degenerate) continue; /* an empty curve is refill's */
     for (int32_t k = 0; k < cu->nbound && k < 2; ++k) {
       const int32_t v = vpart[cu->bound[k].cell];
-      if (v >= 0) slot[b++] = (curve_slot){k == 0 ? cu->lo[0] : cu->hi[0], v};
+      if (v >= 0) slot[b++] = (psys_tkey){k == 0 ? cu->lo[0] : cu->hi[0], v};
     }
-    qsort(slot + a, (size_t)(b - a), sizeof *slot, by_param);
+    qsort(slot + a, (size_t)(b - a), sizeof *slot, psys_cmp_tkey);
     for (int32_t k = a; k + 1 < b && !st; ++k) {
-      const int32_t p = slot[k].i, q = slot[k + 1].i;
+      const int32_t p = slot[k].id, q = slot[k + 1].id;
       const double sg = fmax(s->sigma[p], s->sigma[q]);
       if (!(pm_v3_dist(&s->xyz[3 * p], &s->xyz[3 * q]) > GAP_FILL * sg)) continue;
       const int32_t parent = s->dim[p] == PM_CURVE ? p : q;

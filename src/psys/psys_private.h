@@ -169,6 +169,13 @@ double psys_random(const psys_sys *s, int32_t i, int purpose);
 
 /* ---- the sizing field (psys_sizing.c) --------------------------------------------------- */
 
+/* A particle and its curve parameter, and their order: by t, then by index (psys_sizing.c). */
+typedef struct psys_tkey {
+  double t;
+  int32_t id;
+} psys_tkey;
+int psys_cmp_tkey(const void *a, const void *b);
+
 /* The curvature bound at a point of a cell: clamp(1 / (s_kappa kappa), sigma_min, sigma_max)
  * with kappa the largest principal curvature on a face, the larger of the curve's curvature and
  * its faces' largest principal curvatures on a curve, the largest of those over its curves at a

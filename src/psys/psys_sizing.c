@@ -306,13 +306,8 @@ double psys_boundary_distance(const psys_sys *s, int32_t i, const double x[3], c
   return best;
 }
 
-typedef struct tkey {
-  double t;
-  int32_t id;
-} tkey;
-
-static int cmp_tkey(const void *a, const void *b) {
-  const tkey *x = a, *y = b;
+int psys_cmp_tkey(const void *a, const void *b) {
+  const psys_tkey *x = a, *y = b;
   if (x->t != y->t) return x->t < y->t ? -1 : 1;
   return (x->id > y->id) - (x->id < y->id);
 }
@@ -325,7 +320,7 @@ pm_status psys_build_chains(psys_sys *s, pm_error *err) {
   s->chain = malloc(sizeof(int32_t) * ((size_t)s->n + 2 * (size_t)nc + 1));
   s->chain_pos = malloc(sizeof(int32_t) * ((size_t)s->n + 1));
   s->vpart = malloc(sizeof(int32_t) * ((size_t)nv + 1));
-  tkey *tk = malloc(sizeof(tkey) * ((size_t)s->n + 1));
+  psys_tkey *tk = malloc(sizeof(psys_tkey) * ((size_t)s->n + 1));
   int32_t *cnt = calloc((size_t)nc + 1, sizeof(int32_t));
   if (!s->chain_off || !s->chain || !s->chain_pos || !s->vpart || !tk || !cnt) {
     free(tk), free(cnt);
@@ -358,14 +353,14 @@ pm_status psys_build_chains(psys_sys *s, pm_error *err) {
     for (int32_t i = 0; i < s->n; ++i)
       if (s->dim[i] == PM_CURVE) {
         int32_t c = s->cell[i];
-        tk[start[c] + fill[c]++] = (tkey){s->par[2 * i], i};
+        tk[start[c] + fill[c]++] = (psys_tkey){s->par[2 * i], i};
       }
     free(fill);
   }
   for (int32_t c = 0; c < nc; ++c) {
     const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
     s->chain_off[c] = pos;
-    qsort(tk + start[c], (size_t)cnt[c], sizeof(tkey), cmp_tkey);
+    qsort(tk + start[c], (size_t)cnt[c], sizeof(psys_tkey), psys_cmp_tkey);
     int32_t va = cv->nbound >= 1 ? s->vpart[cv->bound[0].cell] : -1;
     int32_t vb = cv->nbound >= 2 ? s->vpart[cv->bound[1].cell] : -1;
     if (va >= 0) s->chain[pos++] = va;
