@@ -310,8 +310,13 @@ int main(int argc, char **argv) {
     else if (!strcmp(argv[i], "models") || !strcmp(argv[i], "throughput") ||
              !strcmp(argv[i], "all"))
       mode = argv[i];
-    else
+    else if (argv[i][0] != '-')
       dir = argv[i];
+    else {
+      fprintf(stderr, "usage: bench_psys [models|throughput|all] [--threads N] [--volume] "
+                      "[--peers] [--only NAME] [CAD_DIR]\n");
+      return 2;
+    }
   }
   if (threads < 1) threads = 1;
   machine_info(argc, argv, threads);
