@@ -72,6 +72,8 @@ static const pm_param_desc desc[] = {
     {"move_tol", D, F(move_tol), 2e-3, 0, 1, PM_RANGE_LO_OPEN, "sigma",
      "a phase ends when population control is off and the mean move is below this",
      "001 sec. 4.1 ('change ... below some threshold'; value ours)", NULL},
+    {"hold_sigma", I, F(hold_sigma), 0, 0, 1, PM_RANGE_CLOSED, "",
+     "1: sigma is no longer updated once population control is off", "ours", NULL},
     {"max_iter", I, F(max_iter), 1500, 1, 10000000, PM_RANGE_CLOSED, "iterations",
      "iteration cap of each phase", "ours", NULL},
     {"edge_per_sigma", D, F(edge_per_sigma), 0.66, 0.05, 2, PM_RANGE_CLOSED, "",
