@@ -238,49 +238,30 @@ out:
 static pm_status fill_curve_gaps(psys_sys *s, int32_t *added, pm_error *err) {
   if (s->phase >= 3) return PM_OK;
   const pm_model *m = s->model;
-  const int32_t nc = m->count[PM_CURVE], nv = m->count[PM_VERTEX], n0 = s->n;
-  /* curve c's slots: slot[start[c] .. fill[c]), room for its particles and two end vertices */
-  int32_t *start = calloc((size_t)nc + 1, sizeof(int32_t));
-  int32_t *fill = calloc((size_t)nc + 1, sizeof(int32_t));
-  int32_t *vpart = malloc(sizeof(int32_t) * ((size_t)nv + 1)); /* each vertex's particle */
-  psys_tkey *slot = malloc(sizeof(psys_tkey) * ((size_t)n0 + 2 * (size_t)nc + 1));
-  pm_status st = PM_OK;
-  if (!start || !fill || !vpart || !slot) {
-    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    goto out;
-  }
-  for (int32_t v = 0; v < nv; ++v) vpart[v] = -1;
-  for (int32_t i = 0; i < n0; ++i) {
-    if (s->dim[i] == PM_VERTEX) vpart[s->cell[i]] = i;
-    if (s->dim[i] == PM_CURVE) fill[s->cell[i]]++;
-  }
-  for (int32_t c = 0, at = 0; c < nc; ++c) start[c] = at, at += fill[c] + 2, fill[c] = start[c];
-  for (int32_t i = 0; i < n0; ++i)
-    if (s->dim[i] == PM_CURVE) slot[fill[s->cell[i]]++] = (psys_tkey){s->par[2 * i], i};
-  for (int32_t c = 0; c < nc && !st; ++c) {
+  int32_t *off = NULL, *chain = NULL, *vpart = NULL;
+  pm_status st = psys_curve_chains(s, &off, &chain, &vpart, err);
+  if (st) return st;
+  for (int32_t c = 0; c < m->count[PM_CURVE] && !st; ++c) {
     const pm_cell *cu = pm_model_cell(m, PM_CURVE, c);
-    const int32_t a = start[c];
-    int32_t b = fill[c];
-    if (b == a || cu->degenerate) continue; /* an empty curve is refill's */
-    for (int32_t k = 0; k < cu->nbound && k < 2; ++k) {
-      const int32_t v = vpart[cu->bound[k].cell];
-      if (v >= 0) slot[b++] = (psys_tkey){k == 0 ? cu->lo[0] : cu->hi[0], v};
-    }
-    qsort(slot + a, (size_t)(b - a), sizeof *slot, psys_cmp_tkey);
+    const int32_t a = off[c], b = off[c + 1];
+    int32_t own = 0;
+    for (int32_t k = a; k < b; ++k) own += s->dim[chain[k]] == PM_CURVE;
+    if (own == 0 || cu->degenerate) continue; /* an empty curve is refill's */
     for (int32_t k = a; k + 1 < b && !st; ++k) {
-      const int32_t p = slot[k].id, q = slot[k + 1].id;
+      const int32_t p = chain[k], q = chain[k + 1];
       const double sg = fmax(s->sigma[p], s->sigma[q]);
       if (!(pm_v3_dist(&s->xyz[3 * p], &s->xyz[3 * q]) > GAP_FILL * sg)) continue;
-      const int32_t parent = s->dim[p] == PM_CURVE ? p : q;
-      double t = 0.5 * (slot[k].t + slot[k + 1].t);
+      /* a vertex's parameter is its end of the curve: the chain's first or last place */
+      const double tp = s->dim[p] == PM_CURVE ? s->par[2 * p] : cu->lo[0];
+      const double tq = s->dim[q] == PM_CURVE ? s->par[2 * q] : cu->hi[0];
+      double t = 0.5 * (tp + tq);
       int32_t child = -1;
-      if ((st = psys_add_child(s, parent, &t, &child, err))) break;
+      if ((st = psys_add_child(s, s->dim[p] == PM_CURVE ? p : q, &t, &child, err))) break;
       s->grace[child] = s->iter + 1 + s->p.delete_grace;
       ++*added;
     }
   }
-out:
-  free(start), free(fill), free(vpart), free(slot);
+  free(off), free(chain), free(vpart);
   return st;
 }
 

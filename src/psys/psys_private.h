@@ -169,13 +169,6 @@ double psys_random(const psys_sys *s, int32_t i, int purpose);
 
 /* ---- the sizing field (psys_sizing.c) --------------------------------------------------- */
 
-/* A particle and its curve parameter, and their order: by t, then by index (psys_sizing.c). */
-typedef struct psys_tkey {
-  double t;
-  int32_t id;
-} psys_tkey;
-int psys_cmp_tkey(const void *a, const void *b);
-
 /* The curvature bound at a point of a cell: clamp(1 / (s_kappa kappa), sigma_min, sigma_max)
  * with kappa the largest principal curvature on a face, the larger of the curve's curvature and
  * its faces' largest principal curvatures on a curve, the largest of those over its curves at a
@@ -196,6 +189,13 @@ double psys_boundary_distance(const psys_sys *s, int32_t i, const double x[3], c
 /* Face particles keep this fraction of their sigma from their face's boundary polylines
  * (psys_move.c, psys_population.c). */
 #define PSYS_BOUNDARY_CLEARANCE 0.15
+
+/* The curves' chains of the current particles: curve c's particles by increasing t (ties by
+ * index) between the particles of its start and end vertices (where they have one), in
+ * chain[off[c] .. off[c+1]); vpart[v] is vertex v's particle or -1. Arrays malloc'd, the
+ * caller's to free. */
+pm_status psys_curve_chains(const psys_sys *s, int32_t **off, int32_t **chain, int32_t **vpart,
+                            pm_error *err);
 
 /* Phase 3: build the curve chains (above) from the frozen particles. */
 pm_status psys_build_chains(psys_sys *s, pm_error *err);

@@ -306,76 +306,77 @@ double psys_boundary_distance(const psys_sys *s, int32_t i, const double x[3], c
   return best;
 }
 
-int psys_cmp_tkey(const void *a, const void *b) {
-  const psys_tkey *x = a, *y = b;
+typedef struct tkey {
+  double t;
+  int32_t id;
+} tkey;
+
+static int cmp_tkey(const void *a, const void *b) {
+  const tkey *x = a, *y = b;
   if (x->t != y->t) return x->t < y->t ? -1 : 1;
   return (x->id > y->id) - (x->id < y->id);
 }
 
-pm_status psys_build_chains(psys_sys *s, pm_error *err) {
+pm_status psys_curve_chains(const psys_sys *s, int32_t **off_out, int32_t **chain_out,
+                            int32_t **vpart_out, pm_error *err) {
   const pm_model *m = s->model;
   const int32_t nc = m->count[PM_CURVE], nv = m->count[PM_VERTEX];
-  free(s->chain_off), free(s->chain), free(s->chain_pos), free(s->vpart);
-  s->chain_off = calloc((size_t)nc + 1, sizeof(int32_t));
-  s->chain = malloc(sizeof(int32_t) * ((size_t)s->n + 2 * (size_t)nc + 1));
-  s->chain_pos = malloc(sizeof(int32_t) * ((size_t)s->n + 1));
-  s->vpart = malloc(sizeof(int32_t) * ((size_t)nv + 1));
-  psys_tkey *tk = malloc(sizeof(psys_tkey) * ((size_t)s->n + 1));
+  int32_t *off = calloc((size_t)nc + 1, sizeof(int32_t));
+  int32_t *chain = malloc(sizeof(int32_t) * ((size_t)s->n + 2 * (size_t)nc + 1));
+  int32_t *vpart = malloc(sizeof(int32_t) * ((size_t)nv + 1));
   int32_t *cnt = calloc((size_t)nc + 1, sizeof(int32_t));
-  if (!s->chain_off || !s->chain || !s->chain_pos || !s->vpart || !tk || !cnt) {
-    free(tk), free(cnt);
+  int32_t *start = malloc(sizeof(int32_t) * ((size_t)nc + 1));
+  tkey *tk = malloc(sizeof(tkey) * ((size_t)s->n + 1));
+  if (!off || !chain || !vpart || !cnt || !start || !tk) {
+    free(off), free(chain), free(vpart), free(cnt), free(start), free(tk);
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
-  s->nfrozen = s->n;
-  for (int32_t v = 0; v < nv; ++v) s->vpart[v] = -1;
+  for (int32_t v = 0; v < nv; ++v) vpart[v] = -1;
   for (int32_t i = 0; i < s->n; ++i) {
-    s->chain_pos[i] = -1;
-    if (s->dim[i] == PM_VERTEX) s->vpart[s->cell[i]] = i;
+    if (s->dim[i] == PM_VERTEX) vpart[s->cell[i]] = i;
     if (s->dim[i] == PM_CURVE) cnt[s->cell[i]]++;
   }
-  /* chains: start vertex, curve particles by t, end vertex */
-  int32_t pos = 0;
-  int32_t *start = malloc(sizeof(int32_t) * ((size_t)nc + 1));
-  if (!start) {
-    free(tk), free(cnt);
-    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  }
-  for (int32_t c = 0; c < nc; ++c) start[c] = 0;
-  {
-    /* particles of each curve, gathered by a counting sort */
-    int32_t acc = 0;
-    for (int32_t c = 0; c < nc; ++c) start[c] = acc, acc += cnt[c];
-    int32_t *fill = calloc((size_t)nc + 1, sizeof(int32_t));
-    if (!fill) {
-      free(tk), free(cnt), free(start);
-      return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  /* the particles of each curve, gathered by a counting sort, then ordered by t */
+  for (int32_t c = 0, acc = 0; c < nc; ++c) start[c] = acc, acc += cnt[c], cnt[c] = 0;
+  for (int32_t i = 0; i < s->n; ++i)
+    if (s->dim[i] == PM_CURVE) {
+      int32_t c = s->cell[i];
+      tk[start[c] + cnt[c]++] = (tkey){s->par[2 * i], i};
     }
-    for (int32_t i = 0; i < s->n; ++i)
-      if (s->dim[i] == PM_CURVE) {
-        int32_t c = s->cell[i];
-        tk[start[c] + fill[c]++] = (psys_tkey){s->par[2 * i], i};
-      }
-    free(fill);
-  }
+  int32_t pos = 0;
   for (int32_t c = 0; c < nc; ++c) {
     const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
-    s->chain_off[c] = pos;
-    qsort(tk + start[c], (size_t)cnt[c], sizeof(psys_tkey), psys_cmp_tkey);
-    int32_t va = cv->nbound >= 1 ? s->vpart[cv->bound[0].cell] : -1;
-    int32_t vb = cv->nbound >= 2 ? s->vpart[cv->bound[1].cell] : -1;
-    if (va >= 0) s->chain[pos++] = va;
-    for (int32_t k = 0; k < cnt[c]; ++k) {
-      s->chain_pos[tk[start[c] + k].id] = pos;
-      s->chain[pos++] = tk[start[c] + k].id;
-    }
-    if (vb >= 0) s->chain[pos++] = vb;
+    off[c] = pos;
+    qsort(tk + start[c], (size_t)cnt[c], sizeof(tkey), cmp_tkey);
+    int32_t va = cv->nbound >= 1 ? vpart[cv->bound[0].cell] : -1;
+    int32_t vb = cv->nbound >= 2 ? vpart[cv->bound[1].cell] : -1;
+    if (va >= 0) chain[pos++] = va;
+    for (int32_t k = 0; k < cnt[c]; ++k) chain[pos++] = tk[start[c] + k].id;
+    if (vb >= 0) chain[pos++] = vb;
   }
-  s->chain_off[nc] = pos;
-  free(tk), free(cnt), free(start);
+  off[nc] = pos;
+  free(cnt), free(start), free(tk);
+  *off_out = off, *chain_out = chain, *vpart_out = vpart;
+  return PM_OK;
+}
+
+pm_status psys_build_chains(psys_sys *s, pm_error *err) {
+  const pm_model *m = s->model;
+  const int32_t nc = m->count[PM_CURVE];
+  free(s->chain_off), free(s->chain), free(s->chain_pos), free(s->vpart);
+  s->chain_off = s->chain = s->chain_pos = s->vpart = NULL;
+  pm_status st = psys_curve_chains(s, &s->chain_off, &s->chain, &s->vpart, err);
+  if (st) return st;
+  if (!(s->chain_pos = malloc(sizeof(int32_t) * ((size_t)s->n + 1))))
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  s->nfrozen = s->n;
+  for (int32_t i = 0; i < s->n; ++i) s->chain_pos[i] = -1;
+  for (int32_t k = 0; k < s->chain_off[nc]; ++k)
+    if (s->dim[s->chain[k]] == PM_CURVE) s->chain_pos[s->chain[k]] = k;
   /* the frozen particles alone, for the faces' gap searches */
   pm_grid_destroy(s->bgrid);
   s->bgrid = NULL;
-  pm_status st = pm_grid_create(s->size ? 1e-6 * m->diagonal : 1e-2 * s->sigma_min, &s->bgrid, err);
+  st = pm_grid_create(s->size ? 1e-6 * m->diagonal : 1e-2 * s->sigma_min, &s->bgrid, err);
   for (int32_t i = 0; i < s->n && !st; ++i)
     st = pm_grid_insert(s->bgrid, i, &s->xyz[3 * i], s->sigma[i], err);
   return st;
