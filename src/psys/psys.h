@@ -76,7 +76,7 @@ typedef struct psys_params {
   double move_tol;      /* a phase ends when population control is off and the mean move is
                            below this many sigma; 2e-3 */
   int max_iter;         /* iteration cap per phase; 1500 */
-  int hold_sigma;       /* 1: sigma is held once population control is off; 0 */
+  int hold_sigma;       /* 1: phase 3 holds sigma once population control is off; 1 */
   /* ---- output ---- */
   double edge_per_sigma; /* mean edge length over sigma of the final packing: the calibration
                             between a size field d (edge length) and sigma = d / edge_per_sigma;

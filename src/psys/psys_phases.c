@@ -26,16 +26,18 @@
  * (0.2%) of sigma, or at max_iter (1500) iterations. (A tighter move_tol buys little: on
  * synth_box_hole.brep, 5e-4 and 1e-4 took 4x and 8x the phase-3 iterations for a median
  * R / l_min of 0.648 and 0.643 against 0.650.)
- * With hold_sigma = 1 (off by default) sigma is no longer updated once population control is off.
- * The reason: on large thin-walled models the inferred field keeps creeping after the particle
- * count is fixed (box_sides.step, phase 3: mean sigma 0.6978 -> 0.7027 over 36 iterations at
- * 647685 particles), the particles follow it, and the mean move approaches move_tol only slowly.
- * On the small shared models it cuts the long phase-3 tails (synth_cone.brep 480 -> 199
- * iterations) and moves the median R / l_min by at most 0.007 either way, with node counts
- * within 1%. It is off by default because it also changes the field a model gets:
- * cylinder_head.stp has 43938 nodes with it against 56333 without (phase-3 iterations 181
- * against 238, median R / l_min 0.650 against 0.647).
- *
+ * Phase 3 holds sigma once population control is off (hold_sigma = 1, the default; 0 keeps
+ * updating it). The field was inferred while the particles moved, and the count followed it; with
+ * the count fixed, what is left is relaxing the packing in that field. Updated further, the field
+ * changes no count, but on large thin-walled models it keeps creeping and the particles follow it,
+ * so the mean move approaches move_tol only slowly: box_sides.step, mean sigma 0.6978 -> 0.7027
+ * over 36 iterations at 647685 particles, mean move 0.0031 after 244 phase-3 iterations;
+ * solid56.step, mean move 0.002035 after 693 phase-3 iterations and falling by 4e-7 per
+ * iteration. Holding it also skips the update, which costs about three quarters of a phase-3
+ * iteration there. On synth_cone.brep phase 3 takes 213 iterations instead of 480, with the same
+ * node count. Phases 1 and 2 are not held: the curve particles' field at their end is the field
+ * the faces grow from, and holding it at the annealing changes it (cylinder_head.stp: 43938 nodes
+ * against 56333 when every phase held sigma).
  * Trace columns (--trace): iteration (over all phases), phase, particles, energy (sum of E_i),
  * mean_move and max_move (world-space displacement of the movable particles), splits, deletes,
  * mean_sigma, anneal (the weight a, 0 once population control is off), mean_rel_move (mean
@@ -179,7 +181,8 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
   for (int64_t it = 0;; ++it) {
     psys_move_info mi;
     int32_t sp = 0, de = 0;
-    if ((pop_on || !s->p.hold_sigma) && (st = psys_sigma_update(s, err))) return st;
+    const int held = phase == 3 && !pop_on && s->p.hold_sigma;
+    if (!held && (st = psys_sigma_update(s, err))) return st;
     if ((st = psys_move_pass(s, &mi, err))) return st;
     const int32_t hungry = pop_on && a == 1 ? psys_hungry_count(s) : 0; /* fresh energies */
     if (pop_on && (st = psys_population_pass(s, a, &sp, &de, err))) return st;
