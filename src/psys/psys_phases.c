@@ -37,7 +37,11 @@
  * iteration there. On synth_cone.brep phase 3 takes 213 iterations instead of 480, with the same
  * node count. Phases 1 and 2 are not held: the curve particles' field at their end is the field
  * the faces grow from, and holding it at the annealing changes it (cylinder_head.stp: 43938 nodes
- * against 56333 when every phase held sigma).
+ * against 56333 when every phase held sigma). A particle added without a sigma (a face seeded
+ * again because the last population pass emptied it) starts at its curvature bound, sigma_max on
+ * a plane, so the update runs once more before the hold: on box_sides.step eight sliver faces
+ * were seeded again in that pass, held at sigma 23.7 among neighbours at 0.69, and the total
+ * energy jumped from 1.9e5 to 1.25e7 at the first held iteration.
  * Trace columns (--trace): iteration (over all phases), phase, particles, energy (sum of E_i),
  * mean_move and max_move (world-space displacement of the movable particles), splits, deletes,
  * mean_sigma, anneal (the weight a, 0 once population control is off), mean_rel_move (mean
@@ -181,7 +185,7 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
   for (int64_t it = 0;; ++it) {
     psys_move_info mi;
     int32_t sp = 0, de = 0;
-    const int held = phase == 3 && !pop_on && s->p.hold_sigma;
+    const int held = phase == 3 && !pop_on && s->p.hold_sigma && !s->unsized;
     if (!held && (st = psys_sigma_update(s, err))) return st;
     if ((st = psys_move_pass(s, &mi, err))) return st;
     const int32_t hungry = pop_on && a == 1 ? psys_hungry_count(s) : 0; /* fresh energies */

@@ -767,6 +767,7 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
     st = lipschitz_closure(s, key, ea, ebb, er, ne, err);
     free(ea), free(ebb), free(er);
     if (!st) st = commit(s, key, err);
+    if (!st) s->unsized = 0;
   }
 out:
   for (int t = 0; t < nthr; ++t) free(eb[t].a), free(eb[t].b), free(eb[t].r);

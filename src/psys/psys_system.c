@@ -321,6 +321,7 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
       if (st) return st;
     } else {
       sigma = s->sig_curv[i];
+      s->unsized = 1;
     }
   }
   s->sigma[i] = sigma;

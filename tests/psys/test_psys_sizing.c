@@ -83,6 +83,32 @@ static void sigma_rise_is_capped(void **state) {
   pm_model_destroy(m);
 }
 
+/* A particle added without a sigma starts at its curvature bound (sigma_max on a plane) and the
+ * system counts as unsized until an update has run; phase 3 holds sigma only after that
+ * (psys_phases.c), so a face seeded again in the last population pass is not held at sigma_max
+ * among neighbours 14 times smaller. */
+static void a_new_seed_is_sized_before_sigma_is_held(void **state) {
+  (void)state;
+  pm_model *m = psys_test_square(1);
+  psys_sys *s = psys_test_system(m, NULL, 1);
+  pm_error e = {0};
+  const double sigma = 0.01;
+  psys_test_hex(s, PSYS_BETA * sigma, sigma, 0.3, 0.3, 0.7, 0.7);
+  assert_int_equal(s->unsized, 0);
+  double uv[2] = {0.5, 0.5 + 0.25 * PSYS_BETA * sigma};
+  int32_t i;
+  PM_ASSERT_OK(psys_add(s, PM_FACE, 0, uv, 0, &i, &e), e);
+  assert_int_equal(s->unsized, 1);
+  PM_ASSERT_NEAR(s->sigma[i], s->sigma_max, 1e-15);
+  PM_ASSERT_OK(psys_sigma_update(s, &e), e);
+  assert_int_equal(s->unsized, 0);
+  /* the Lipschitz closure from its neighbours, which grew by at most sigma_grow = 1.5:
+   * sigma_i <= 1.5 sigma + L r, far below sigma_max = 14 sigma */
+  assert_true(s->sigma[i] <= (1.5 + 0.3 * PSYS_BETA) * sigma * (1 + 1e-12));
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+}
+
 /* Phases 1-3 of the inferred field on case:sphere (radius 1); returns the system. */
 static psys_sys *sphere(pm_model **mp, double kappa_min, double kappa_max, double s_kappa) {
   pm_error e = {0};
@@ -145,6 +171,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(lipschitz_bound_holds_after_update),
       cmocka_unit_test(sigma_rise_is_capped),
+      cmocka_unit_test(a_new_seed_is_sized_before_sigma_is_held),
       cmocka_unit_test(sphere_sigma_is_radius_over_s_kappa),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
