@@ -35,13 +35,13 @@
  * solid56.step, mean move 0.002035 after 693 phase-3 iterations and falling by 4e-7 per
  * iteration. Holding it also skips the update, which costs about three quarters of a phase-3
  * iteration there. On synth_cone.brep phase 3 takes 213 iterations instead of 480, with the same
- * node count. Phases 1 and 2 are not held: the curve particles' field at their end is the field
- * the faces grow from, and holding it at the annealing changes it (cylinder_head.stp: 43938 nodes
- * against 56333 when every phase held sigma). A particle added without a sigma (a face seeded
- * again because the last population pass emptied it) starts at its curvature bound, sigma_max on
- * a plane, so the update runs once more before the hold: on box_sides.step eight sliver faces
- * were seeded again in that pass, held at sigma 23.7 among neighbours at 0.69, and the total
- * energy jumped from 1.9e5 to 1.25e7 at the first held iteration.
+ * node count. Phases 1 and 2 are not held: they move curve particles only, so their tails are
+ * cheap, and the curve field at their end is the one the faces grow from. A particle added
+ * without a sigma (a face seeded again because the last population pass emptied it) starts at
+ * its curvature bound, sigma_max on a plane, so the update runs once more before the hold: on
+ * box_sides.step eight sliver faces were seeded again in that pass, held at sigma 23.7 among
+ * neighbours at 0.69, and the total energy jumped from 1.9e5 to 1.25e7 at the first held
+ * iteration.
  * Trace columns (--trace): iteration (over all phases), phase, particles, energy (sum of E_i),
  * mean_move and max_move (world-space displacement of the movable particles), splits, deletes,
  * mean_sigma, anneal (the weight a, 0 once population control is off), mean_rel_move (mean
