@@ -87,7 +87,7 @@ typedef struct psys_sys {
   uint8_t *fixed;          /* 1: does not move (vertices; curves and vertices in phase 3) */
   uint8_t *frozen;         /* 1: sigma is not updated (curves and vertices in phase 3) */
   uint64_t next_serial;
-  int unsized; /* a particle was added with its curvature bound for sigma, not yet updated */
+  int unsized;             /* 1: a particle took its curvature bound for sigma, not updated yet */
 
   pm_grid *grid;           /* every particle, radius sigma, id = index */
   pm_grid *bgrid;          /* phase 3: the frozen particles only (psys_sizing.c) */
