@@ -44,7 +44,9 @@ static const char *const usage_text =
     "           (for tets the angles are dihedral angles)\n"
     "  --help   this text\n"
     "Measures: radius ratio 2r/R (triangles, 1 = equilateral) and 3r/R (tets); aspect ratio\n"
-    "R/l_min; min/max angles; eps_t and eps_g of Shimada & Gossard (1995, eq. 8-9).\n";
+    "R/l_min; min/max angles; eps_t and eps_g of Shimada & Gossard (1995, eq. 8-9); R/l_min\n"
+    "of the triangles by site: boundary (a corner on a curve or vertex), irregular (an interior\n"
+    "corner of degree other than 6), regular (three interior corners of degree 6).\n";
 
 static void row(FILE *f, const char *name, const pm_summary *s) {
   fprintf(f, "  %-18s %11.6g %11.6g %11.6g %11.6g %11.6g %11.6g\n", name, s->min, s->p25,
@@ -102,6 +104,16 @@ static void table(FILE *f, const char *path, const char *geometry, const pm_mesh
               (long long)b[4], (long long)b[5]);
       fprintf(f, "  max angle > 90 %lld  > 120 %lld  > 150 %lld\n", (long long)o[0],
               (long long)o[1], (long long)o[2]);
+      const pm_summary *a = q->tri_site_aspect;
+      fprintf(f, "  triangles by site: boundary %lld, irregular %lld, regular %lld\n",
+              (long long)a[PM_TRI_BOUNDARY].n, (long long)a[PM_TRI_IRREGULAR].n,
+              (long long)a[PM_TRI_REGULAR].n);
+      for (int w = 0; w < PM_TRI_SITES; ++w) {
+        if (a[w].n == 0) continue;
+        char name[40];
+        snprintf(name, sizeof name, "R/l_min %s", pm_tri_site_name((pm_tri_site)w));
+        row(f, name, &a[w]);
+      }
     }
   }
   if (d) {

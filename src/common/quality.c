@@ -488,6 +488,49 @@ static pm_status size_ratios(const pm_mesh *m, const pm_edges *e, pm_sizing_fn f
   return s;
 }
 
+const char *pm_tri_site_name(pm_tri_site site) {
+  static const char *const name[PM_TRI_SITES] = {"boundary", "irregular", "regular"};
+  return site >= 0 && site < PM_TRI_SITES ? name[site] : "?";
+}
+
+/* R / l_min of the triangles of each site (quality.h), from the degrees and interior flags of
+ * eps_t. */
+static pm_status site_summaries(const pm_mesh *m, const pm_kind_quality *k, const int32_t *deg,
+                                const uint8_t *interior, pm_summary out[PM_TRI_SITES],
+                                pm_error *err) {
+  const int32_t n = m->ntri;
+  double *v = malloc((size_t)(n ? n : 1) * sizeof *v);
+  uint8_t *site = malloc((size_t)(n ? n : 1));
+  pm_status s = PM_OK;
+  if (!v || !site) {
+    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory (triangle sites)");
+    goto out;
+  }
+  int32_t count[PM_TRI_SITES] = {0}, at[PM_TRI_SITES];
+  for (int32_t t = 0; t < n; ++t) {
+    const int32_t *c = m->tri + 3 * (size_t)t;
+    pm_tri_site w = PM_TRI_REGULAR;
+    for (int j = 0; j < 3; ++j)
+      if (!interior[c[j]])
+        w = PM_TRI_BOUNDARY;
+      else if (deg[c[j]] != 6 && w == PM_TRI_REGULAR)
+        w = PM_TRI_IRREGULAR;
+    site[t] = (uint8_t)w;
+    count[w]++;
+  }
+  at[0] = 0;
+  for (int w = 1; w < PM_TRI_SITES; ++w) at[w] = at[w - 1] + count[w - 1];
+  for (int32_t t = 0; t < n; ++t) v[at[site[t]]++] = k->aspect_ratio[t];
+  for (int w = 0; w < PM_TRI_SITES && !s; ++w) {
+    double *first = v + (at[w] - count[w]);
+    s = pm_summary_compute(first, (size_t)count[w], &out[w], err);
+  }
+out:
+  free(v);
+  free(site);
+  return s;
+}
+
 static pm_status triangles(const pm_mesh *m, pm_sizing_fn fn, void *user, pm_quality *q,
                            int32_t *deg, uint8_t *interior, pm_error *err) {
   pm_kind_quality *k = &q->tri;
@@ -546,7 +589,8 @@ static pm_status triangles(const pm_mesh *m, pm_sizing_fn fn, void *user, pm_qua
   for (int32_t v = 0; v < m->nnode; ++v)
     if (m->node_dim[v] >= 0) interior[v] = m->node_dim[v] == PM_FACE;
   eps_t_from_edges(&e, interior, 6, k, deg);
-  if (fn) s = size_ratios(m, &e, fn, user, k, err);
+  s = site_summaries(m, k, deg, interior, q->tri_site_aspect, err);
+  if (!s && fn) s = size_ratios(m, &e, fn, user, k, err);
   pm_edges_free(&e);
   return s;
 }

@@ -28,6 +28,12 @@
  *   angle counts (triangles): by min angle in [0,10), [10,20), [20,30), [30,40), [40,50),
  *           [50,60] degrees, and by max angle > 90, > 120, > 150 degrees (each count is
  *           cumulative: a 160-degree triangle is in all three).
+ *   triangles by site (ours): R / l_min of the triangles with a corner that is not interior (in
+ *           the sense of eps_t: on a curve or vertex, or on the mesh's boundary), of the others
+ *           with a corner of degree other than 6 (around a defect of the hexagonal lattice), and
+ *           of the rest, the regular triangles (three corners of degree 6). It tells where a
+ *           mesh's worse triangles sit: along the curves, at lattice defects, or in a lattice
+ *           that is itself distorted (a graded field).
  *
  * Summaries: min, p25, median, p75, max, mean. Percentiles use linear interpolation between
  * order statistics: with the n values sorted as x_0 <= ... <= x_{n-1} and h = (n - 1) p, the
@@ -131,11 +137,23 @@ typedef struct pm_kind_quality {
   double size_ratio_std;  /* population standard deviation */
 } pm_kind_quality;
 
+/* The sites of triangles (see above). */
+typedef enum pm_tri_site {
+  PM_TRI_BOUNDARY,  /* a corner that is not interior */
+  PM_TRI_IRREGULAR, /* interior corners, one of degree other than 6 */
+  PM_TRI_REGULAR,   /* three interior corners of degree 6 */
+  PM_TRI_SITES
+} pm_tri_site;
+
 typedef struct pm_quality {
   pm_kind_quality tri, tet;
   int64_t tri_min_angle_bins[6]; /* [0,10) [10,20) [20,30) [30,40) [40,50) [50,60] */
   int64_t tri_max_angle_over[3]; /* > 90, > 120, > 150 */
+  pm_summary tri_site_aspect[PM_TRI_SITES]; /* R / l_min by site; .n the triangles there */
 } pm_quality;
+
+/* The name of a site in the stats ("boundary", "irregular", "regular"). */
+const char *pm_tri_site_name(pm_tri_site site);
 
 /* Measure every triangle and tet of m. The size field is given as a callback d = fn(xyz, user),
  * the desired edge length (fn may be NULL: no size conformity); a value that is not finite and

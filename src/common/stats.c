@@ -20,7 +20,7 @@ static const char *const reserved[] = {"method", "input",      "nodes",  "segmen
 static const char *const tri_keys[] = {"radius_ratio", "aspect_ratio", "min_angle_deg",
                                        "max_angle_deg", "eps_t", "eps_g", "size_ratio", "count",
                                        "degenerate", "eps_t_nodes", "min_angle_bins",
-                                       "max_angle_over", NULL};
+                                       "max_angle_over", "by_site", NULL};
 static const char *const tet_keys[] = {"radius_ratio", "aspect_ratio", "min_dihedral_deg",
                                        "max_dihedral_deg", "eps_t", "eps_g", "size_ratio",
                                        "count", "degenerate", "eps_t_nodes", NULL};
@@ -273,6 +273,13 @@ static void add_quality(jb *b, cJSON *root, const pm_quality *q) {
     for (int i = 0; i < 6; ++i) add_num(b, h, bins[i], (double)q->tri_min_angle_bins[i]);
     cJSON *o = t ? add_obj(b, t, "max_angle_over") : NULL;
     for (int i = 0; i < 3; ++i) add_num(b, o, over[i], (double)q->tri_max_angle_over[i]);
+    cJSON *by = t ? add_obj(b, t, "by_site") : NULL;
+    for (int w = 0; w < PM_TRI_SITES; ++w) {
+      const pm_summary *a = &q->tri_site_aspect[w];
+      cJSON *o2 = by ? add_obj(b, by, pm_tri_site_name((pm_tri_site)w)) : NULL;
+      add_num(b, o2, "count", (double)a->n);
+      if (a->n > 0) add_summary(b, o2, "aspect_ratio", a);
+    }
   }
   if (q->tet.n > 0) add_kind(b, root, "tet", &q->tet, "min_dihedral_deg", "max_dihedral_deg");
 }

@@ -222,6 +222,11 @@ static void mesh_measures(void **state) {
     PM_ASSERT_NEAR(q.tri.s_max_angle.max, 90, 1e-12);
     assert_int_equal(q.tri_min_angle_bins[4], 18); /* [40, 50) */
     assert_int_equal(q.tri_max_angle_over[0], 0);  /* 90 is not > 90 */
+    /* Sites: only the middle square's two triangles have three inner corners. */
+    assert_int_equal(q.tri_site_aspect[PM_TRI_BOUNDARY].n, 16);
+    assert_int_equal(q.tri_site_aspect[PM_TRI_IRREGULAR].n, 0);
+    assert_int_equal(q.tri_site_aspect[PM_TRI_REGULAR].n, 2);
+    PM_ASSERT_NEAR(q.tri_site_aspect[PM_TRI_REGULAR].median, sqrt(0.5), 1e-14);
     assert_false(q.tri.has_size);
     assert_int_equal(q.tet.n, 0);
     pm_quality_clear(&q);
@@ -233,6 +238,9 @@ static void mesh_measures(void **state) {
     PM_ASSERT_OK(pm_quality_compute_fn(m, NULL, NULL, &q, &e), e);
     assert_int_equal(q.tri.eps_t_nodes, 4);
     PM_ASSERT_NEAR(q.tri.eps_t, 1.0, 0);
+    assert_int_equal(q.tri_site_aspect[PM_TRI_BOUNDARY].n, 16);
+    assert_int_equal(q.tri_site_aspect[PM_TRI_IRREGULAR].n, 2);
+    assert_int_equal(q.tri_site_aspect[PM_TRI_REGULAR].n, 0);
     pm_quality_clear(&q);
     pm_mesh_destroy(m);
   }
@@ -282,6 +290,52 @@ static void mesh_measures(void **state) {
     assert_int_equal(q.tri.n, 0); /* cleared on failure */
     pm_mesh_destroy(m);
   }
+}
+
+/* The hexagon of side 2 cut from the unit triangular lattice: 19 nodes, 24 equilateral
+ * triangles. The centre and its six neighbours are interior with degree 6, so the six triangles
+ * around the centre are regular and the 18 others touch the boundary; then one inner node moves,
+ * which changes the shapes but not the sites. */
+static void triangle_sites(void **state) {
+  (void)state;
+  pm_error e = {0};
+  pm_mesh *m = pm_mesh_create();
+  int32_t id[5][5];
+  for (int j = -2; j <= 2; ++j)
+    for (int i = -2; i <= 2; ++i) {
+      id[j + 2][i + 2] = -1;
+      if (abs(i + j) > 2) continue;
+      double p[3] = {i + 0.5 * j, 0.5 * sqrt(3.0) * j, 0};
+      id[j + 2][i + 2] = m->nnode;
+      PM_ASSERT_OK(pm_mesh_add_node(m, p, -1, -1, NULL, NULL, &e), e);
+    }
+#define AT(i, j) ((i) < -2 || (i) > 2 || (j) < -2 || (j) > 2 ? -1 : id[(j) + 2][(i) + 2])
+  for (int j = -2; j <= 2; ++j)
+    for (int i = -2; i <= 2; ++i) {
+      int32_t p = AT(i, j), a = AT(i + 1, j), b = AT(i, j + 1), ab = AT(i + 1, j + 1);
+      if (p >= 0 && a >= 0 && b >= 0) PM_ASSERT_OK(pm_mesh_add_tri(m, p, a, b, 0, &e), e);
+      if (a >= 0 && ab >= 0 && b >= 0) PM_ASSERT_OK(pm_mesh_add_tri(m, a, ab, b, 0, &e), e);
+    }
+  assert_int_equal(m->nnode, 19);
+  assert_int_equal(m->ntri, 24);
+  pm_quality q;
+  PM_ASSERT_OK(pm_quality_compute_fn(m, NULL, NULL, &q, &e), e);
+  assert_int_equal(q.tri.eps_t_nodes, 7);
+  assert_int_equal(q.tri_site_aspect[PM_TRI_BOUNDARY].n, 18);
+  assert_int_equal(q.tri_site_aspect[PM_TRI_IRREGULAR].n, 0);
+  assert_int_equal(q.tri_site_aspect[PM_TRI_REGULAR].n, 6);
+  PM_ASSERT_NEAR(q.tri_site_aspect[PM_TRI_REGULAR].median, 1 / sqrt(3.0), 1e-14);
+  PM_ASSERT_NEAR(q.tri_site_aspect[PM_TRI_BOUNDARY].max, 1 / sqrt(3.0), 1e-14);
+  pm_quality_clear(&q);
+  m->xyz[3 * AT(0, 0)] = 0.2;
+  PM_ASSERT_OK(pm_quality_compute_fn(m, NULL, NULL, &q, &e), e);
+  assert_int_equal(q.tri_site_aspect[PM_TRI_REGULAR].n, 6);
+  assert_true(q.tri_site_aspect[PM_TRI_REGULAR].max > 0.6);
+  PM_ASSERT_NEAR(q.tri_site_aspect[PM_TRI_BOUNDARY].max, 1 / sqrt(3.0), 1e-14);
+  assert_string_equal(pm_tri_site_name(PM_TRI_IRREGULAR), "irregular");
+#undef AT
+  pm_quality_clear(&q);
+  pm_mesh_destroy(m);
 }
 
 static void degenerate_in_mesh(void **state) {
@@ -372,6 +426,7 @@ int main(void) {
       cmocka_unit_test(right_corner_tet),     cmocka_unit_test(sliver_tet),
       cmocka_unit_test(percentiles),          cmocka_unit_test(mesh_measures),
       cmocka_unit_test(degenerate_in_mesh),   cmocka_unit_test(tet_mesh_measures),
+      cmocka_unit_test(triangle_sites),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

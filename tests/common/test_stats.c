@@ -116,6 +116,12 @@ static void json_keys_and_values(void **state) {
   assert_true(cJSON_IsNumber(at(root, "tri.size_ratio.std")));
   assert_true(at(root, "tri.min_angle_bins.40_50")->valuedouble == 2);
   assert_true(at(root, "tri.max_angle_over.90")->valuedouble == 0);
+  /* Two triangles, every corner on the boundary: both are boundary triangles. */
+  assert_true(at(root, "tri.by_site.boundary.count")->valuedouble == 2);
+  assert_true(at(root, "tri.by_site.regular.count")->valuedouble == 0);
+  PM_ASSERT_NEAR(at(root, "tri.by_site.boundary.aspect_ratio.median")->valuedouble, sqrt(0.5),
+                 1e-15);
+  assert_null(cJSON_GetObjectItemCaseSensitive(at(root, "tri.by_site.regular"), "aspect_ratio"));
   /* No interior node in this tiny mesh: eps_t is left out rather than written as 0. */
   assert_null(cJSON_GetObjectItemCaseSensitive(at(root, "tri"), "eps_t"));
   /* No distance computed: only the extra key is there. */
