@@ -209,7 +209,19 @@ static const col tet_cols[] = {
     {"eps_g", "tet.eps_g", 3},
     {"time (s)", "time_s.total", 3},
 };
-#define NCOL 10
+/* Triangles by site (quality.h): where the worse triangles of each method sit. */
+static const col site_cols[] = {
+    {"boundary", "tri.by_site.boundary.count", 7},
+    {"median R/l_min", "tri.by_site.boundary.aspect_ratio.median", 4},
+    {"irregular", "tri.by_site.irregular.count", 7},
+    {"median R/l_min", "tri.by_site.irregular.aspect_ratio.median", 4},
+    {"regular", "tri.by_site.regular.count", 7},
+    {"median R/l_min", "tri.by_site.regular.aspect_ratio.median", 4},
+};
+#define NCOL 10 /* the most columns of a table above */
+#define COLS(a) ((int)(sizeof(a) / sizeof((a)[0])))
+_Static_assert(COLS(tri_cols) <= NCOL && COLS(tet_cols) <= NCOL && COLS(site_cols) <= NCOL,
+               "a summary table has more columns than NCOL");
 
 static int any_value(const pm_cmp_study *st, int c, const char *key) {
   for (int i = 0; i < st->nrow; ++i)
@@ -217,14 +229,14 @@ static int any_value(const pm_cmp_study *st, int c, const char *key) {
   return 0;
 }
 
-static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols) {
+static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols, int ncol) {
   const pm_cmp_suite *su = &st->suite;
   const char *h[NCOL + 4];
   int nh = 0;
   h[nh++] = "method";
   if (su->nsweep) h[nh++] = su->sweep_key;
   h[nh++] = "ok runs";
-  for (int k = 0; k < NCOL; ++k) h[nh++] = cols[k].head;
+  for (int k = 0; k < ncol; ++k) h[nh++] = cols[k].head;
   if (su->match_nodes) h[nh++] = "nodes vs reference";
   h[nh++] = "valid";
   doc_table_head(d, nh, h);
@@ -240,7 +252,7 @@ static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols
       if (su->nsweep) snprintf(cells[k++], CELL, "%s", su->sweep_values[w]);
       mean_of(st, c, m, ww, "nodes", &ok);
       snprintf(cells[k++], CELL, "%d/%d", ok, total);
-      for (int q = 0; q < NCOL; ++q)
+      for (int q = 0; q < ncol; ++q)
         fmt_num(cells[k++], CELL, mean_of(st, c, m, ww, cols[q].key, NULL), cols[q].digits);
       if (su->match_nodes) {
         if (m == su->reference) {
@@ -496,11 +508,17 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
     doc_h(d, 3, h);
     if (any_value(st, c, "tri.radius_ratio.mean") || !any_value(st, c, "tet.radius_ratio.mean")) {
       if (any_value(st, c, "tet.radius_ratio.mean")) doc_p(d, "Surface triangles:");
-      summary_table(d, st, c, tri_cols);
+      summary_table(d, st, c, tri_cols, COLS(tri_cols));
+      if (any_value(st, c, "tri.by_site.boundary.count")) {
+        doc_p(d, "Triangles by site: with a corner on a curve or vertex (boundary), around an "
+                 "interior node of degree other than 6 (irregular), the rest (regular); their "
+                 "mean counts and median R/l_min.");
+        summary_table(d, st, c, site_cols, COLS(site_cols));
+      }
     }
     if (any_value(st, c, "tet.radius_ratio.mean")) {
       doc_p(d, "Tetrahedra:");
-      summary_table(d, st, c, tet_cols);
+      summary_table(d, st, c, tet_cols, COLS(tet_cols));
     }
     reference_table(d, st, c);
   }

@@ -370,6 +370,13 @@ static void test_two_by_two(void **state) {
   assert_non_null(md);
   assert_non_null(html);
   assert_non_null(strstr(md, "## Summary"));
+  assert_non_null(strstr(md, "Triangles by site"));
+  /* The sites split the triangles of every run. */
+  for (int i = 1; i < t.nrow; ++i)
+    PM_ASSERT_NEAR(num(&t, i, "tri.by_site.boundary.count") +
+                       num(&t, i, "tri.by_site.irregular.count") +
+                       num(&t, i, "tri.by_site.regular.count"),
+                   num(&t, i, "triangles"), 0);
   assert_non_null(strstr(md, "runs made now: 4, kept from an earlier invocation: 0"));
   for (int i = 1; i < t.nrow; ++i) assert_non_null(strstr(md, get(&t, i, "command")));
   assert_non_null(strstr(md, "| CGAL |"));
