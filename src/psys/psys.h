@@ -61,8 +61,8 @@ typedef struct psys_params {
   double delete_ratio;  /* delete when E* > delete_ratio E_ideal (eq. 5); 1.75 */
   double ring_curve;    /* one-ring count of E_ideal for curve particles: E_ideal = sigma
                            ring_curve E(beta) (eq. 6 has 6, the hexagonal one-ring of a face;
-                           a curve's lattice has two neighbours; 1.5 puts the curves' spacing
-                           closest to the faces', see psys_population.c); 1.5 */
+                           a curve's lattice has two neighbours; 0.7 gives the curves the
+                           faces' spacing, see psys_population.c); 0.7 */
   int delete_grace;     /* particles around a split or delete are not deleted for this many
                            iterations; 3 */
   int seeds_per_face;   /* k random particles per face at the start of phase 3; 8 */

@@ -49,9 +49,9 @@ static const pm_param_desc desc[] = {
      "split when E_i (1 + eps) < split_ratio E_ideal", "001 eq. 4", NULL},
     {"delete_ratio", D, F(delete_ratio), 1.75, 0, 100, PM_RANGE_LO_OPEN, "",
      "delete when E_i (1 + eps) > delete_ratio E_ideal", "001 eq. 5", NULL},
-    {"ring_curve", D, F(ring_curve), 1.5, 1, 6, PM_RANGE_CLOSED, "",
+    {"ring_curve", D, F(ring_curve), 0.7, 0.5, 6, PM_RANGE_CLOSED, "",
      "E_ideal of curve particles is sigma ring_curve E(beta) (6: eq. 6 as printed, the hexagonal "
-     "one-ring of a face; 2: the one-ring of a curve)",
+     "one-ring of a face; 0.7 gives the curves the faces' spacing)",
      "001 eq. 6 (value for curves: ours)", NULL},
     {"delete_grace", I, F(delete_grace), 3, 0, 1000, PM_RANGE_CLOSED, "iterations",
      "particles around a split or a delete are not deleted for this many iterations",

@@ -24,10 +24,11 @@
  * and once it falls below anneal_off (0.02, about 14 iterations) splits and deletes stop for
  * good. The phase ends at the first iteration after that whose mean move is below move_tol
  * (0.2%) of sigma, or at max_iter (1500) iterations. (A tighter move_tol helps where the field
- * is uniform and hardly elsewhere. With 5e-4 the median R / l_min of synth_sphere.brep goes
- * from 0.618 to 0.606 (104 -> 261 iterations in all), of case:qi1 --size 0.05 from 0.610 to
- * 0.599, but on the graded fields of synth_box_hole, synth_cone, cube_fillet, screw,
- * t20_component8 and bearing it moves by 0.004 at most, for 1.3 to 6 times the iterations.)
+ * is uniform and hardly elsewhere. With 5e-4 the median R / l_min of case:qi1 --size 0.05 goes
+ * from 0.607 to 0.597 (120 -> 324 iterations in all), of synth_sphere.brep from 0.612 to 0.610;
+ * on the graded fields of synth_box_hole, synth_cone, cube_fillet, screw, t20_component8 and
+ * bearing it moved by 0.004 at most, for 1.3 to 6 times the iterations, measured with
+ * ring_curve = 1.5.)
  * Phase 3 holds sigma once population control is off (hold_sigma = 1, the default; 0 keeps
  * updating it). The field was inferred while the particles moved, and the count followed it; with
  * the count fixed, what is left is relaxing the packing in that field. Updated further, the field

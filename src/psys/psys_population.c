@@ -12,8 +12,17 @@
  * particle of an ideal chain has two neighbours, so with the paper's 6 the curves are split down
  * to a spacing about 0.55 sigma while the faces settle near 0.66 sigma, and the boundary rows of
  * triangles are squeezed (R / l_min 0.72 against 0.61 inside, measured on a planar square). We
- * use E_ideal = sigma ring_curve E(beta) on curves, ring_curve = 1.5: a curve then settles at
- * 0.9 .. 0.95 of the faces' spacing (2 gave 0.88, 1.2 gave 0.94 with no better triangles).
+ * use E_ideal = sigma ring_curve E(beta) on curves, ring_curve = 0.7: a curve then settles at the
+ * faces' spacing, and the first row of face particles near the height of an equilateral
+ * triangle. On case:qi1 with --size 0.05: median segment 0.0506 against 0.0501 for the edges
+ * between face nodes, first row at a median height of 0.875 spacings (equilateral: 0.866), and
+ * a median R / l_min of 0.595 for the triangles with a corner on a curve (gmsh's
+ * Frontal-Delaunay: 0.595); with 1.5, 0.0464, 0.912 and 0.633. With the inferred field the
+ * median over all triangles falls by 0.010 to 0.012 on synth_box_hole.step, cube_fillet.stp,
+ * screw.step and synth_torus.brep, and by 0.001 on t20_component8.step (`packmesh quality` on
+ * the meshes of `packmesh mesh MODEL --method psys --set ring_curve=0.7`, against 1.5). Below
+ * 0.7 the curves get longer than the faces' spacing (0.6: 0.0514 on qi1) and the boundary rows
+ * worse again.
  *
  * Order (ours; the paper is silent): particles are visited in index order, one thread. A particle
  * whose neighbourhood changed in this pass (a neighbour split or was deleted) waits for the next

@@ -93,6 +93,52 @@ static void inferred_field_as_sizing(void **state) {
   pm_model_destroy(m);
 }
 
+/* The median segment over the median edge between two face nodes. */
+static double curve_over_face_spacing(const pm_mesh *mesh) {
+  double *seg = malloc(sizeof(double) * ((size_t)mesh->nseg + 1));
+  double *face = malloc(sizeof(double) * (3 * (size_t)mesh->ntri + 1));
+  assert_non_null(seg);
+  assert_non_null(face);
+  for (int32_t k = 0; k < mesh->nseg; ++k)
+    seg[k] = pm_v3_dist(&mesh->xyz[3 * mesh->seg[2 * k]], &mesh->xyz[3 * mesh->seg[2 * k + 1]]);
+  size_t nf = 0;
+  for (int32_t t = 0; t < mesh->ntri; ++t)
+    for (int j = 0; j < 3; ++j) {
+      int32_t a = mesh->tri[3 * t + j], b = mesh->tri[3 * t + (j + 1) % 3];
+      /* an inner edge is in two triangles, once as (a, b) and once as (b, a) */
+      if (a < b && mesh->node_dim[a] == PM_FACE && mesh->node_dim[b] == PM_FACE)
+        face[nf++] = pm_v3_dist(&mesh->xyz[3 * a], &mesh->xyz[3 * b]);
+    }
+  pm_summary ss, fs;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_summary_compute(seg, (size_t)mesh->nseg, &ss, &e), e);
+  PM_ASSERT_OK(pm_summary_compute(face, nf, &fs, &e), e);
+  free(seg), free(face);
+  return ss.median / fs.median;
+}
+
+/* The curves get the faces' spacing (ring_curve, psys_population.c): on a rectangle with a
+ * uniform size the median segment is within 3% of the median edge between face nodes; with the
+ * older ring_curve = 1.5 it is more than 5% shorter. */
+static void curves_have_the_faces_spacing(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:qi1");
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(0.1, &size, &e), e);
+  pm_mesh *mesh = psys_test_run(m, size, 1, 2, 0, NULL, NULL, NULL, NULL);
+  double r = curve_over_face_spacing(mesh);
+  if (!(fabs(r - 1) <= 0.03)) fail_msg("segment / face edge = %.4f", r);
+  pm_mesh_destroy(mesh);
+  const char *const old[] = {"ring_curve=1.5", NULL};
+  mesh = psys_test_run(m, size, 1, 2, 0, old, NULL, NULL, NULL);
+  r = curve_over_face_spacing(mesh);
+  if (!(r < 0.95)) fail_msg("ring_curve 1.5: segment / face edge = %.4f", r);
+  pm_mesh_destroy(mesh);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
 /* Bad input: one-line errors, no mesh. */
 static void errors(void **state) {
   (void)state;
@@ -146,6 +192,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(uniform_size_calibration),
       cmocka_unit_test(graded_size_is_followed),
+      cmocka_unit_test(curves_have_the_faces_spacing),
       cmocka_unit_test(inferred_field_as_sizing),
       cmocka_unit_test(errors),
   };
