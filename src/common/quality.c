@@ -493,41 +493,33 @@ const char *pm_tri_site_name(pm_tri_site site) {
   return site >= 0 && site < PM_TRI_SITES ? name[site] : "?";
 }
 
-/* R / l_min of the triangles of each site (quality.h), from the degrees and interior flags of
- * eps_t. */
+/* The site of triangle c (quality.h), from the degrees and interior flags of eps_t. */
+static pm_tri_site tri_site(const int32_t c[3], const int32_t *deg, const uint8_t *interior) {
+  pm_tri_site w = PM_TRI_REGULAR;
+  for (int j = 0; j < 3; ++j) {
+    if (!interior[c[j]]) return PM_TRI_BOUNDARY;
+    if (deg[c[j]] != 6) w = PM_TRI_IRREGULAR;
+  }
+  return w;
+}
+
+/* R / l_min of the triangles of each site: grouped by site (a counting sort), then summarized. */
 static pm_status site_summaries(const pm_mesh *m, const pm_kind_quality *k, const int32_t *deg,
                                 const uint8_t *interior, pm_summary out[PM_TRI_SITES],
                                 pm_error *err) {
   const int32_t n = m->ntri;
   double *v = malloc((size_t)(n ? n : 1) * sizeof *v);
-  uint8_t *site = malloc((size_t)(n ? n : 1));
-  pm_status s = PM_OK;
-  if (!v || !site) {
-    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory (triangle sites)");
-    goto out;
-  }
+  if (!v) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory (triangle sites)");
   int32_t count[PM_TRI_SITES] = {0}, at[PM_TRI_SITES];
-  for (int32_t t = 0; t < n; ++t) {
-    const int32_t *c = m->tri + 3 * (size_t)t;
-    pm_tri_site w = PM_TRI_REGULAR;
-    for (int j = 0; j < 3; ++j)
-      if (!interior[c[j]])
-        w = PM_TRI_BOUNDARY;
-      else if (deg[c[j]] != 6 && w == PM_TRI_REGULAR)
-        w = PM_TRI_IRREGULAR;
-    site[t] = (uint8_t)w;
-    count[w]++;
-  }
+  for (int32_t t = 0; t < n; ++t) count[tri_site(m->tri + 3 * (size_t)t, deg, interior)]++;
   at[0] = 0;
   for (int w = 1; w < PM_TRI_SITES; ++w) at[w] = at[w - 1] + count[w - 1];
-  for (int32_t t = 0; t < n; ++t) v[at[site[t]]++] = k->aspect_ratio[t];
-  for (int w = 0; w < PM_TRI_SITES && !s; ++w) {
-    double *first = v + (at[w] - count[w]);
-    s = pm_summary_compute(first, (size_t)count[w], &out[w], err);
-  }
-out:
+  for (int32_t t = 0; t < n; ++t)
+    v[at[tri_site(m->tri + 3 * (size_t)t, deg, interior)]++] = k->aspect_ratio[t];
+  pm_status s = PM_OK;
+  for (int w = 0; w < PM_TRI_SITES && !s; ++w)
+    s = pm_summary_compute(v + (at[w] - count[w]), (size_t)count[w], &out[w], err);
   free(v);
-  free(site);
   return s;
 }
 
