@@ -240,14 +240,34 @@ static pm_status build_curve(pm_cell *c, int tag, const tag_list tl[4], const do
 
 /* ---- face loops -------------------------------------------------------------------------- */
 
-/* One traversable pcurve: a use of a boundary curve on the face, with its end points. */
+/* One traversable pcurve: a use of a boundary curve on the face, with its end points.
+ *
+ * A curve used once can still have two pcurves a period apart: gmsh's `which` selects between
+ * the pcurves of the curve's two orientations, and OpenCASCADE keeps two for an edge that lies
+ * on the seam line of a periodic surface even where the face uses it once (a partial cylinder
+ * bounded by the seam line, bl3d_3.brep; a seam split where the loop crosses it,
+ * 1385_Laufrad_1000.stp). Which of the two the loop runs along is only known from its
+ * neighbours: such a seg is `ambiguous` and the walk picks the side whose end continues the loop
+ * in (u, v), which unwraps the loop across the seam. */
 typedef struct seg {
-  int32_t curve;   /* curve index */
-  int8_t side;     /* pcurve selector (`which`) */
-  int32_t v[2];    /* vertex at t = lo and t = hi (negative: a curve without vertices) */
-  double uv[2][2]; /* pcurve at t = lo and t = hi */
+  int32_t curve;    /* curve index */
+  int8_t side;      /* pcurve selector (`which`) */
+  int8_t ambiguous; /* 1: side is chosen by the walk between uv and alt */
+  int32_t v[2];     /* vertex at t = lo and t = hi (negative: a curve without vertices) */
+  double uv[2][2];  /* pcurve at t = lo and t = hi (of `side`) */
+  double alt[2][2]; /* ambiguous segs: the other pcurve (side 1 - side) */
   int used;
 } seg;
+
+/* Make the other pcurve of an ambiguous seg its own. */
+static void seg_flip_side(seg *g) {
+  for (int e = 0; e < 2; ++e)
+    for (int k = 0; k < 2; ++k) {
+      double t = g->uv[e][k];
+      g->uv[e][k] = g->alt[e][k], g->alt[e][k] = t;
+    }
+  g->side = (int8_t)(1 - g->side);
+}
 
 /* Two visits of one vertex are one junction when their (u, v) agree within JUNCTION_TOL x the
  * box diagonal: a vertex has one (u, v) on a regular surface up to the period, so distinct
@@ -291,6 +311,7 @@ typedef struct face_ctx {
   int32_t nc;
   synth *syn; /* synthetic degenerate curves, curve index nc + k */
   int32_t nsyn, capsyn;
+  double lo[2], hi[2]; /* the parameter box of the face being built */
 } face_ctx;
 
 /* S is constant (within SINGULAR_TOL x diagonal) along the (u, v) segment a-b: a pole side. */
@@ -329,8 +350,18 @@ static int32_t bridge(face_ctx *fc, int32_t face, int ftag, seg *s, int32_t *ns,
   g->side = 0;
   g->v[0] = g->v[1] = v;
   g->uv[0][0] = from[0], g->uv[0][1] = from[1], g->uv[1][0] = to[0], g->uv[1][1] = to[1];
+  g->ambiguous = 0;
   g->used = 1;
   return *ns - 1;
+}
+
+/* How far a pcurve's ends lie outside the face's parameter box (0 inside). */
+static double box_excess(const face_ctx *fc, const double uv[2][2]) {
+  double x = 0;
+  for (int e = 0; e < 2; ++e)
+    for (int k = 0; k < 2; ++k)
+      x += fmax(0, fc->lo[k] - uv[e][k]) + fmax(0, uv[e][k] - fc->hi[k]);
+  return x;
 }
 
 /* Chain the segs into closed walks: from the end of the last seg, continue with the unused seg
@@ -349,8 +380,13 @@ static int chain_walks(face_ctx *fc, int32_t face, int ftag, seg *s, int32_t *pn
     return -1;
   }
   int32_t no = 0, nl = 0;
-  for (int32_t seed = 0; seed < ns0; ++seed) {
-    if (s[seed].used) continue;
+  /* Seeds: segs with one pcurve first, so that an ambiguous seg's side is decided by a
+   * neighbour; a walk of ambiguous segs only starts on the side nearer the parameter box. */
+  for (int32_t pass = 0; pass < 2 * ns0; ++pass) {
+    const int32_t seed = pass % ns0;
+    if (s[seed].used || (pass < ns0 && s[seed].ambiguous)) continue;
+    if (s[seed].ambiguous && box_excess(fc, s[seed].alt) < box_excess(fc, s[seed].uv))
+      seg_flip_side(&s[seed]);
     int32_t first = no;
     s[seed].used = 1;
     order[no] = seed, sense[no] = 1, ++no;
@@ -363,12 +399,15 @@ static int chain_walks(face_ctx *fc, int32_t face, int ftag, seg *s, int32_t *pn
       int32_t best = -1;
       int be = 0;
       double bestd = DBL_MAX;
+      int bflip = 0; /* the best end is on the other pcurve of an ambiguous seg */
       for (int32_t j = 0; j < ns0; ++j) {
         if (s[j].used) continue;
         for (int e = 0; e < 2; ++e) {
           if (s[j].v[e] != cv) continue;
-          double d = dist2d(s[j].uv[e], cuv);
-          if (d < bestd) bestd = d, best = j, be = e;
+          for (int a = 0; a <= s[j].ambiguous; ++a) {
+            double d = dist2d(a ? s[j].alt[e] : s[j].uv[e], cuv);
+            if (d < bestd) bestd = d, best = j, be = e, bflip = a;
+          }
         }
       }
       if (best < 0) {
@@ -376,12 +415,14 @@ static int chain_walks(face_ctx *fc, int32_t face, int ftag, seg *s, int32_t *pn
         if (dclose == DBL_MAX && dist2d(cuv, uv0) <= GAP_MATCH * uvdiag) dclose = dist2d(cuv, uv0);
         for (int32_t j = 0; j < ns0; ++j) {
           if (s[j].used) continue;
-          for (int e = 0; e < 2; ++e) {
-            double d = dist2d(s[j].uv[e], cuv);
-            if (d <= GAP_MATCH * uvdiag && d < bestd) bestd = d, best = j, be = e;
-          }
+          for (int e = 0; e < 2; ++e)
+            for (int a = 0; a <= s[j].ambiguous; ++a) {
+              double d = dist2d(a ? s[j].alt[e] : s[j].uv[e], cuv);
+              if (d <= GAP_MATCH * uvdiag && d < bestd) bestd = d, best = j, be = e, bflip = a;
+            }
         }
       }
+      if (best >= 0 && bflip && !(dclose <= bestd)) seg_flip_side(&s[best]);
       const int closing = best < 0 || dclose <= bestd;
       const int32_t tv = closing ? v0 : s[best].v[be];
       const double *tuv = closing ? uv0 : s[best].uv[be];
@@ -495,6 +536,7 @@ static pm_status build_face(face_ctx *fc, int32_t index, pm_cell *f, int tag, pm
   entity_type(2, tag, gtype, sizeof gtype);
   const double uvdiag = hypot(f->hi[0] - f->lo[0], f->hi[1] - f->lo[1]);
   if (!(uvdiag > 0)) return pm_error_setf(err, PM_ERR_GEOM, "surface with an empty parameter box");
+  fc->lo[0] = f->lo[0], fc->lo[1] = f->lo[1], fc->hi[0] = f->hi[0], fc->hi[1] = f->hi[1];
   {
     double c[2] = {0.5 * (f->lo[0] + f->hi[0]), 0.5 * (f->lo[1] + f->hi[1])};
     pm_face_point fp;
@@ -534,8 +576,20 @@ static pm_status build_face(face_ctx *fc, int32_t index, pm_cell *f, int tag, pm
       st = pm_error_setf(err, PM_ERR_GEOM, "curve %d has no pcurve on it", c->tag);
       break;
     }
-    int sides = 1;
-    if (mult >= 2 && pcurve(c->tag, tag, 3, tt, 1, uvs[1]) == 0) {
+    int sides = 1, twin = pcurve(c->tag, tag, 3, tt, 1, uvs[1]) == 0;
+    if (twin && mult == 1 && !c->degenerate) {
+      double dmid = dist2d(uvs[0] + 4, uvs[1] + 4), dend = dist2d(uvs[0], uvs[1]);
+      twin = fmax(dmid, dend) > JUNCTION_TOL * uvdiag; /* a second pcurve, a period away */
+    }
+    if (twin && mult == 1 && !c->degenerate) {
+      seg *g = &s[ns++];
+      g->curve = ci, g->side = 0, g->ambiguous = 1, g->used = 0;
+      g->v[0] = v0, g->v[1] = v1;
+      for (int e = 0; e < 2; ++e)
+        for (int k = 0; k < 2; ++k) g->uv[e][k] = uvs[0][2 * e + k], g->alt[e][k] = uvs[1][2 * e + k];
+      continue;
+    }
+    if (mult >= 2 && twin) {
       /* A seam: its two pcurves differ (by the period). A curve used twice with one pcurve (a
        * slit) gives two uses of side 0. */
       double dmid = dist2d(uvs[0] + 4, uvs[1] + 4), dend = dist2d(uvs[0], uvs[1]);
@@ -555,6 +609,7 @@ static pm_status build_face(face_ctx *fc, int32_t index, pm_cell *f, int tag, pm
       seg *g = &s[ns++];
       g->curve = ci;
       g->side = (int8_t)(sides == 2 && u == 1 ? 1 : 0);
+      g->ambiguous = 0;
       g->v[0] = v0, g->v[1] = v1;
       const double *p = uvs[g->side];
       g->uv[0][0] = p[0], g->uv[0][1] = p[1], g->uv[1][0] = p[2], g->uv[1][1] = p[3];
