@@ -228,6 +228,7 @@ int pm_cli_mesh(int argc, char **argv) {
   pm_status s = pm_input_open(o.input, &model, &input_size, &e);
   if (s) goto fail;
   const double t_load = pm_seconds() - t_start;
+  if (model->heal[0]) fprintf(stderr, "packmesh: %s: healed: %s\n", o.input, model->heal);
   if (method->planar_only && !(model->dim == 2 && model->box[2] == 0 && model->box[5] == 0)) {
     s = pm_error_setf(&e, PM_ERR_ARG, "method %s meshes planar domains only; '%s' is not one",
                       method->name, o.input);
@@ -327,6 +328,7 @@ int pm_cli_mesh(int argc, char **argv) {
     stats.time_total = t_run;
     pm_stats_add_text(&stats, "stop_reason", out.stop_reason, NULL);
     pm_stats_add_number(&stats, "seed", (double)o.seed, NULL);
+    if (model->heal[0]) pm_stats_add_text(&stats, "heal", model->heal, NULL);
     pm_stats_add_number(&stats, "threads", (double)o.threads, NULL);
     pm_stats_add_text(&stats, "size", final_size ? pm_sizing_describe(final_size) : "method default", NULL);
     if (o.target_nodes) {

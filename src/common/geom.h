@@ -169,6 +169,8 @@ struct pm_model {
   double box[6];        /* 3D bounding box */
   double diagonal;      /* |box max - box min| */
   double tol;           /* geometric tolerance, relative to the diagonal (backend's choice) */
+  char heal[320];       /* what loading repaired in the file, one line ("" when nothing: see
+                           geom_cad_heal.c) */
   void *impl;           /* backend data */
   void (*destroy_impl)(pm_model *m);
 };

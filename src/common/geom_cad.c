@@ -13,6 +13,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "common/geom_cad_heal.h"
 #include "common/geom_cad_private.h"
 #include "common/gmsh_session.h"
 
@@ -200,6 +201,78 @@ static void first_logged_error(char *out, size_t len) {
   if (log) gmshFree(log);
 }
 
+/* Import `path` into the current gmsh model and synchronize, with Geometry.OCCSewFaces set to
+ * `sew` for the import. Returns 0, or 1 when gmsh failed (logged: its first logged error, or ""
+ * -- gmsh 4.8.4 reports a failed STEP read only in its log). */
+static int import_shapes(const char *path, cad_format fmt, int sew, char *logged, size_t len) {
+  int ierr = 0;
+  double sew_before = 0;
+  gmshOptionGetNumber("Geometry.OCCSewFaces", &sew_before, &ierr);
+  gmshOptionSetNumber("Geometry.OCCSewFaces", sew, &ierr);
+  /* gmsh's logger records messages only at verbosity >= 1 (gmsh_session sets 0); with
+   * General.Terminal = 0 nothing is printed either way. */
+  double verbosity = 0;
+  gmshOptionGetNumber("General.Verbosity", &verbosity, &ierr);
+  if (verbosity < 1) gmshOptionSetNumber("General.Verbosity", 1, &ierr);
+  gmshLoggerStart(&ierr);
+  int token = pm_gmsh_mute_stdout(); /* OCC prints transfer statistics on stdout */
+  int *dt = NULL;
+  size_t ndt = 0;
+  ierr = 0;
+  gmshModelOccImportShapes(path, &dt, &ndt, 0,
+                           fmt == FMT_STEP ? "step" : (fmt == FMT_IGES ? "iges" : "brep"), &ierr);
+  int import_err = ierr;
+  if (dt) gmshFree(dt);
+  ierr = 0;
+  if (!import_err) gmshModelOccSynchronize(&ierr);
+  int sync_err = ierr;
+  pm_gmsh_unmute_stdout(token);
+  first_logged_error(logged, len);
+  gmshLoggerStop(&ierr);
+  gmshOptionSetNumber("General.Verbosity", verbosity, &ierr);
+  gmshOptionSetNumber("Geometry.OCCSewFaces", sew_before, &ierr);
+  return import_err || sync_err;
+}
+
+static pm_status heal_error(pm_error *err, const char *path, const char *what) {
+  pm_gmsh_error(err, PM_ERR_BACKEND, what);
+  return pm_error_prefix(err, "%s", path);
+}
+
+/* Measure the imported model and heal it where the measurement says so (geom_cad_heal.c);
+ * `healed` receives the report, "" when nothing was done. IGES files were sewn on import
+ * already and are only measured. */
+static pm_status heal(const char *path, cad_format fmt, char *healed, size_t len, pm_error *err) {
+  healed[0] = '\0';
+  cad_heal_counts before, after;
+  if (cad_heal_count(&before))
+    return heal_error(err, path, "measuring the model");
+  cad_heal_action act = fmt == FMT_IGES ? CAD_HEAL_NONE : cad_heal_choose(&before);
+  if (act == CAD_HEAL_NONE) return PM_OK;
+  const char *how;
+  if (act == CAD_HEAL_SEW) {
+    if (cad_heal_sew()) return heal_error(err, path, "sewing the faces");
+    how = "sewed the faces (OpenCASCADE's BRepBuilderAPI_Sewing, gmsh's Geometry.OCCSewFaces)";
+    /* Sewing leaves pairs whose faces do not meet along a whole edge (T-junctions: a vertex of
+     * one face inside an edge of the other); fragmenting merges those. */
+    cad_heal_counts sewn;
+    if (cad_heal_count(&sewn)) return heal_error(err, path, "measuring the sewn model");
+    if (sewn.coincident > 0) {
+      if (cad_heal_fragment()) return heal_error(err, path, "merging the sewn faces");
+      how = "sewed the faces (OpenCASCADE's BRepBuilderAPI_Sewing, gmsh's Geometry.OCCSewFaces) "
+            "and merged what sewing left (gmsh's RemoveAllDuplicates)";
+    }
+  } else {
+    if (cad_heal_fragment())
+      return heal_error(err, path, "merging the touching solids");
+    how = "merged the shapes that touch (gmsh's RemoveAllDuplicates)";
+  }
+  if (cad_heal_count(&after))
+    return heal_error(err, path, "measuring the healed model");
+  cad_heal_describe(&before, &after, how, healed, len);
+  return PM_OK;
+}
+
 pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
   *out = NULL;
   if (!path || !path[0]) return pm_error_setf(err, PM_ERR_ARG, "no CAD file name given");
@@ -230,43 +303,17 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
     pm_gmsh_unlock();
     return pm_error_prefix(err, "%s", path);
   }
-  int ierr = 0;
-  double sew_before = 0;
-  gmshOptionGetNumber("Geometry.OCCSewFaces", &sew_before, &ierr);
-  /* IGES faces arrive unsewn (every edge an open border); sewing restores the shared edges
-   * (GMSH_API.md: bearing.iges, 450 of 475 edges shared after sewing). */
-  gmshOptionSetNumber("Geometry.OCCSewFaces", fmt == FMT_IGES ? 1 : 0, &ierr);
-  /* gmsh's logger records messages only at verbosity >= 1 (gmsh_session sets 0); with
-   * General.Terminal = 0 nothing is printed either way. */
-  double verbosity = 0;
-  gmshOptionGetNumber("General.Verbosity", &verbosity, &ierr);
-  if (verbosity < 1) gmshOptionSetNumber("General.Verbosity", 1, &ierr);
-  gmshLoggerStart(&ierr);
-  int token = pm_gmsh_mute_stdout(); /* OCC prints transfer statistics on stdout */
-  int *dt = NULL;
-  size_t ndt = 0;
-  ierr = 0;
-  gmshModelOccImportShapes(path, &dt, &ndt, 0,
-                           fmt == FMT_STEP ? "step" : (fmt == FMT_IGES ? "iges" : "brep"), &ierr);
-  int import_err = ierr;
-  if (dt) gmshFree(dt);
-  ierr = 0;
-  if (!import_err) gmshModelOccSynchronize(&ierr);
-  int sync_err = ierr;
-  pm_gmsh_unmute_stdout(token);
   char logged[256];
-  first_logged_error(logged, sizeof logged);
-  gmshLoggerStop(&ierr);
-  gmshOptionSetNumber("General.Verbosity", verbosity, &ierr);
-  gmshOptionSetNumber("Geometry.OCCSewFaces", sew_before, &ierr);
-
-  if (import_err || sync_err) {
+  int import_err = import_shapes(path, fmt, fmt == FMT_IGES, logged, sizeof logged);
+  if (import_err) {
     s = logged[0] ? pm_error_setf(err, PM_ERR_PARSE, "%s: gmsh cannot import it: %s", path, logged)
                   : pm_error_setf(err, PM_ERR_PARSE, "%s: gmsh cannot import it", path);
     pm_gmsh_scope_leave(&scope, 1);
     pm_gmsh_unlock();
     return s;
   }
+  int ierr = 0;
+  int *dt = NULL;
   size_t nent = 0;
   dt = NULL;
   gmshModelGetEntities(&dt, &nent, -1, &ierr);
@@ -285,8 +332,16 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
     return s;
   }
 
+  char healed[320];
+  s = heal(path, fmt, healed, sizeof healed, err);
+  if (s) {
+    pm_gmsh_scope_leave(&scope, 1);
+    pm_gmsh_unlock();
+    return s;
+  }
   pm_model *m = NULL;
   s = cad_build(gname, path, &m, err);
+  if (!s) snprintf(m->heal, sizeof m->heal, "%s", healed);
   /* On failure cad_build released the model, which removed the gmsh model. */
   pm_gmsh_scope_leave(&scope, 0);
   pm_gmsh_unlock();
