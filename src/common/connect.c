@@ -5,6 +5,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <stdio.h>
 
 #include "common/cdt_cgal.h"
 #include "common/clock.h"
@@ -327,6 +328,8 @@ typedef struct face_out {
   double asp_before, asp_after; /* sums over the face's triangles (curved faces) */
   double max_before, max_after; /* maxima over them */
   int32_t degen_before, degen_after; /* degenerate triangles (left out of the sums) */
+  int32_t nfix;
+  double *fix_uv; /* [2*nfix] repair points asked for by the face (see repeated_in_face) */
   pm_status status;
   pm_error err;
 } face_out;
@@ -858,6 +861,39 @@ static pm_status take_triangles(face_work *w, const pm_cdt_result *cdt, int32_t 
   return PM_OK;
 }
 
+/* Node triples, sorted, for finding triangles that repeat. */
+typedef struct tri_key {
+  int32_t n[3]; /* sorted nodes */
+  int32_t face, tri;
+} tri_key;
+
+static void sort3(int32_t *x) {
+  if (x[0] > x[1]) { int32_t y = x[0]; x[0] = x[1]; x[1] = y; }
+  if (x[1] > x[2]) { int32_t y = x[1]; x[1] = x[2]; x[2] = y; }
+  if (x[0] > x[1]) { int32_t y = x[0]; x[0] = x[1]; x[1] = y; }
+}
+
+static int tri_key_cmp(const void *a, const void *b) {
+  const tri_key *x = a, *y = b;
+  for (int k = 0; k < 3; ++k)
+    if (x->n[k] != y->n[k]) return (x->n[k] > y->n[k]) - (x->n[k] < y->n[k]);
+  if (x->face != y->face) return (x->face > y->face) - (x->face < y->face);
+  return (x->tri > y->tri) - (x->tri < y->tri);
+}
+
+/* Ask for a repair node at (u, v) of face f (kept when inside the trimmed region). */
+static pm_status face_fix_push(const pm_cell *f, face_out *out, const double uv[2], pm_error *err) {
+  double p[2] = {uv[0], uv[1]};
+  pm_cell_wrap(f, p);
+  if (!pm_face_inside(f, p)) return PM_OK;
+  double *g = realloc(out->fix_uv, sizeof(double) * 2 * ((size_t)out->nfix + 1));
+  if (!g) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  out->fix_uv = g;
+  out->fix_uv[2 * out->nfix] = p[0], out->fix_uv[2 * out->nfix + 1] = p[1];
+  out->nfix++;
+  return PM_OK;
+}
+
 /* Unacceptable triangles of a triangulation given in point indices. */
 static int32_t count_unacceptable_in(const face_work *w, const pm_mesh *mesh, const int32_t *tri,
                                      int32_t ntri) {
@@ -865,6 +901,84 @@ static int32_t count_unacceptable_in(const face_work *w, const pm_mesh *mesh, co
   for (int32_t t = 0; t < ntri; ++t)
     n += !acceptable(w, mesh, w->loc[tri[3 * t]], w->loc[tri[3 * t + 1]], w->loc[tri[3 * t + 2]]);
   return n;
+}
+
+/* Repeats within one face (see "repairing triangles that repeat" below): a node edge with more
+ * than two triangles (a node joined to both sides of a seam, where the face is too coarse to go
+ * round: the ring next to a cone's apex), or two triangles on the same three nodes (a pole fan
+ * of two). For each, the face asks for nodes at the (u, v) middles of the parameter-space edges
+ * behind it, so that the next triangulation joins those instead. */
+static int cmp_i64(const void *a, const void *b) {
+  int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+  return (x > y) - (x < y);
+}
+
+static pm_status repeated_in_face(const pm_cell *f, const face_work *w, face_out *out,
+                                  pm_error *err) {
+  /* Local-node edges, with the triangle and side they come from, sorted: repeats are adjacent. */
+  int64_t ne = 3 * (int64_t)w->ntri;
+  int64_t *e = malloc(sizeof(int64_t) * (size_t)(ne ? ne : 1));
+  if (!e) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t t = 0; t < w->ntri; ++t)
+    for (int q = 0; q < 3; ++q) {
+      int32_t a = w->loc[w->tri[3 * t + q]], b = w->loc[w->tri[3 * t + (q + 1) % 3]];
+      if (a > b) { int32_t x = a; a = b; b = x; }
+      /* key: the node pair; the half-edge goes in the low bits (3 ntri < 2^24 here) */
+      e[3 * t + q] = ((int64_t)a << 40) | ((int64_t)b << 16) | 0;
+    }
+  /* A second pass keeps (pair, half-edge) together without widening the key: sort pairs only,
+   * then scan each run against the triangles. */
+  qsort(e, (size_t)ne, sizeof(int64_t), cmp_i64);
+  pm_status st = PM_OK;
+  int64_t i = 0;
+  while (i < ne && !st) {
+    int64_t j = i;
+    while (j < ne && e[j] == e[i]) ++j;
+    if (j - i > 2) {
+      int32_t a = (int32_t)(e[i] >> 40), b = (int32_t)((e[i] >> 16) & 0xffffff);
+      /* Every parameter-space edge between points of a and b: its middle. */
+      for (int32_t t = 0; t < w->ntri && !st; ++t)
+        for (int q = 0; q < 3 && !st; ++q) {
+          int32_t p = w->tri[3 * t + q], r = w->tri[3 * t + (q + 1) % 3];
+          int32_t la = w->loc[p], lb = w->loc[r];
+          if (!((la == a && lb == b) || (la == b && lb == a)) || p > r) continue;
+          double mid[2] = {0.5 * (w->uv[2 * p] + w->uv[2 * r]), 0.5 * (w->uv[2 * p + 1] + w->uv[2 * r + 1])};
+          st = face_fix_push(f, out, mid, err);
+        }
+    }
+    i = j;
+  }
+  free(e);
+  /* Two triangles on the same three nodes whose edges are each used twice (a closed pillow): the
+   * middle of each one's longest parameter-space edge. */
+  if (!st && out->nfix == 0) {
+    tri_key *k = malloc(sizeof(tri_key) * (size_t)(w->ntri ? w->ntri : 1));
+    if (!k) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    for (int32_t t = 0; t < w->ntri; ++t) {
+      for (int q = 0; q < 3; ++q) k[t].n[q] = w->loc[w->tri[3 * t + q]];
+      sort3(k[t].n);
+      k[t].face = 0, k[t].tri = t;
+    }
+    qsort(k, (size_t)w->ntri, sizeof(tri_key), tri_key_cmp);
+    for (int32_t t = 1; t < w->ntri && !st; ++t) {
+      if (memcmp(k[t].n, k[t - 1].n, sizeof k[t].n) != 0) continue;
+      for (int c = 0; c < 2 && !st; ++c) {
+        const int32_t *v = &w->tri[3 * k[t - c].tri];
+        int best = 0;
+        double bl = -1;
+        for (int q = 0; q < 3; ++q) {
+          const double *A = &w->xy[2 * v[q]], *B = &w->xy[2 * v[(q + 1) % 3]];
+          double l = hypot(A[0] - B[0], A[1] - B[1]);
+          if (l > bl) bl = l, best = q;
+        }
+        int32_t p = v[best], r = v[(best + 1) % 3];
+        double mid[2] = {0.5 * (w->uv[2 * p] + w->uv[2 * r]), 0.5 * (w->uv[2 * p + 1] + w->uv[2 * r + 1])};
+        st = face_fix_push(f, out, mid, err);
+      }
+    }
+    free(k);
+  }
+  return st;
 }
 
 static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mesh, const chains *ch,
@@ -897,6 +1011,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
       free(raw_tri);
       goto fail;
     }
+    if (getenv("PMDBG")) fprintf(stderr, "face %d scaled unacc %d raw unacc %d\n", f->tag, count_unacceptable_in(&w, mesh, w.tri, w.ntri), count_unacceptable_in(&w, mesh, raw_tri, raw_n));
     if (count_unacceptable_in(&w, mesh, w.tri, w.ntri) > count_unacceptable_in(&w, mesh, raw_tri, raw_n)) {
       free(w.tri);
       w.tri = raw_tri, w.ntri = raw_n, out->pole = raw_pole;
@@ -906,6 +1021,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
     }
   }
   pm_cdt_result_free(&cdt);
+  if ((s = repeated_in_face(f, &w, out, err))) goto fail;
   to_local_nodes(&w);
   out->curved = face_is_curved(f, m->diagonal);
   if (out->curved) out->asp_before = sum_aspect(&w, mesh, &out->max_before, &out->degen_before);
@@ -939,6 +1055,105 @@ fail:
   out->status = s ? s : PM_ERR_INTERNAL;
 }
 
+/* ---- repairing triangles that repeat ----------------------------------------------------------- */
+
+/* Two triangles on the same three nodes make a mesh the checker rejects (a duplicate element, an
+ * edge of four triangles). The parameter-space triangulation gives them in two places:
+ *   - a pole with only two neighbouring nodes (a cone's apex when the mesher put a single node
+ *     near it: statreport/Cone_1.brep): its fan closes with the same triangle twice, once on
+ *     each side of the seam;
+ *   - two faces that share both curves of a corner (an internal face bounded by the same curves
+ *     as a face of the skin: the wing root of step/wing_fuselage.step): the corner's triangle,
+ *     made of the vertex and the first node along each curve, is the same in both.
+ * Neither is a matter of the triangulation alone: the node set has to change. A face node is
+ * added at the middle of the repeated triangle's longest edge that is not a curve segment
+ * (projected onto the face), which splits that edge in one face only, and the face is connected
+ * again; the first of two faces keeps its triangle. REPAIR_ROUNDS bounds the rounds. */
+#define REPAIR_ROUNDS 4
+
+/* The node to add for repeated triangle (a, b, c) of face f: the middle of its longest edge that
+ * is no curve segment, projected onto f; 0 when it lies in f's trimmed region. */
+static int repair_point(const pm_model *m, const pm_mesh *mesh, const pairset *segs, int32_t f,
+                        const int32_t v[3], double uv[2], double xyz[3]) {
+  const pm_cell *fc = &m->cells[PM_FACE][f];
+  int best = -1;
+  double bestl = -1;
+  for (int k = 0; k < 3; ++k) {
+    int32_t a = v[k], b = v[(k + 1) % 3];
+    if (pairset_has(segs, a, b)) continue;
+    double l = pm_v3_dist2(&mesh->xyz[3 * a], &mesh->xyz[3 * b]);
+    if (l > bestl) bestl = l, best = k;
+  }
+  if (best < 0) return -1;
+  const double *A = &mesh->xyz[3 * v[best]], *B = &mesh->xyz[3 * v[(best + 1) % 3]];
+  double mid[3] = {0.5 * (A[0] + B[0]), 0.5 * (A[1] + B[1]), 0.5 * (A[2] + B[2])};
+  /* A face node of the triangle is the natural start of the projection. */
+  const double *guess = NULL;
+  for (int k = 0; k < 3 && !guess; ++k)
+    if (mesh->node_dim[v[k]] == PM_FACE && mesh->node_cell[v[k]] == f) guess = &mesh->node_par[2 * v[k]];
+  double dist;
+  if (pm_cell_project(fc, mid, guess, uv, xyz, &dist, NULL) != PM_OK) return -1;
+  pm_cell_wrap(fc, uv);
+  if (!pm_face_inside(fc, uv) || !(dist <= sqrt(bestl))) return -1;
+  return 0;
+}
+
+/* Find the repeated triangles of the faces' outputs and add a repair node for each to the mesh;
+ * `redo` flags the faces that received one. Returns the number of nodes added, or -1 when out of
+ * memory. */
+static int32_t repair_repeats(const pm_model *m, pm_mesh *mesh, const face_out *fo, uint8_t *redo,
+                              pm_error *err) {
+  int32_t nf = m->count[PM_FACE];
+  int64_t nt = 0;
+  for (int32_t f = 0; f < nf; ++f) nt += fo[f].ntri;
+  tri_key *k = malloc(sizeof(tri_key) * (size_t)(nt ? nt : 1));
+  pairset segs;
+  if (!k || !pairset_init(&segs, mesh->nseg)) {
+    free(k);
+    pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    return -1;
+  }
+  for (int32_t i = 0; i < mesh->nseg; ++i) pairset_add(&segs, mesh->seg[2 * i], mesh->seg[2 * i + 1]);
+  int64_t n = 0;
+  for (int32_t f = 0; f < nf; ++f)
+    for (int32_t t = 0; t < fo[f].ntri; ++t) {
+      memcpy(k[n].n, &fo[f].tri[3 * t], 3 * sizeof(int32_t));
+      sort3(k[n].n);
+      k[n].face = f, k[n].tri = t, ++n;
+    }
+  qsort(k, (size_t)n, sizeof(tri_key), tri_key_cmp);
+  int32_t added = 0;
+  /* What the faces asked for themselves. */
+  for (int32_t f = 0; f < nf && added >= 0; ++f)
+    for (int32_t r = 0; r < fo[f].nfix; ++r) {
+      pm_face_point fp;
+      pm_face_eval(&m->cells[PM_FACE][f], &fo[f].fix_uv[2 * r], 0, &fp);
+      if (pm_mesh_add_node(mesh, fp.p, PM_FACE, f, &fo[f].fix_uv[2 * r], NULL, err)) {
+        added = -1;
+        break;
+      }
+      redo[f] = 1;
+      ++added;
+    }
+  for (int64_t i = 1; i < n && added >= 0; ++i) {
+    if (memcmp(k[i].n, k[i - 1].n, sizeof k[i].n) != 0) continue;
+    /* k[i] repeats k[i - 1]: the later one (face order, then triangle order) is repaired, once
+     * per face and round. */
+    int32_t f = k[i].face;
+    if (redo[f]) continue;
+    double uv[2], xyz[3];
+    if (repair_point(m, mesh, &segs, f, &fo[f].tri[3 * k[i].tri], uv, xyz)) continue;
+    if (pm_mesh_add_node(mesh, xyz, PM_FACE, f, uv, NULL, err)) {
+      added = -1;
+      break;
+    }
+    redo[f] = 1;
+    ++added;
+  }
+  free(k), free(segs.key);
+  return added;
+}
+
 /* ---- the entry point ---------------------------------------------------------------------------- */
 
 pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *p,
@@ -952,6 +1167,7 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
   chains ch = {0};
   face_out *fo = NULL;
   int32_t *vnode = NULL;
+  uint8_t *redo = NULL;
   double t0 = pm_seconds();
 
   pm_status s = prepare_nodes(m, mesh, &rep, err);
@@ -978,14 +1194,39 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
   }
   /* Faces are independent: triangulate them in parallel, then append in face order so the
    * result does not depend on the thread count. */
+  redo = malloc((size_t)nf + 1);
+  if (!redo) {
+    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto done;
+  }
+  memset(redo, 1, (size_t)nf + 1);
+  for (int round = 0;; ++round) {
 #pragma omp parallel for schedule(dynamic, 1)
-  for (int32_t f = 0; f < nf; ++f) connect_face(m, &m->cells[PM_FACE][f], mesh, &ch, &fb, p, &fo[f]);
-  for (int32_t f = 0; f < nf; ++f)
-    if (fo[f].status) {
-      if (err) *err = fo[f].err;
-      s = fo[f].status;
+    for (int32_t f = 0; f < nf; ++f) {
+      if (!redo[f]) continue;
+      free(fo[f].tri), free(fo[f].fix_uv);
+      memset(&fo[f], 0, sizeof fo[f]);
+      connect_face(m, &m->cells[PM_FACE][f], mesh, &ch, &fb, p, &fo[f]);
+    }
+    for (int32_t f = 0; f < nf; ++f)
+      if (fo[f].status) {
+        if (err) *err = fo[f].err;
+        s = fo[f].status;
+        goto done;
+      }
+    if (round == REPAIR_ROUNDS) break;
+    memset(redo, 0, (size_t)nf + 1);
+    int32_t added = repair_repeats(m, mesh, fo, redo, err);
+    if (added < 0) {
+      s = err ? err->code : PM_ERR_NOMEM;
       goto done;
     }
+    if (getenv("PMDBG")) fprintf(stderr, "round %d added %d\n", round, added);
+    if (added == 0) break;
+    rep.repair_nodes += added;
+    buckets_free(&fb);
+    if ((s = buckets_build(mesh, PM_FACE, m->count[PM_FACE], &fb, err))) goto done;
+  }
   double asp_b = 0, asp_a = 0;
   for (int32_t f = 0; f < nf && !s; ++f) {
     rep.pole_triangles += fo[f].pole;
@@ -1011,9 +1252,10 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
 
 done:
   if (fo)
-    for (int32_t f = 0; f < m->count[PM_FACE]; ++f) free(fo[f].tri);
+    for (int32_t f = 0; f < m->count[PM_FACE]; ++f) free(fo[f].tri), free(fo[f].fix_uv);
   free(fo);
   free(vnode);
+  free(redo);
   buckets_free(&cb), buckets_free(&fb);
   chains_free(&ch);
   if (s) mesh->nseg = mesh->ntri = mesh->ntet = 0;

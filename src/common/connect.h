@@ -69,6 +69,9 @@ typedef struct pm_connect_report {
   int32_t dropped_nodes;       /* face nodes outside their face's trimmed region, and nodes of
                                   stray CAD points on another vertex, removed */
   int32_t pole_triangles;      /* parameter-space triangles collapsed onto a pole, dropped */
+  int32_t repair_nodes;        /* face nodes added where two triangles had the same three nodes
+                                  (a pole with two neighbours, two faces sharing both curves of
+                                  a corner: see connect.c) */
   int32_t flips;               /* 3D edge flips performed */
   int32_t flip_cap_hits;       /* faces where the flip cap stopped the flips */
   double aspect_before;        /* mean R/l_min of the triangles of curved faces before flips */

@@ -163,8 +163,12 @@ static pm_status add_embedded(pm_cell *c, int dim, int tag, const tag_list tl[4]
 #define DEGEN_SAMPLES 9
 /* A curve whose samples all lie within DEGEN_TOL x diagonal of each other has zero length (a
  * sphere pole, a cone apex: gmsh's type "Unknown", length 0); the shortest real edge of the
- * shared models is 4e-5 x diagonal. */
+ * shared models is 4e-5 x diagonal. A closed curve (one end vertex) is degenerate up to
+ * DEGEN_CLOSED_TOL: exporters leave poles as loops a rounding error long (U_Joint_2.stp: a loop
+ * of 1.9e-5 on a model of diagonal 137, 1.4e-7 of it), and a loop that short cannot carry the
+ * two nodes a closed curve needs without folding the triangles around it. */
 #define DEGEN_TOL 1e-9
+#define DEGEN_CLOSED_TOL 1e-6
 /* A closed curve's ends coincide within OCC's usual precision, relative to the model. */
 #define CLOSE_TOL 1e-7
 
@@ -222,7 +226,7 @@ static pm_status build_curve(pm_cell *c, int tag, const tag_list tl[4], const do
     c->bound[1] = (pm_use){end, +1, 0};
   }
   int closed = c->nbound == 2 && c->bound[0].cell == c->bound[1].cell;
-  c->degenerate = spread <= DEGEN_TOL * diag;
+  c->degenerate = spread <= (closed ? DEGEN_CLOSED_TOL : DEGEN_TOL) * diag;
   if (!c->degenerate && !(c->hi[0] > c->lo[0]))
     return pm_error_setf(err, PM_ERR_GEOM, "curve with an empty parameter range");
   if ((closed || c->nbound == 0) && !c->degenerate && pm_v3_dist(c0, c1) <= CLOSE_TOL * diag) {
