@@ -5,7 +5,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <stdio.h>
 
 #include "common/cdt_cgal.h"
 #include "common/clock.h"
@@ -311,6 +310,8 @@ typedef struct face_work {
   int32_t *loc;   /* [np] local node of each point */
   int32_t *gnode; /* [nloc] mesh node of each local node */
   double *nrm;    /* [3*nloc] */
+  double *lxyz;   /* [3*nloc] 3D position of each local node */
+  int32_t capl;   /* room of loc-indexed arrays (gnode, nrm, lxyz) */
   int32_t npole, cappole;
   int32_t *pole;  /* mesh nodes that are poles of this face (their points are copies) */
   /* the triangulation, in point indices until it is chosen, then in local nodes (the flips work
@@ -328,15 +329,17 @@ typedef struct face_out {
   double asp_before, asp_after; /* sums over the face's triangles (curved faces) */
   double max_before, max_after; /* maxima over them */
   int32_t degen_before, degen_after; /* degenerate triangles (left out of the sums) */
-  int32_t nfix;
-  double *fix_uv; /* [2*nfix] repair points asked for by the face (see repeated_in_face) */
+  int32_t nnew;   /* nodes the face added (split_repeats): ids vbase + k in tri, until the
+                     caller appends them to the mesh */
+  int32_t vbase;
+  double *new_xyz, *new_uv; /* [3*nnew], [2*nnew] */
   pm_status status;
   pm_error err;
 } face_out;
 
 static void face_work_free(face_work *w) {
   free(w->next_of_node), free(w->head);
-  free(w->loc), free(w->gnode), free(w->nrm), free(w->pole);
+  free(w->loc), free(w->gnode), free(w->nrm), free(w->lxyz), free(w->pole);
   free(w->uv), free(w->xy), free(w->node), free(w->cons), free(w->tri), free(w->nbr), free(w->fixed);
   memset(w, 0, sizeof *w);
 }
@@ -526,11 +529,14 @@ static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const p
 
 /* Number the face's distinct nodes locally and give each the surface's unit normal, from the
  * (u, v) of its first point; a pole has no normal (zero). */
-static pm_status local_nodes(const pm_cell *f, face_work *w, pm_error *err) {
-  w->loc = malloc(sizeof(int32_t) * (size_t)(w->np ? w->np : 1));
-  w->gnode = malloc(sizeof(int32_t) * (size_t)(w->np ? w->np : 1));
-  w->nrm = malloc(sizeof(double) * 3 * (size_t)(w->np ? w->np : 1));
-  if (!w->loc || !w->gnode || !w->nrm) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+static pm_status local_nodes(const pm_cell *f, const pm_mesh *mesh, face_work *w, pm_error *err) {
+  w->loc = malloc(sizeof(int32_t) * (size_t)(w->capp ? w->capp : 1));
+  w->capl = w->np ? w->np : 1;
+  w->gnode = malloc(sizeof(int32_t) * (size_t)w->capl);
+  w->nrm = malloc(sizeof(double) * 3 * (size_t)w->capl);
+  w->lxyz = malloc(sizeof(double) * 3 * (size_t)w->capl);
+  if (!w->loc || !w->gnode || !w->nrm || !w->lxyz)
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   w->nloc = 0;
   for (int32_t p = 0; p < w->np; ++p) {
     /* head[node] chains the node's points from the last added: the node's local number is set
@@ -544,6 +550,7 @@ static pm_status local_nodes(const pm_cell *f, face_work *w, pm_error *err) {
     int32_t l = w->nloc++;
     w->loc[p] = l;
     w->gnode[l] = w->node[p];
+    memcpy(&w->lxyz[3 * l], &mesh->xyz[3 * (size_t)w->node[p]], 3 * sizeof(double));
     double *n = &w->nrm[3 * l];
     pm_v3_zero(n);
     int pole = 0;
@@ -691,7 +698,8 @@ static int in_ball(const double *a, const double *b, const double *c, const doub
 
 /* The 3D position of local node l. */
 static const double *P3(const face_work *w, const pm_mesh *mesh, int32_t l) {
-  return &mesh->xyz[3 * w->gnode[l]];
+  (void)mesh;
+  return &w->lxyz[3 * l];
 }
 
 /* A triangle of local nodes (a, b, c) is acceptable when it is not degenerate in 3D and its
@@ -836,6 +844,12 @@ static int face_is_curved(const pm_cell *f, double diag) {
   return 0;
 }
 
+static int is_pole(const face_work *w, int32_t node) {
+  for (int32_t k = 0; k < w->npole; ++k)
+    if (w->pole[k] == node) return 1;
+  return 0;
+}
+
 /* Take a CDT's triangles into w->tri: merged points mapped to their representative, triangles
  * collapsed onto a pole (two corners on one node: the two ends of a degenerate pcurve) dropped
  * and counted. */
@@ -851,10 +865,14 @@ static pm_status take_triangles(face_work *w, const pm_cdt_result *cdt, int32_t 
       if (cdt->merged_into) v[q] = cdt->merged_into[v[q]];
     }
     int32_t na = w->node[v[0]], nb = w->node[v[1]], nc = w->node[v[2]];
-    if (na == nb || nb == nc || na == nc) {
+    int32_t twice = na == nb || na == nc ? na : (nb == nc ? nb : -1);
+    if (twice >= 0 && is_pole(w, twice)) {
       (*pole)++;
       continue;
     }
+    /* Two corners on one node that is not a pole: the two sides of a seam, joined across the
+     * whole period where the face has too few nodes to go round. Kept for split_repeats, which
+     * splits it; what still collapses afterwards is dropped there. */
     memcpy(&w->tri[3 * w->ntri], v, sizeof v);
     w->ntri++;
   }
@@ -881,19 +899,6 @@ static int tri_key_cmp(const void *a, const void *b) {
   return (x->tri > y->tri) - (x->tri < y->tri);
 }
 
-/* Ask for a repair node at (u, v) of face f (kept when inside the trimmed region). */
-static pm_status face_fix_push(const pm_cell *f, face_out *out, const double uv[2], pm_error *err) {
-  double p[2] = {uv[0], uv[1]};
-  pm_cell_wrap(f, p);
-  if (!pm_face_inside(f, p)) return PM_OK;
-  double *g = realloc(out->fix_uv, sizeof(double) * 2 * ((size_t)out->nfix + 1));
-  if (!g) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  out->fix_uv = g;
-  out->fix_uv[2 * out->nfix] = p[0], out->fix_uv[2 * out->nfix + 1] = p[1];
-  out->nfix++;
-  return PM_OK;
-}
-
 /* Unacceptable triangles of a triangulation given in point indices. */
 static int32_t count_unacceptable_in(const face_work *w, const pm_mesh *mesh, const int32_t *tri,
                                      int32_t ntri) {
@@ -903,81 +908,192 @@ static int32_t count_unacceptable_in(const face_work *w, const pm_mesh *mesh, co
   return n;
 }
 
-/* Repeats within one face (see "repairing triangles that repeat" below): a node edge with more
- * than two triangles (a node joined to both sides of a seam, where the face is too coarse to go
+/* Repeats within one face (see "repairing triangles that repeat" below): a node edge of more
+ * than two triangles (a node joined to both sides of a seam where the face is too coarse to go
  * round: the ring next to a cone's apex), or two triangles on the same three nodes (a pole fan
- * of two). For each, the face asks for nodes at the (u, v) middles of the parameter-space edges
- * behind it, so that the next triangulation joins those instead. */
+ * of two). Each parameter-space edge behind one is split at its (u, v) middle, in the
+ * triangulation as it is: the two triangles at the edge become four, and the rest is untouched
+ * (a new triangulation of the whole face would start the 3D flips from another tangle). The new
+ * nodes get ids from out->vbase on; the caller adds them to the mesh. */
 static int cmp_i64(const void *a, const void *b) {
   int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
   return (x > y) - (x < y);
 }
 
-static pm_status repeated_in_face(const pm_cell *f, const face_work *w, face_out *out,
-                                  pm_error *err) {
-  /* Local-node edges, with the triangle and side they come from, sorted: repeats are adjacent. */
+/* Append a point of a new node at uv (S(uv) in 3D); returns its point index or -1. */
+static int32_t add_split_point(const pm_cell *f, face_work *w, face_out *out, const double uv[2]) {
+  if (w->np == w->capp) {
+    int32_t cap = 2 * w->capp;
+    double *a = realloc(w->uv, sizeof(double) * 2 * (size_t)cap);
+    if (a) w->uv = a;
+    double *x = realloc(w->xy, sizeof(double) * 2 * (size_t)cap);
+    if (x) w->xy = x;
+    int32_t *b = realloc(w->node, sizeof(int32_t) * (size_t)cap);
+    if (b) w->node = b;
+    int32_t *c = realloc(w->next_of_node, sizeof(int32_t) * (size_t)cap);
+    if (c) w->next_of_node = c;
+    int32_t *d = realloc(w->loc, sizeof(int32_t) * (size_t)cap);
+    if (d) w->loc = d;
+    if (!a || !x || !b || !c || !d) return -1;
+    w->capp = cap;
+  }
+  if (w->nloc == w->capl) {
+    int32_t cap = 2 * w->capl;
+    int32_t *g = realloc(w->gnode, sizeof(int32_t) * (size_t)cap);
+    if (g) w->gnode = g;
+    double *n = realloc(w->nrm, sizeof(double) * 3 * (size_t)cap);
+    if (n) w->nrm = n;
+    double *l = realloc(w->lxyz, sizeof(double) * 3 * (size_t)cap);
+    if (l) w->lxyz = l;
+    if (!g || !n || !l) return -1;
+    w->capl = cap;
+  }
+  double *nx = realloc(out->new_xyz, sizeof(double) * 3 * ((size_t)out->nnew + 1));
+  if (nx) out->new_xyz = nx;
+  double *nu = realloc(out->new_uv, sizeof(double) * 2 * ((size_t)out->nnew + 1));
+  if (nu) out->new_uv = nu;
+  if (!nx || !nu) return -1;
+  pm_face_point fp;
+  pm_face_eval(f, uv, 1, &fp);
+  int32_t p = w->np++, l = w->nloc++;
+  w->uv[2 * p] = uv[0], w->uv[2 * p + 1] = uv[1];
+  w->xy[2 * p] = uv[0], w->xy[2 * p + 1] = uv[1]; /* not triangulated again */
+  w->node[p] = out->vbase + out->nnew;
+  w->next_of_node[p] = -1;
+  w->loc[p] = l;
+  w->gnode[l] = w->node[p];
+  memcpy(&w->lxyz[3 * l], fp.p, sizeof fp.p);
+  double *n = &w->nrm[3 * l];
+  pm_v3_cross(n, fp.su, fp.sv);
+  double nn = pm_v3_norm(n);
+  if (nn > 1e-10 * pm_v3_norm(fp.su) * pm_v3_norm(fp.sv)) pm_v3_scale(n, n, 1.0 / nn);
+  else pm_v3_zero(n);
+  memcpy(&out->new_xyz[3 * out->nnew], fp.p, sizeof fp.p);
+  out->new_uv[2 * out->nnew] = uv[0], out->new_uv[2 * out->nnew + 1] = uv[1];
+  out->nnew++;
+  return p;
+}
+
+/* Split parameter-space edge (p, r) of the point triangulation at its (u, v) middle, when that
+ * lies in the trimmed region. 0 done or skipped, -1 out of memory. */
+static int split_edge(const pm_cell *f, face_work *w, face_out *out, int32_t p, int32_t r) {
+  double mid[2] = {0.5 * (w->uv[2 * p] + w->uv[2 * r]), 0.5 * (w->uv[2 * p + 1] + w->uv[2 * r + 1])};
+  if (!pm_face_inside(f, mid)) return 0;
+  int32_t at[2], nat = 0;
+  for (int32_t t = 0; t < w->ntri && nat < 2; ++t)
+    for (int q = 0; q < 3; ++q) {
+      int32_t a = w->tri[3 * t + q], b = w->tri[3 * t + (q + 1) % 3];
+      if ((a == p && b == r) || (a == r && b == p)) at[nat++] = 3 * t + q;
+    }
+  if (nat == 0) return 0;
+  int32_t *g = realloc(w->tri, sizeof(int32_t) * 3 * ((size_t)w->ntri + (size_t)nat));
+  if (!g) return -1;
+  w->tri = g;
+  int32_t m = add_split_point(f, w, out, mid);
+  if (m < 0) return -1;
+  for (int k = 0; k < nat; ++k) {
+    int32_t t = at[k] / 3, q = at[k] % 3;
+    int32_t a = w->tri[3 * t + q], b = w->tri[3 * t + (q + 1) % 3], c = w->tri[3 * t + (q + 2) % 3];
+    /* (a, b, c) -> (a, m, c) and (m, b, c): the orientation is kept. */
+    w->tri[3 * t + (q + 1) % 3] = m;
+    int32_t *n = &w->tri[3 * w->ntri++];
+    n[0] = m, n[1] = b, n[2] = c;
+    (void)a;
+  }
+  return 0;
+}
+
+static pm_status split_repeats(const pm_cell *f, face_work *w, face_out *out, pm_error *err) {
+  /* Local-node edges as (low << 32 | high) keys, sorted: a key that occurs more than twice is
+   * an over-used edge; the parameter-space edges behind it are then looked up. */
   int64_t ne = 3 * (int64_t)w->ntri;
   int64_t *e = malloc(sizeof(int64_t) * (size_t)(ne ? ne : 1));
-  if (!e) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  int32_t *split = malloc(sizeof(int32_t) * 6 * (size_t)(ne ? ne : 1)); /* wraps, repeats, pillows */
+  if (!e || !split) {
+    free(e), free(split);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
   for (int32_t t = 0; t < w->ntri; ++t)
     for (int q = 0; q < 3; ++q) {
-      int32_t a = w->loc[w->tri[3 * t + q]], b = w->loc[w->tri[3 * t + (q + 1) % 3]];
-      if (a > b) { int32_t x = a; a = b; b = x; }
-      /* key: the node pair; the half-edge goes in the low bits (3 ntri < 2^24 here) */
-      e[3 * t + q] = ((int64_t)a << 40) | ((int64_t)b << 16) | 0;
+      int64_t a = w->loc[w->tri[3 * t + q]], b = w->loc[w->tri[3 * t + (q + 1) % 3]];
+      e[3 * t + q] = a < b ? (a << 32 | b) : (b << 32 | a);
     }
-  /* A second pass keeps (pair, half-edge) together without widening the key: sort pairs only,
-   * then scan each run against the triangles. */
   qsort(e, (size_t)ne, sizeof(int64_t), cmp_i64);
-  pm_status st = PM_OK;
-  int64_t i = 0;
-  while (i < ne && !st) {
-    int64_t j = i;
-    while (j < ne && e[j] == e[i]) ++j;
-    if (j - i > 2) {
-      int32_t a = (int32_t)(e[i] >> 40), b = (int32_t)((e[i] >> 16) & 0xffffff);
-      /* Every parameter-space edge between points of a and b: its middle. */
-      for (int32_t t = 0; t < w->ntri && !st; ++t)
-        for (int q = 0; q < 3 && !st; ++q) {
-          int32_t p = w->tri[3 * t + q], r = w->tri[3 * t + (q + 1) % 3];
-          int32_t la = w->loc[p], lb = w->loc[r];
-          if (!((la == a && lb == b) || (la == b && lb == a)) || p > r) continue;
-          double mid[2] = {0.5 * (w->uv[2 * p] + w->uv[2 * r]), 0.5 * (w->uv[2 * p + 1] + w->uv[2 * r + 1])};
-          st = face_fix_push(f, out, mid, err);
-        }
+  int64_t nsplit = 0;
+  /* Triangles wrapped round the period (two corners on one node, see take_triangles): the edge
+   * between the two copies. */
+  for (int32_t t = 0; t < w->ntri; ++t)
+    for (int q = 0; q < 3; ++q) {
+      int32_t p = w->tri[3 * t + q], r = w->tri[3 * t + (q + 1) % 3];
+      if (w->node[p] == w->node[r] && p != r)
+        split[2 * nsplit] = p < r ? p : r, split[2 * nsplit + 1] = p < r ? r : p, ++nsplit;
     }
-    i = j;
+  for (int64_t i = 0, j; i < ne; i = j) {
+    for (j = i; j < ne && e[j] == e[i]; ++j) {}
+    if (j - i <= 2) continue;
+    int32_t a = (int32_t)(e[i] >> 32), b = (int32_t)(e[i] & 0xffffffff);
+    for (int32_t t = 0; t < w->ntri; ++t)
+      for (int q = 0; q < 3; ++q) {
+        int32_t p = w->tri[3 * t + q], r = w->tri[3 * t + (q + 1) % 3];
+        int32_t la = w->loc[p], lb = w->loc[r];
+        if (p < r && ((la == a && lb == b) || (la == b && lb == a)))
+          split[2 * nsplit] = p, split[2 * nsplit + 1] = r, ++nsplit;
+      }
   }
   free(e);
-  /* Two triangles on the same three nodes whose edges are each used twice (a closed pillow): the
-   * middle of each one's longest parameter-space edge. */
-  if (!st && out->nfix == 0) {
-    tri_key *k = malloc(sizeof(tri_key) * (size_t)(w->ntri ? w->ntri : 1));
-    if (!k) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  /* Two triangles on the same three nodes whose edges are each used twice (a closed pillow):
+   * each one's longest parameter-space edge. */
+  if (nsplit == 0 && w->ntri > 1) {
+    tri_key *k = malloc(sizeof(tri_key) * (size_t)w->ntri);
+    if (!k) {
+      free(split);
+      return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    }
     for (int32_t t = 0; t < w->ntri; ++t) {
       for (int q = 0; q < 3; ++q) k[t].n[q] = w->loc[w->tri[3 * t + q]];
       sort3(k[t].n);
       k[t].face = 0, k[t].tri = t;
     }
     qsort(k, (size_t)w->ntri, sizeof(tri_key), tri_key_cmp);
-    for (int32_t t = 1; t < w->ntri && !st; ++t) {
+    for (int32_t t = 1; t < w->ntri; ++t) {
       if (memcmp(k[t].n, k[t - 1].n, sizeof k[t].n) != 0) continue;
-      for (int c = 0; c < 2 && !st; ++c) {
+      for (int c = 0; c < 2; ++c) {
         const int32_t *v = &w->tri[3 * k[t - c].tri];
         int best = 0;
         double bl = -1;
         for (int q = 0; q < 3; ++q) {
-          const double *A = &w->xy[2 * v[q]], *B = &w->xy[2 * v[(q + 1) % 3]];
+          const double *A = &w->uv[2 * v[q]], *B = &w->uv[2 * v[(q + 1) % 3]];
           double l = hypot(A[0] - B[0], A[1] - B[1]);
           if (l > bl) bl = l, best = q;
         }
-        int32_t p = v[best], r = v[(best + 1) % 3];
-        double mid[2] = {0.5 * (w->uv[2 * p] + w->uv[2 * r]), 0.5 * (w->uv[2 * p + 1] + w->uv[2 * r + 1])};
-        st = face_fix_push(f, out, mid, err);
+        split[2 * nsplit] = v[best], split[2 * nsplit + 1] = v[(best + 1) % 3], ++nsplit;
       }
     }
     free(k);
   }
+  pm_status st = PM_OK;
+  for (int64_t i = 0; i < nsplit && !st; ++i) {
+    /* An edge listed twice (shared by two wrapped triangles) is split once. */
+    int dup = 0;
+    for (int64_t k = 0; k < i && !dup; ++k)
+      dup = split[2 * k] == split[2 * i] && split[2 * k + 1] == split[2 * i + 1];
+    if (!dup && split_edge(f, w, out, split[2 * i], split[2 * i + 1]))
+      st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  free(split);
+  /* What still has two corners on one node collapses in 3D: drop it. */
+  int32_t n = 0;
+  for (int32_t t = 0; t < w->ntri; ++t) {
+    const int32_t *v = &w->tri[3 * t];
+    if (w->node[v[0]] == w->node[v[1]] || w->node[v[1]] == w->node[v[2]] ||
+        w->node[v[0]] == w->node[v[2]]) {
+      out->pole++;
+      continue;
+    }
+    memmove(&w->tri[3 * n], v, 3 * sizeof(int32_t));
+    ++n;
+  }
+  w->ntri = n;
   return st;
 }
 
@@ -986,13 +1102,14 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
   face_work w = {0};
   pm_error *err = &out->err;
   pm_cdt_result cdt = {0};
+  out->vbase = mesh->nnode;
   pm_status s = gather_face_points(m, f, mesh, ch, fb, &w, err);
   if (s) goto fail;
   if (w.np < 3) {
     s = pm_error_setf(err, PM_ERR_GEOM, "face %d has fewer than 3 nodes", f->tag);
     goto fail;
   }
-  if ((s = local_nodes(f, &w, err))) goto fail;
+  if ((s = local_nodes(f, mesh, &w, err))) goto fail;
   /* The unscaled triangulation; with the affine scaling (eq. 16) a second one in the scaled
    * plane, kept unless it lifts to more inverted triangles than the first (one affine map cannot
    * undo the distortion of a whole sphere near its poles). */
@@ -1011,7 +1128,6 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
       free(raw_tri);
       goto fail;
     }
-    if (getenv("PMDBG")) fprintf(stderr, "face %d scaled unacc %d raw unacc %d\n", f->tag, count_unacceptable_in(&w, mesh, w.tri, w.ntri), count_unacceptable_in(&w, mesh, raw_tri, raw_n));
     if (count_unacceptable_in(&w, mesh, w.tri, w.ntri) > count_unacceptable_in(&w, mesh, raw_tri, raw_n)) {
       free(w.tri);
       w.tri = raw_tri, w.ntri = raw_n, out->pole = raw_pole;
@@ -1021,7 +1137,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
     }
   }
   pm_cdt_result_free(&cdt);
-  if ((s = repeated_in_face(f, &w, out, err))) goto fail;
+  if ((s = split_repeats(f, &w, out, err))) goto fail;
   to_local_nodes(&w);
   out->curved = face_is_curved(f, m->diagonal);
   if (out->curved) out->asp_before = sum_aspect(&w, mesh, &out->max_before, &out->degen_before);
@@ -1123,18 +1239,6 @@ static int32_t repair_repeats(const pm_model *m, pm_mesh *mesh, const face_out *
     }
   qsort(k, (size_t)n, sizeof(tri_key), tri_key_cmp);
   int32_t added = 0;
-  /* What the faces asked for themselves. */
-  for (int32_t f = 0; f < nf && added >= 0; ++f)
-    for (int32_t r = 0; r < fo[f].nfix; ++r) {
-      pm_face_point fp;
-      pm_face_eval(&m->cells[PM_FACE][f], &fo[f].fix_uv[2 * r], 0, &fp);
-      if (pm_mesh_add_node(mesh, fp.p, PM_FACE, f, &fo[f].fix_uv[2 * r], NULL, err)) {
-        added = -1;
-        break;
-      }
-      redo[f] = 1;
-      ++added;
-    }
   for (int64_t i = 1; i < n && added >= 0; ++i) {
     if (memcmp(k[i].n, k[i - 1].n, sizeof k[i].n) != 0) continue;
     /* k[i] repeats k[i - 1]: the later one (face order, then triangle order) is repaired, once
@@ -1204,7 +1308,7 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
 #pragma omp parallel for schedule(dynamic, 1)
     for (int32_t f = 0; f < nf; ++f) {
       if (!redo[f]) continue;
-      free(fo[f].tri), free(fo[f].fix_uv);
+      free(fo[f].tri), free(fo[f].new_xyz), free(fo[f].new_uv);
       memset(&fo[f], 0, sizeof fo[f]);
       connect_face(m, &m->cells[PM_FACE][f], mesh, &ch, &fb, p, &fo[f]);
     }
@@ -1214,6 +1318,18 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
         s = fo[f].status;
         goto done;
       }
+    /* The nodes the faces added, in face order (so ids do not depend on the thread count). */
+    for (int32_t f = 0; f < nf; ++f) {
+      if (!redo[f] || fo[f].nnew == 0) continue;
+      int32_t first = mesh->nnode;
+      for (int32_t k = 0; k < fo[f].nnew && !s; ++k)
+        s = pm_mesh_add_node(mesh, &fo[f].new_xyz[3 * k], PM_FACE, f, &fo[f].new_uv[2 * k], NULL, err);
+      if (s) goto done;
+      for (int32_t k = 0; k < 3 * fo[f].ntri; ++k)
+        if (fo[f].tri[k] >= fo[f].vbase) fo[f].tri[k] = first + fo[f].tri[k] - fo[f].vbase;
+      rep.repair_nodes += fo[f].nnew;
+      fo[f].nnew = 0;
+    }
     if (round == REPAIR_ROUNDS) break;
     memset(redo, 0, (size_t)nf + 1);
     int32_t added = repair_repeats(m, mesh, fo, redo, err);
@@ -1221,7 +1337,6 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
       s = err ? err->code : PM_ERR_NOMEM;
       goto done;
     }
-    if (getenv("PMDBG")) fprintf(stderr, "round %d added %d\n", round, added);
     if (added == 0) break;
     rep.repair_nodes += added;
     buckets_free(&fb);
@@ -1252,7 +1367,8 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
 
 done:
   if (fo)
-    for (int32_t f = 0; f < m->count[PM_FACE]; ++f) free(fo[f].tri), free(fo[f].fix_uv);
+    for (int32_t f = 0; f < m->count[PM_FACE]; ++f)
+      free(fo[f].tri), free(fo[f].new_xyz), free(fo[f].new_uv);
   free(fo);
   free(vnode);
   free(redo);
