@@ -60,8 +60,8 @@ extern "C" {
 
 /* Load a CAD file as a model.
  * [in]  path  a .step/.stp, .iges/.igs or .brep file (the extension decides the format,
- *             case-insensitively). IGES files are sewn on import (Geometry.OCCSewFaces = 1),
- *             because IGES faces arrive with unshared edges.
+ *             case-insensitively). A file whose faces are unsewn or whose solids touch
+ *             without sharing faces is healed (geom_cad_heal.c); m->heal says what was done.
  * [out] out   the model (free with pm_model_destroy), NULL on failure.
  * Errors, each a one-line message naming the file:
  *   PM_ERR_ARG    an unknown extension;

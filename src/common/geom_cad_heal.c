@@ -22,7 +22,7 @@
  *     14 / 23 / 13 / 2 -> 8 / 13 / 7 / 2 vertices / curves / faces / volumes in 0.05 s. It is
  *     not applied blindly: on models without coincident vertices it costs up to 27 s
  *     (statreport/A319.brep) and can change a valid model (box_sides.step: 10 -> 33 volumes).
- * IGES files are always sewn on import (geom_cad.c): IGES has no shared edges at all.
+ * IGES files with coincident vertices are imported again with sewing on (geom_cad.c, heal()).
  *
  * The report (what was found and what was done) is written into the model's `heal` text, which
  * the command prints and --stats records.
