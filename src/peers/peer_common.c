@@ -190,10 +190,20 @@ int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh) {
     int32_t at = -1;
     for (int q = 0; q < 3 && at < 0; ++q)
       if (mesh->node_dim[v[q]] == PM_FACE && mesh->node_cell[v[q]] == f) at = v[q];
-    if (at < 0) continue;
     const pm_cell *fc = &m->cells[PM_FACE][f];
+    double uv[2];
+    if (at >= 0) {
+      uv[0] = mesh->node_par[2 * at], uv[1] = mesh->node_par[2 * at + 1];
+    } else {
+      /* Only boundary nodes (a small face meshed by gmsh without an interior node): the
+       * surface's normal at the foot of the centroid. */
+      double c[3];
+      for (int k = 0; k < 3; ++k)
+        c[k] = (mesh->xyz[3 * v[0] + k] + mesh->xyz[3 * v[1] + k] + mesh->xyz[3 * v[2] + k]) / 3;
+      if (pm_cell_project(fc, c, NULL, uv, NULL, NULL, NULL) != PM_OK) continue;
+    }
     pm_face_point fp;
-    pm_face_eval(fc, &mesh->node_par[2 * at], 1, &fp);
+    pm_face_eval(fc, uv, 1, &fp);
     double N[3], ab[3], ac[3], n[3];
     pm_v3_cross(N, fp.su, fp.sv);
     pm_v3_sub(ab, &mesh->xyz[3 * v[1]], &mesh->xyz[3 * v[0]]);

@@ -62,8 +62,9 @@ void peer_tagmap_free(peer_tagmap *t);
 /* Orient each face's triangles by geom.h's rule (pm_face_mesh_sign: out of the face's first
  * volume, else along Su x Sv): a face whose triangles mostly disagree with Su x Sv at their
  * nodes classified on the face (times the sign) has all its triangles turned over. A backend
- * orients a face's triangles consistently, so the vote only decides the face's side. Faces
- * without interior nodes keep the backend's orientation. Returns the number of faces turned. */
+ * orients a face's triangles consistently, so the vote only decides the face's side. A
+ * triangle without a node on the face votes with the normal at the foot of its centroid (a
+ * small face meshed with boundary nodes only). Returns the number of faces turned. */
 int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh);
 
 
