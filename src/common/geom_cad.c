@@ -285,6 +285,9 @@ static pm_status heal(const char *path, cad_format fmt, char *healed, size_t len
       how = "sewed the faces (OpenCASCADE's BRepBuilderAPI_Sewing, gmsh's Geometry.OCCSewFaces) "
             "and merged what sewing left (gmsh's RemoveAllDuplicates)";
     }
+  } else if (act == CAD_HEAL_TWINS) {
+    if (cad_heal_drop_twins()) return heal_error(err, path, "removing faces listed twice");
+    how = "removed the repeats and rebuilt the volumes that listed them";
   } else {
     if (cad_heal_fragment())
       return heal_error(err, path, "merging the touching solids");

@@ -51,6 +51,150 @@ static int cmp_vpt_x(const void *a, const void *b) {
   return (p > q) - (p < q);
 }
 
+/* ---- twin faces ---------------------------------------------------------------------------- */
+
+typedef struct face_sig {
+  int tag;
+  int32_t ncurve;
+  int *curve;      /* sorted boundary curve tags (signs dropped) */
+  double lo[2], hi[2], mid[3];
+  char type[32];
+} face_sig;
+
+static int cmp_int(const void *a, const void *b) {
+  int x = *(const int *)a, y = *(const int *)b;
+  return (x > y) - (x < y);
+}
+
+/* Same boundary, same parametrization box, same point at its centre, same surface type. */
+static int same_face(const face_sig *a, const face_sig *b, double tol) {
+  if (a->ncurve != b->ncurve || a->ncurve == 0 || strcmp(a->type, b->type)) return 0;
+  if (memcmp(a->curve, b->curve, sizeof(int) * (size_t)a->ncurve)) return 0;
+  for (int k = 0; k < 2; ++k)
+    if (fabs(a->lo[k] - b->lo[k]) > 1e-9 * (1 + fabs(a->lo[k])) ||
+        fabs(a->hi[k] - b->hi[k]) > 1e-9 * (1 + fabs(a->hi[k])))
+      return 0;
+  double d = 0;
+  for (int k = 0; k < 3; ++k) d += (a->mid[k] - b->mid[k]) * (a->mid[k] - b->mid[k]);
+  return d <= tol * tol;
+}
+
+/* The tags of the faces that repeat an earlier one (by tag order): *twin (free()) and *n. */
+static int find_twins(double tol, int **twin, int32_t *n) {
+  *twin = NULL, *n = 0;
+  int ierr = 0, *dt = NULL;
+  size_t nd = 0;
+  gmshModelGetEntities(&dt, &nd, 2, &ierr);
+  if (ierr) {
+    if (dt) gmshFree(dt);
+    return -1;
+  }
+  int32_t nf = (int32_t)(nd / 2);
+  face_sig *f = calloc((size_t)(nf ? nf : 1), sizeof(face_sig));
+  *twin = malloc(sizeof(int) * (size_t)(nf ? nf : 1));
+  if (!f || !*twin) {
+    free(f), free(*twin), *twin = NULL;
+    gmshFree(dt);
+    return -1;
+  }
+  int rc = 0;
+  for (int32_t i = 0; i < nf && !rc; ++i) {
+    f[i].tag = dt[2 * i + 1];
+    int *up = NULL, *down = NULL;
+    size_t nu = 0, ndn = 0;
+    gmshModelGetAdjacencies(2, f[i].tag, &up, &nu, &down, &ndn, &ierr);
+    f[i].curve = malloc(sizeof(int) * (ndn + 1));
+    if (ierr || !f[i].curve) rc = -1;
+    for (size_t k = 0; !rc && k < ndn; ++k) f[i].curve[f[i].ncurve++] = abs(down[k]);
+    if (up) gmshFree(up);
+    if (down) gmshFree(down);
+    if (rc) break;
+    qsort(f[i].curve, (size_t)f[i].ncurve, sizeof(int), cmp_int);
+    double *a = NULL, *b = NULL, *x = NULL;
+    size_t na = 0, nb = 0, nx = 0;
+    char *t = NULL;
+    gmshModelGetType(2, f[i].tag, &t, &ierr);
+    snprintf(f[i].type, sizeof f[i].type, "%s", t ? t : "");
+    if (t) gmshFree(t);
+    gmshModelGetParametrizationBounds(2, f[i].tag, &a, &na, &b, &nb, &ierr);
+    if (!ierr && na == 2 && nb == 2) {
+      double c[2] = {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])};
+      f[i].lo[0] = a[0], f[i].lo[1] = a[1], f[i].hi[0] = b[0], f[i].hi[1] = b[1];
+      gmshModelGetValue(2, f[i].tag, c, 2, &x, &nx, &ierr);
+      if (!ierr && nx == 3) memcpy(f[i].mid, x, sizeof f[i].mid);
+      else f[i].ncurve = 0; /* not comparable */
+    } else {
+      f[i].ncurve = 0;
+    }
+    ierr = 0;
+    if (a) gmshFree(a);
+    if (b) gmshFree(b);
+    if (x) gmshFree(x);
+  }
+  /* Quadratic in the faces sharing a first curve only: compare within runs of equal first
+   * curves after sorting by it would be faster, but twins are rare and the check is cheap. */
+  for (int32_t i = 0; i < nf && !rc; ++i)
+    for (int32_t j = 0; j < i; ++j)
+      if (f[i].ncurve > 0 && f[i].curve[0] == f[j].curve[0] && same_face(&f[j], &f[i], tol)) {
+        (*twin)[(*n)++] = f[i].tag;
+        break;
+      }
+  for (int32_t i = 0; i < nf; ++i) free(f[i].curve);
+  free(f);
+  gmshFree(dt);
+  if (rc) free(*twin), *twin = NULL, *n = 0;
+  return rc;
+}
+
+static double model_diagonal(void) {
+  int ierr = 0;
+  double box[6];
+  gmshModelGetBoundingBox(-1, -1, &box[0], &box[1], &box[2], &box[3], &box[4], &box[5], &ierr);
+  double diag = ierr ? 0 : sqrt(pow(box[3] - box[0], 2) + pow(box[4] - box[1], 2) +
+                                pow(box[5] - box[2], 2));
+  return diag > 0 && isfinite(diag) ? diag : 1;
+}
+
+int cad_heal_drop_twins(void) {
+  int *twin = NULL;
+  int32_t nt = 0;
+  if (find_twins(COINCIDENT_TOL * model_diagonal(), &twin, &nt)) return -1;
+  int ierr = 0;
+  for (int32_t k = 0; k < nt && !ierr; ++k) {
+    /* Every volume listing the twin is rebuilt from its other faces. */
+    int *up = NULL, *down = NULL;
+    size_t nu = 0, nd = 0;
+    gmshModelGetAdjacencies(2, twin[k], &up, &nu, &down, &nd, &ierr);
+    for (size_t v = 0; !ierr && v < nu; ++v) {
+      int in[2] = {3, up[v]}, *bd = NULL;
+      size_t nb = 0;
+      gmshModelGetBoundary(in, 2, &bd, &nb, 0, 0, 0, &ierr);
+      int *faces = malloc(sizeof(int) * (nb / 2 + 1));
+      size_t nfc = 0;
+      for (size_t q = 0; faces && !ierr && q < nb / 2; ++q)
+        if (abs(bd[2 * q + 1]) != twin[k]) faces[nfc++] = abs(bd[2 * q + 1]);
+      if (bd) gmshFree(bd);
+      if (!faces) ierr = 1;
+      int loop = -1, vol = -1;
+      if (!ierr) loop = gmshModelOccAddSurfaceLoop(faces, nfc, -1, 0, &ierr);
+      free(faces);
+      if (!ierr) vol = gmshModelOccAddVolume(&loop, 1, -1, &ierr);
+      int old[2] = {3, up[v]};
+      if (!ierr) gmshModelOccRemove(old, 2, 0, &ierr);
+      (void)vol;
+    }
+    if (up) gmshFree(up);
+    if (down) gmshFree(down);
+    int tw[2] = {2, twin[k]};
+    if (!ierr) gmshModelOccRemove(tw, 2, 0, &ierr);
+  }
+  free(twin);
+  if (!ierr) gmshModelOccSynchronize(&ierr);
+  return ierr ? -1 : 0;
+}
+
+/* ---- counting ------------------------------------------------------------------------------- */
+
 int cad_heal_count(cad_heal_counts *out) {
   memset(out, 0, sizeof *out);
   int ierr = 0, *dt = NULL;
@@ -85,11 +229,7 @@ int cad_heal_count(cad_heal_counts *out) {
           memcpy(v[nv++].x, x, sizeof v->x);
         if (x) gmshFree(x);
       }
-      double box[6];
-      gmshModelGetBoundingBox(-1, -1, &box[0], &box[1], &box[2], &box[3], &box[4], &box[5], &ierr);
-      double diag = ierr ? 0 : sqrt(pow(box[3] - box[0], 2) + pow(box[4] - box[1], 2) +
-                                    pow(box[5] - box[2], 2));
-      const double tol = COINCIDENT_TOL * (diag > 0 && isfinite(diag) ? diag : 1);
+      const double tol = COINCIDENT_TOL * model_diagonal();
       /* Sort and sweep along x: pairs within tol in x, then in space. */
       qsort(v, (size_t)nv, sizeof(vpt), cmp_vpt_x);
       for (int32_t i = 0; i < nv; ++i)
@@ -101,11 +241,14 @@ int cad_heal_count(cad_heal_counts *out) {
     }
     if (dt) gmshFree(dt);
   }
+  int *twin = NULL;
+  if (find_twins(COINCIDENT_TOL * model_diagonal(), &twin, &out->twin_faces)) return -1;
+  free(twin);
   return 0;
 }
 
 cad_heal_action cad_heal_choose(const cad_heal_counts *c) {
-  if (c->coincident == 0) return CAD_HEAL_NONE;
+  if (c->coincident == 0) return c->twin_faces > 0 ? CAD_HEAL_TWINS : CAD_HEAL_NONE;
   return c->entities[3] > 0 ? CAD_HEAL_FRAGMENT : CAD_HEAL_SEW;
 }
 
@@ -128,10 +271,14 @@ int cad_heal_fragment(void) {
 
 void cad_heal_describe(const cad_heal_counts *before, const cad_heal_counts *after,
                        const char *how, char *text, size_t len) {
+  const char *what = before->coincident > 0
+                         ? "coincident vertex pairs (unsewn faces or touching solids)"
+                         : "faces listed twice (one surface and boundary under two tags)";
   int w = snprintf(text, len,
-                   "%d pairs of coincident vertices (unsewn faces or touching solids); %s: "
+                   "%s: %d; %s: "
                    "%d / %d / %d / %d -> %d / %d / %d / %d vertices / curves / faces / volumes",
-                   (int)before->coincident, how, (int)before->entities[0], (int)before->entities[1],
+                   what, (int)(before->coincident > 0 ? before->coincident : before->twin_faces),
+                   how, (int)before->entities[0], (int)before->entities[1],
                    (int)before->entities[2], (int)before->entities[3], (int)after->entities[0],
                    (int)after->entities[1], (int)after->entities[2], (int)after->entities[3]);
   if (after->coincident > 0 && w > 0 && (size_t)w < len)
