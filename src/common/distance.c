@@ -20,6 +20,8 @@ void pm_distance_params_init(pm_distance_params *p) {
   p->ref_tol = 1e-4;
   p->ref_spacing = 0.25;
   p->ref_max_points = 100000;
+  p->ref_per_tri = 16;
+  p->model_per_tri = 16;
 }
 
 pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
@@ -43,6 +45,12 @@ pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
   if (!(p->ref_spacing > 0 && p->ref_spacing <= 1))
     return pm_error_setf(err, PM_ERR_ARG, "distance: ref_spacing must be in (0, 1], got %g",
                          p->ref_spacing);
+  if (p->ref_per_tri < 1 || p->ref_per_tri > 1000000)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: ref_per_tri must be in 1..1000000, got %d",
+                         (int)p->ref_per_tri);
+  if (p->model_per_tri < 1 || p->model_per_tri > 1000000)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: model_per_tri must be in 1..1000000, got %d",
+                         (int)p->model_per_tri);
   if (p->ref_max_points < 100)
     return pm_error_setf(err, PM_ERR_ARG, "distance: ref_max_points must be >= 100, got %lld",
                          (long long)p->ref_max_points);
@@ -518,6 +526,9 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
       if (pm_bvh_closest(c->rf.bvh, x, INFINITY, &hit)) {
         dref = hit.dist;
         int32_t f = c->rf.face.v[hit.tri];
+        /* The reference names the hint's own face, whose foot was found inside it: a second
+         * projection onto that face would land on the same foot. */
+        if (nf == 1 && fc[0].f == f && fc[0].in) goto candidates_done;
         const int32_t *v = &c->rf.tri.v[3 * (size_t)hit.tri];
         double uv[2] = {0, 0};
         for (int k = 0; k < 3; ++k)
@@ -528,6 +539,7 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
         b->d = face_foot(&m->cells[PM_FACE][f], x, uv, &b->in, b->p, b->n);
       }
     }
+  candidates_done:
     for (int i = 0; i < nf; ++i) {
       fc[i].in = inside_exact(c, fc[i].f, fc[i].in, fc[i].p, fc[i].n);
       if (fc[i].in) best = fmin(best, fc[i].d);
@@ -653,8 +665,10 @@ static double mesh_eval(const dctx *c, int kind, int32_t e, const double par[2],
   return model_dist(c, PART_WIRE, x, &h, fallback);
 }
 
-/* Evaluate a model-side sample at parameters par of block b's cell: NAN outside the cell. */
-static double model_eval(const dctx *c, const mblock *b, const double par[2], double x[3]) {
+/* Evaluate a model-side sample at parameters par of block b's cell: NAN outside the cell. For
+ * a face, *jac (may be NULL) receives |Su x Sv| there (the area weight). */
+static double model_eval(const dctx *c, const mblock *b, const double par[2], double x[3],
+                         double *jac) {
   if (b->kind == S_FACE) {
     const pm_cell *f = &c->m->cells[PM_FACE][b->cell];
     pm_face_point fp;
@@ -663,6 +677,7 @@ static double model_eval(const dctx *c, const mblock *b, const double par[2], do
     pm_v3_cross(n, fp.su, fp.sv);
     if (!inside_exact(c, b->cell, pm_face_inside(f, par), fp.p, n)) return NAN;
     pm_v3_copy(x, fp.p);
+    if (jac) *jac = pm_v3_norm(n);
   } else {
     const pm_cell *cu = &c->m->cells[PM_CURVE][b->cell];
     double t = par[0];
@@ -747,7 +762,7 @@ static double refine_one(const dctx *c, const mblock *blocks, topk *e, double x_
   int fb;
   /* Re-evaluate the start for its point (and a consistent value). */
   double d0 = e->kind <= S_SEG ? mesh_eval(c, e->kind, e->elem, par, x, &fb)
-                               : model_eval(c, &blocks[e->elem], par, x);
+                               : model_eval(c, &blocks[e->elem], par, x, NULL);
   if (isfinite(d0)) best = d0, pm_v3_copy(x_best, x);
   int evals = 0;
   while (evals < PS_MAX_EVAL && step[0] > PS_MIN_STEP * e->step[0]) {
@@ -757,7 +772,7 @@ static double refine_one(const dctx *c, const mblock *blocks, topk *e, double x_
       double q[2] = {par[0] + dirs[k][0] * step[0], par[1] + dirs[k][1] * step[1]};
       ++evals;
       double d = e->kind <= S_SEG ? mesh_eval(c, e->kind, e->elem, q, x, &fb)
-                                  : model_eval(c, &blocks[e->elem], q, x);
+                                  : model_eval(c, &blocks[e->elem], q, x, NULL);
       if (isfinite(d) && d > best) best = d, bp[0] = q[0], bp[1] = q[1], pm_v3_copy(x_best, x), moved = 1;
     }
     if (moved)
@@ -766,6 +781,15 @@ static double refine_one(const dctx *c, const mblock *blocks, topk *e, double x_
       step[0] *= 0.5, step[1] *= 0.5;
   }
   return best;
+}
+
+/* Points allowed on one face: per_tri for each of its triangles, at least FACE_BUDGET_MIN (a
+ * face with a handful of triangles still gets a grid that resolves its boundary), at most cap. */
+#define FACE_BUDGET_MIN 256
+static int64_t face_budget(int64_t cap, int32_t per_tri, int32_t ntri) {
+  int64_t b = (int64_t)per_tri * ntri;
+  if (b < FACE_BUDGET_MIN) b = FACE_BUDGET_MIN;
+  return b < cap ? b : cap;
 }
 
 /* ---- driver ---------------------------------------------------------------------------------------------- */
@@ -935,6 +959,10 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
     Lface[f] = n > 0 ? edge_percentile(mesh, &face_tris[face_tris_off[f]], n) : Lglobal;
     if (!(Lface[f] > 0)) Lface[f] = Lglobal > 0 ? Lglobal : 0.01 * m->diagonal;
   }
+  /* Per-face budgets count the face's own triangles, and every unclassified one (a mesh read
+   * without tags could have them anywhere). */
+  const int32_t nunclass = face_tris_off[nface + 1] - face_tris_off[nface];
+#define ntri_face(f) (face_tris_off[(f) + 1] - face_tris_off[(f)] + nunclass)
   double Lwire = c.nwire > 0 ? seg_length_percentile(mesh, c.wire_seg, c.nwire) : 0;
   if (!(Lwire > 0)) Lwire = Lglobal > 0 ? Lglobal : 0.01 * m->diagonal;
 
@@ -962,7 +990,7 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
 #pragma omp parallel for schedule(dynamic, 1)
     for (int32_t f = 0; f < nface; ++f)
       fst[f] = ref_face(&part[f], &m->cells[PM_FACE][f], &finfo[f], eps, p.ref_spacing * Lface[f],
-                        p.ref_max_points, &ferr[f]);
+                        face_budget(p.ref_max_points, p.ref_per_tri, ntri_face(f)), &ferr[f]);
     for (int32_t f = 0; f < nface && !s; ++f) {
       if (fst[f]) {
         s = fst[f];
@@ -1023,8 +1051,9 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
       const double *box = finfo[f].box, su = finfo[f].su, sv = finfo[f].sv;
       double h = p.spacing * Lface[f] * grow;
       double nu = fmax(2, ceil(su * (box[2] - box[0]) / h)), nv = fmax(2, ceil(sv * (box[3] - box[1]) / h));
-      if (nu * nv > (double)p.max_face_samples) {
-        double sc = sqrt((double)p.max_face_samples / (nu * nv));
+      const int64_t cap = face_budget(p.max_face_samples, p.model_per_tri, ntri_face(f));
+      if (nu * nv > (double)cap) {
+        double sc = sqrt((double)cap / (nu * nv));
         nu = fmax(2, floor(nu * sc)), nv = fmax(2, floor(nv * sc));
       }
       mblock *b = &blocks[nblock++];
@@ -1170,17 +1199,12 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
       if (b->kind == S_FACE) {
         int32_t i = (int32_t)(r / b->nv), j = (int32_t)(r % b->nv);
         par[0] = b->u0 + i * b->du, par[1] = b->v0 + j * b->dv;
-        dres[k] = model_eval(&c, b, par, x);
-        if (isfinite(dres[k])) {
-          pm_face_point fp;
-          pm_face_eval(&m->cells[PM_FACE][b->cell], par, 1, &fp);
-          double nrm[3];
-          pm_v3_cross(nrm, fp.su, fp.sv);
-          w = pm_v3_norm(nrm) * b->du * b->dv;
-        }
+        double jac = 0;
+        dres[k] = model_eval(&c, b, par, x, &jac);
+        if (isfinite(dres[k])) w = jac * b->du * b->dv;
       } else {
         par[0] = r + 1 == b->nu ? m->cells[PM_CURVE][b->cell].hi[0] : b->u0 + r * b->du, par[1] = 0;
-        dres[k] = model_eval(&c, b, par, x);
+        dres[k] = model_eval(&c, b, par, x, NULL);
         /* Boundary curves of faces carry no area: they count in the maximum only. Dangling
          * curves are the wire part, weighted by length. */
         if (b->part == PART_WIRE && isfinite(dres[k])) {

@@ -88,6 +88,13 @@ typedef struct pm_distance_params {
                             (ref_spacing)^2 of the mesh's; (0, 1], default 0.25 */
   int64_t ref_max_points; /* cap on the reference grid points of one face (the tolerances are then
                             not met and `ref_chord` says what was); >= 100, default 100000 */
+  int32_t ref_per_tri;   /* ... and at most this many per triangle of the face's mesh (at least
+                            256 a face): the reference only picks a face and a start for the exact
+                            projection, so its chordal error need only be a small fraction of the
+                            mesh's (16 gives 1/20 on a sphere); 1..1e6, default 16 */
+  int32_t model_per_tri; /* model -> mesh samples of one face: at most this many per triangle of
+                            the face's mesh (at least 256 a face), so that the cost follows the
+                            mesh, not the parametrization; 1..1e6, default 16 */
 } pm_distance_params;
 
 /* Set the defaults above. */

@@ -248,6 +248,7 @@ static void test_disk_means_and_size(void **state) {
   pm_distance_params p;
   pm_distance_params_init(&p);
   p.spacing = 0.02;
+  p.model_per_tri = 1000000; /* dense sampling whatever the (6-triangle) mesh */
   pm_sizing *sz = NULL;
   pm_error e = {0};
   PM_ASSERT_OK(pm_sizing_constant(0.5, &sz, &e), e);
@@ -371,10 +372,9 @@ static void test_sphere_chordal_error(void **state) {
     PM_ASSERT_NEAR(d.model_to_mesh_max, expect, 1e-3 * expect);
     PM_ASSERT_NEAR(d.bbox_diagonal, 2 * sqrt(3.0), 1e-6);
     assert_int_equal(d.nfallback, 0);
-    /* The reference tessellation met its tolerance (1e-4 of the diagonal by default), well
-     * below the chordal error measured here; it only seeds the projections. */
-    assert_true(d.ref_chord > 0 && d.ref_chord <= 1e-4 * d.bbox_diagonal);
-    assert_true(d.ref_chord < 0.05 * expect);
+    /* The reference tessellation (at most ref_per_tri = 16 points per mesh triangle) has a
+     * chordal error well below the mesh's own, measured here; it only seeds the projections. */
+    assert_true(d.ref_chord > 0 && d.ref_chord < 0.05 * expect);
     dmax[classify] = d.mesh_to_model_max;
     /* The mean mesh -> model distance is below the maximum and of its order. */
     assert_true(d.mesh_to_model_mean > 0.2 * expect && d.mesh_to_model_mean < expect);
