@@ -310,6 +310,10 @@ int pm_cli_mesh(int argc, char **argv) {
     pm_stats_set_quality(&stats, &q);
     pm_quality_clear(&q);
     pm_stats_set_mesh(&stats, out.mesh);
+    pm_needles nd;
+    if ((s = pm_needles_classify(out.mesh, model, PM_NEEDLE_DEG, &nd, NULL, &e)) ||
+        (s = pm_stats_set_needles(&stats, &nd, PM_NEEDLE_DEG, &e)))
+      goto fail;
     if ((s = pm_stats_set_time(&stats, "quality", pm_seconds() - t0, &e))) goto fail;
     if (out.mesh->ntri > 0 || out.mesh->nseg > 0) {
       pm_distance_params dp;

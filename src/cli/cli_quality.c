@@ -54,8 +54,8 @@ static void row(FILE *f, const char *name, const pm_summary *s) {
 }
 
 static void table(FILE *f, const char *path, const char *geometry, const pm_mesh *m,
-                  const pm_quality *q, const pm_check_report *r, const pm_distance *d,
-                  double seconds) {
+                  const pm_quality *q, const pm_check_report *r, const pm_needles *nd,
+                  const pm_distance *d, double seconds) {
   fprintf(f, "mesh       %s\n", path);
   if (geometry) fprintf(f, "geometry   %s\n", geometry);
   fprintf(f, "elements   %ld nodes, %ld segments, %ld triangles, %ld tetrahedra\n",
@@ -104,6 +104,10 @@ static void table(FILE *f, const char *path, const char *geometry, const pm_mesh
               (long long)b[4], (long long)b[5]);
       fprintf(f, "  max angle > 90 %lld  > 120 %lld  > 150 %lld\n", (long long)o[0],
               (long long)o[1], (long long)o[2]);
+      fprintf(f, "  needles (an angle below %g deg): %lld, forced %lld (sharp corners %lld, "
+                 "features below the floor %lld), unforced %lld\n",
+              PM_NEEDLE_DEG, (long long)nd->count, (long long)(nd->corner + nd->feature),
+              (long long)nd->corner, (long long)nd->feature, (long long)nd->unforced);
       const pm_summary *a = q->tri_site_aspect;
       fprintf(f, "  triangles by site: boundary %lld, irregular %lld, regular %lld\n",
               (long long)a[PM_TRI_BOUNDARY].n, (long long)a[PM_TRI_IRREGULAR].n,
@@ -191,8 +195,10 @@ int pm_cli_quality(int argc, char **argv) {
     goto done;
   }
   const pm_sizing *field = size ? size : input_size;
+  pm_needles nd;
   if (pm_mesh_read(path, &m, &e) || pm_quality_compute(m, field, &q, &e) ||
-      pm_mesh_check(m, model, &r, &e)) {
+      pm_mesh_check(m, model, &r, &e) ||
+      pm_needles_classify(m, model, PM_NEEDLE_DEG, &nd, NULL, &e)) {
     code = pm_cli_error(&e);
     goto done;
   }
@@ -220,6 +226,7 @@ int pm_cli_quality(int argc, char **argv) {
       }
     }
     if (pm_stats_set_check(&st, &r, &e) || pm_stats_set_time(&st, "total", seconds, &e) ||
+        (m->ntri > 0 && pm_stats_set_needles(&st, &nd, PM_NEEDLE_DEG, &e)) ||
         (field && pm_stats_add_text(&st, "size", pm_sizing_describe(field), &e)) ||
         (geometry && pm_stats_add_text(&st, "geometry", geometry, &e)) ||
         pm_stats_to_json(&st, &out, &e)) {
@@ -238,7 +245,7 @@ int pm_cli_quality(int argc, char **argv) {
     if (csv)
       s = pm_stats_write_elements_csv(f, m, &q, &e);
     else
-      table(f, path, geometry, m, &q, &r, has_dist ? &dist : NULL, seconds);
+      table(f, path, geometry, m, &q, &r, &nd, has_dist ? &dist : NULL, seconds);
     if (fclose(f) != 0 && !s) s = pm_error_setf(&e, PM_ERR_NOMEM, "out of memory");
     if (s) {
       code = pm_cli_error(&e);

@@ -118,6 +118,23 @@ static pm_status push_item(pm_stats_item **arr, int32_t *n, const char *key, int
   return PM_OK;
 }
 
+pm_status pm_stats_set_needles(pm_stats *s, const pm_needles *n, double limit, pm_error *err) {
+  const struct {
+    const char *key;
+    double v;
+  } f[] = {{"tri.needles.limit_deg", limit},
+           {"tri.needles.count", (double)n->count},
+           {"tri.needles.forced", (double)(n->corner + n->feature)},
+           {"tri.needles.unforced", (double)n->unforced},
+           {"tri.needles.corner", (double)n->corner},
+           {"tri.needles.feature", (double)n->feature}};
+  for (size_t i = 0; i < sizeof f / sizeof f[0]; ++i) {
+    pm_status st = pm_stats_add_number(s, f[i].key, f[i].v, err);
+    if (st) return st;
+  }
+  return PM_OK;
+}
+
 pm_status pm_stats_set_time(pm_stats *s, const char *phase, double seconds, pm_error *err) {
   if (!phase || !phase[0] || strchr(phase, '.'))
     return pm_error_setf(err, PM_ERR_ARG, "bad timing name '%s'", phase ? phase : "");

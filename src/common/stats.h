@@ -37,6 +37,7 @@
 
 #include "common/mesh.h"
 #include "common/mesh_check.h"
+#include "common/needles.h"
 #include "common/quality.h"
 
 #ifdef __cplusplus
@@ -96,6 +97,10 @@ pm_status pm_stats_set_check(pm_stats *s, const pm_check_report *r, pm_error *er
 
 /* The quality summaries of q (copied; q keeps its arrays). */
 void pm_stats_set_quality(pm_stats *s, const pm_quality *q);
+
+/* The needles (needles.h) under "tri.needles": count, forced (= corner + feature), unforced,
+ * corner, feature, and the limit in degrees. */
+pm_status pm_stats_set_needles(pm_stats *s, const pm_needles *n, double limit, pm_error *err);
 
 /* A phase time in seconds ("total" sets time_total; another name is added, or replaced when it
  * was set before). */
