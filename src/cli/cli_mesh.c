@@ -299,7 +299,9 @@ int pm_cli_mesh(int argc, char **argv) {
      * whether measuring costs more than meshing. */
     pm_check_report chk = {0};
     pm_quality q = {0};
-    if ((s = pm_stats_set_time(&stats, "load", t_load, &e))) goto fail;
+    if ((s = pm_stats_set_time(&stats, "load", t_load - model->time_build, &e)) ||
+        (s = pm_stats_set_time(&stats, "setup", model->time_build, &e)))
+      goto fail;
     double t0 = pm_seconds();
     if ((s = pm_mesh_check(out.mesh, model, &chk, &e))) goto fail;
     s = pm_stats_set_check(&stats, &chk, &e);

@@ -926,17 +926,19 @@ static int32_t add_split_point(const pm_cell *f, face_work *w, face_out *out, co
     int32_t cap = 2 * w->capp;
     double *a = realloc(w->uv, sizeof(double) * 2 * (size_t)cap);
     if (a) w->uv = a;
-    double *x = realloc(w->xy, sizeof(double) * 2 * (size_t)cap);
-    if (x) w->xy = x;
     int32_t *b = realloc(w->node, sizeof(int32_t) * (size_t)cap);
     if (b) w->node = b;
     int32_t *c = realloc(w->next_of_node, sizeof(int32_t) * (size_t)cap);
     if (c) w->next_of_node = c;
     int32_t *d = realloc(w->loc, sizeof(int32_t) * (size_t)cap);
     if (d) w->loc = d;
-    if (!a || !x || !b || !c || !d) return -1;
+    if (!a || !b || !c || !d) return -1;
     w->capp = cap;
   }
+  /* xy holds exactly np points (gather_face_points): it grows one at a time, rarely. */
+  double *x = realloc(w->xy, sizeof(double) * 2 * ((size_t)w->np + 1));
+  if (!x) return -1;
+  w->xy = x;
   if (w->nloc == w->capl) {
     int32_t cap = 2 * w->capl;
     int32_t *g = realloc(w->gnode, sizeof(int32_t) * (size_t)cap);

@@ -171,6 +171,9 @@ struct pm_model {
   double tol;           /* geometric tolerance, relative to the diagonal (backend's choice) */
   char heal[320];       /* what loading repaired in the file, one line ("" when nothing: see
                            geom_cad_heal.c) */
+  double time_build;    /* seconds spent building the cell complex once the file was read
+                           (loops, trimming polylines and inside tests, projection grids); 0 for
+                           a backend that does not measure it */
   void *impl;           /* backend data */
   void (*destroy_impl)(pm_model *m);
 };

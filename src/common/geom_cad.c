@@ -13,6 +13,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "common/clock.h"
 #include "common/geom_cad_heal.h"
 #include "common/geom_cad_private.h"
 #include "common/gmsh_session.h"
@@ -366,8 +367,12 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
     return s;
   }
   pm_model *m = NULL;
+  double t0 = pm_seconds();
   s = cad_build(gname, path, &m, err);
-  if (!s) snprintf(m->heal, sizeof m->heal, "%s", healed);
+  if (!s) {
+    snprintf(m->heal, sizeof m->heal, "%s", healed);
+    m->time_build = pm_seconds() - t0;
+  }
   /* On failure cad_build released the model, which removed the gmsh model. */
   pm_gmsh_scope_leave(&scope, 0);
   pm_gmsh_unlock();
