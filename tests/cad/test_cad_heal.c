@@ -1,0 +1,411 @@
+/* Real-CAD robustness, on shapes built in-process with gmsh's OpenCASCADE kernel and written
+ * to BREP, then loaded and meshed as a user's file would be (pm_cad_load, `packmesh mesh`):
+ *   - a cylinder whose inner loop crosses the seam twice;
+ *   - a torus patch trimmed across both seams (one trimmed face, and the four faces a boolean
+ *     cuts it into, whose pcurves on the seam lines come in two copies a period apart);
+ *   - two faces that share an edge without being sewn come out conforming;
+ *   - two solids that touch without sharing their face are fragmented;
+ *   - a shell that lists one face twice under two tags keeps it once (the corpus's dlr_f6.brep,
+ *     read when the shared models are there);
+ *   - a sliver face narrower than the default size gives no needle;
+ *   - a cone whose apex has a single face node near it (a pole fan of two triangles, the same
+ *     triangle twice) is connected into a valid mesh by a repair node.
+ */
+#include "cli/cli_run.h"
+
+#include <cjson/cJSON.h>
+#include <gmshc.h>
+#include <math.h>
+#include <unistd.h>
+
+#include "common/connect.h"
+#include "common/geom_cad.h"
+#include "common/mesh_check.h"
+#include "common/gmsh_session.h"
+#include "common/trim.h"
+#include "common/vec3.h"
+
+/* Stop with the gmsh lock released (a failed assertion leaves by longjmp). */
+#define LOCKED_CHECK(cond)                                     \
+  do {                                                         \
+    if (!(cond)) {                                             \
+      pm_gmsh_unlock();                                        \
+      fail_msg("%s:%d: %s failed", __FILE__, __LINE__, #cond); \
+    }                                                          \
+  } while (0)
+
+static char tmpdir[] = "/tmp/pm_test_cad_heal_XXXXXX";
+
+static int setup(void **state) {
+  (void)state;
+  return mkdtemp(tmpdir) ? 0 : -1;
+}
+
+static int teardown(void **state) {
+  (void)state;
+  char cmd[200];
+  snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
+  return system(cmd) == 0 ? 0 : -1;
+}
+
+typedef int (*shape_fn)(void); /* adds OCC shapes to the current model; returns gmsh's ierr */
+
+/* Build a shape in a fresh gmsh model and write it to tmpdir/NAME.brep; the path is returned. */
+static const char *write_shape(const char *name, shape_fn fn) {
+  static char path[600];
+  snprintf(path, sizeof path, "%s/%s.brep", tmpdir, name);
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_gmsh_begin(&e), e);
+  pm_gmsh_lock();
+  pm_gmsh_scope sc;
+  LOCKED_CHECK(pm_gmsh_scope_enter(&sc, name, 1, &e) == PM_OK);
+  int ierr = fn();
+  if (!ierr) gmshModelOccSynchronize(&ierr);
+  if (!ierr) gmshWrite(path, &ierr);
+  pm_gmsh_scope_leave(&sc, 1);
+  pm_gmsh_unlock();
+  assert_int_equal(ierr, 0);
+  return path;
+}
+
+static void free_bool(int *out, int **map, size_t *nmap, size_t nnmap) {
+  if (out) gmshFree(out);
+  for (size_t i = 0; i < nnmap; ++i) gmshFree(map[i]);
+  if (map) gmshFree(map);
+  if (nmap) gmshFree(nmap);
+}
+
+/* Mesh `path` with `method` through the command; the stats document (cJSON_Delete it). */
+static cJSON *mesh_stats(const char *path, const char *method, const char *extra) {
+  char args[2048], stats[700];
+  snprintf(stats, sizeof stats, "%s/stats.json", tmpdir);
+  snprintf(args, sizeof args, "mesh '%s' --method %s --threads 1 %s -o '%s/out.msh' --stats '%s'",
+           path, method, extra ? extra : "", tmpdir, stats);
+  char *err = NULL;
+  int rc = pm_test_cli(tmpdir, args, NULL, &err);
+  if (rc != 0) fail_msg("packmesh %s: exit %d: %s", args, rc, err);
+  free(err);
+  char *text = pm_test_slurp(stats);
+  assert_non_null(text);
+  cJSON *o = cJSON_Parse(text);
+  free(text);
+  assert_non_null(o);
+  return o;
+}
+
+static double stat_num(const cJSON *o, const char *a, const char *b, const char *c) {
+  const cJSON *x = cJSON_GetObjectItemCaseSensitive(o, a);
+  if (b) x = cJSON_GetObjectItemCaseSensitive(x, b);
+  if (c) x = cJSON_GetObjectItemCaseSensitive(x, c);
+  if (!cJSON_IsNumber(x)) fail_msg("stats key %s.%s.%s missing", a, b ? b : "", c ? c : "");
+  return x->valuedouble;
+}
+
+/* Valid, and no needle the geometry does not force. */
+static void assert_valid_no_unforced(const cJSON *o, const char *what) {
+  if (!cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(o, "valid"))) {
+    char *p = cJSON_PrintUnformatted(cJSON_GetObjectItemCaseSensitive(o, "problems"));
+    fail_msg("%s: the checker rejects the mesh: %s", what, p);
+  }
+  double unforced = stat_num(o, "tri", "needles", "unforced");
+  if (unforced != 0)
+    fail_msg("%s: %g unforced needles (smallest angle %g)", what, unforced,
+             stat_num(o, "tri", "min_angle_deg", "min"));
+}
+
+/* ---- a cylinder whose inner loop crosses the seam twice ------------------------------------ */
+
+/* A solid cylinder (radius 1, z from 0 to 2, seam at +x) drilled along x at z = 1: the hole
+ * (radius 0.3) goes through the seam, so the lateral face's hole loop crosses it twice. */
+static int drilled_cylinder(void) {
+  int ierr = 0;
+  int c = gmshModelOccAddCylinder(0, 0, 0, 0, 0, 2, 1, -1, 2 * M_PI, &ierr);
+  int h = gmshModelOccAddCylinder(-2, 0, 1, 4, 0, 0, 0.3, -1, 2 * M_PI, &ierr);
+  int a[2] = {3, c}, b[2] = {3, h}, *out = NULL, **map = NULL;
+  size_t nout = 0, *nmap = NULL, nnmap = 0;
+  if (!ierr) gmshModelOccCut(a, 2, b, 2, &out, &nout, &map, &nmap, &nnmap, -1, 1, 1, &ierr);
+  free_bool(out, map, nmap, nnmap);
+  return ierr;
+}
+
+static void cylinder_hole_across_the_seam(void **state) {
+  (void)state;
+  const char *path = write_shape("drilled_cylinder", drilled_cylinder);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  /* The lateral face: the periodic cylinder. Points of the hole at the seam, on both sides of it
+   * (u near 0 and near 2 pi), are outside; the material beside the hole is inside. */
+  const pm_cell *lat = NULL;
+  for (int32_t i = 0; i < m->count[PM_FACE]; ++i) {
+    const pm_cell *f = &m->cells[PM_FACE][i];
+    /* The drilled cylinder's side (the hole's own wall is periodic too, but has one loop). */
+    if (f->periodic[0] && f->nloop == 2) lat = f;
+  }
+  assert_non_null(lat);
+  const double P = lat->period[0];
+  double probe[][2] = {{lat->lo[0] + 0.05, 1.0}, {lat->lo[0] + P - 0.05, 1.0},
+                       {lat->lo[0] + 0.5 * P, 1.0}, {lat->lo[0] + 0.05, 0.3}, {lat->lo[0] + 0.05, 1.8}};
+  const int want[] = {0, 0, 0, 1, 1};
+  /* Which parameter is the height: the one spanning [0, 2]. */
+  int hv = fabs(lat->hi[1] - lat->lo[1] - 2) < 1e-6 ? 1 : 0;
+  assert_int_equal(hv, 1);
+  for (int k = 0; k < 5; ++k) {
+    int in = pm_face_inside(lat, probe[k]);
+    if (in != want[k])
+      fail_msg("(u, v) = (%g, %g): inside %d, want %d", probe[k][0], probe[k][1], in, want[k]);
+  }
+  pm_model_destroy(m);
+  cJSON *o = mesh_stats(path, "bubble", NULL);
+  assert_valid_no_unforced(o, "drilled cylinder, bubble");
+  cJSON_Delete(o);
+  o = mesh_stats(path, "gmsh-frontal", NULL);
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(o, "valid")));
+  cJSON_Delete(o);
+}
+
+/* ---- a torus patch across both seams --------------------------------------------------------- */
+
+/* The torus (R = 1, r = 0.35) cut to the part inside a ball centred where its two seams cross,
+ * (1.35, 0, 0): OpenCASCADE splits the patch at the seams into four faces, each bounded by
+ * pieces of the seam lines whose pcurves come a period apart. */
+static int torus_patch(void) {
+  int ierr = 0;
+  int t = gmshModelOccAddTorus(0, 0, 0, 1, 0.35, -1, 2 * M_PI, &ierr);
+  int s = gmshModelOccAddSphere(1.35, 0, 0, 0.3, -1, -M_PI / 2, M_PI / 2, 2 * M_PI, &ierr);
+  int a[2] = {3, t}, b[2] = {3, s}, *out = NULL, **map = NULL;
+  size_t nout = 0, *nmap = NULL, nnmap = 0;
+  if (!ierr) gmshModelOccIntersect(a, 2, b, 2, &out, &nout, &map, &nmap, &nnmap, -1, 1, 1, &ierr);
+  free_bool(out, map, nmap, nnmap);
+  return ierr;
+}
+
+/* One face of the torus trimmed by a circle of radius 0.5 round (u, v) = (0, 0) in its
+ * parameter space: the loop runs through negative u and v, across both seams. */
+static int torus_trimmed(void) {
+  int ierr = 0;
+  int t = gmshModelOccAddTorus(0, 0, 0, 1, 0.35, -1, 2 * M_PI, &ierr);
+  if (!ierr) gmshModelOccSynchronize(&ierr);
+  int *dt = NULL;
+  size_t n = 0;
+  gmshModelGetEntities(&dt, &n, 2, &ierr);
+  int face = n >= 2 ? dt[1] : -1;
+  if (dt) gmshFree(dt);
+  /* The trimming circle, in (u, v) (wire3D = 0: x is u, y is v). */
+  int c = gmshModelOccAddCircle(0, 0, 0, 0.5, -1, 0, 2 * M_PI, &ierr);
+  int w = gmshModelOccAddWire(&c, 1, -1, 0, &ierr);
+  if (!ierr) gmshModelOccAddTrimmedSurface(face, &w, 1, 0, -1, &ierr);
+  int rm[4] = {3, t, 1, c};
+  if (!ierr) gmshModelOccRemove(rm, 2, 1, &ierr);
+  if (!ierr) gmshModelOccRemove(rm + 2, 2, 1, &ierr);
+  return ierr;
+}
+
+static void torus_patch_across_both_seams(void **state) {
+  (void)state;
+  const char *names[2] = {"torus_patch", "torus_trimmed"};
+  shape_fn fns[2] = {torus_patch, torus_trimmed};
+  for (int k = 0; k < 2; ++k) {
+    const char *path = write_shape(names[k], fns[k]);
+    pm_model *m = NULL;
+    pm_error e = {0};
+    PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+    /* Every loop closes in (u, v) within the polyline tolerance and encloses area. */
+    double area = 0;
+    for (int32_t i = 0; i < m->count[PM_FACE]; ++i) {
+      const pm_cell *f = pm_model_cell(m, PM_FACE, i);
+      for (int32_t l = 0; l < f->nloop; ++l) area += fabs(pm_polyline_area(f->loop[l].uv, f->loop[l].npts));
+    }
+    assert_true(area > 0.1);
+    if (k == 1) {
+      /* The trimmed face: the disc of radius 0.5 about (0, 0), seen through the seams. */
+      assert_int_equal(m->count[PM_FACE], 1);
+      const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+      PM_ASSERT_NEAR(fabs(pm_polyline_area(f->loop[0].uv, f->loop[0].npts)), M_PI * 0.25, 2e-3);
+      double in[2] = {-0.3, -0.3}, out[2] = {0.4, 0.4};
+      assert_true(pm_face_inside(f, in));
+      assert_false(pm_face_inside(f, out));
+    } else {
+      assert_int_equal(m->count[PM_FACE], 5); /* four torus pieces and the sphere cap */
+    }
+    pm_model_destroy(m);
+    cJSON *o = mesh_stats(path, "bubble", NULL);
+    assert_valid_no_unforced(o, names[k]);
+    cJSON_Delete(o);
+  }
+}
+
+/* ---- unsewn faces, touching solids, a face listed twice --------------------------------------- */
+
+/* Two unit squares side by side at x = 1, each with its own edges: the edge x = 1 exists twice
+ * and its end points are two pairs of coincident vertices. */
+static int unsewn_squares(void) {
+  int ierr = 0;
+  gmshModelOccAddRectangle(0, 0, 0, 1, 1, -1, 0, &ierr);
+  gmshModelOccAddRectangle(1, 0, 0, 1, 1, -1, 0, &ierr);
+  return ierr;
+}
+
+static void unsewn_faces_come_out_conforming(void **state) {
+  (void)state;
+  const char *path = write_shape("unsewn", unsewn_squares);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  /* Sewn: 6 vertices and 7 curves instead of 8 and 8. */
+  assert_int_equal(m->count[PM_VERTEX], 6);
+  assert_int_equal(m->count[PM_CURVE], 7);
+  assert_non_null(strstr(m->heal, "sewed"));
+  pm_model_destroy(m);
+  cJSON *o = mesh_stats(path, "bubble", NULL);
+  assert_valid_no_unforced(o, "unsewn squares, bubble");
+  const cJSON *heal = cJSON_GetObjectItemCaseSensitive(o, "heal");
+  assert_true(cJSON_IsString(heal));
+  cJSON_Delete(o);
+  o = mesh_stats(path, "gmsh-frontal", NULL);
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(o, "valid")));
+  cJSON_Delete(o);
+}
+
+/* Two unit cubes touching along x = 1, not fragmented. */
+static int touching_boxes(void) {
+  int ierr = 0;
+  gmshModelOccAddBox(0, 0, 0, 1, 1, 1, -1, &ierr);
+  gmshModelOccAddBox(1, 0, 0, 1, 1, 1, -1, &ierr);
+  return ierr;
+}
+
+static void touching_solids_share_their_face(void **state) {
+  (void)state;
+  const char *path = write_shape("touching", touching_boxes);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  assert_int_equal(m->count[PM_VOLUME], 2);
+  assert_int_equal(m->count[PM_FACE], 11); /* the face x = 1 once */
+  assert_int_equal(m->count[PM_VERTEX], 12);
+  assert_non_null(strstr(m->heal, "merged"));
+  int shared = 0;
+  for (int32_t i = 0; i < m->count[PM_FACE]; ++i) shared += pm_model_cell(m, PM_FACE, i)->nup == 2;
+  assert_int_equal(shared, 1);
+  pm_model_destroy(m);
+  cJSON *o = mesh_stats(path, "bubble", "--volume");
+  assert_valid_no_unforced(o, "touching boxes, bubble --volume");
+  cJSON_Delete(o);
+}
+
+static void faces_listed_twice_are_kept_once(void **state) {
+  (void)state;
+  /* bl/dlr_f6.brep of the corpus lists its symmetry plane twice (faces 124 and 131): the
+   * geometry is real CAD, so the test reads it when the shared models are there. */
+  if (!pm_test_have_cad()) skip();
+  char path[1024];
+  snprintf(path, sizeof path, "%s/robust/bl__dlr_f6.brep", PM_CAD_DIR);
+  if (access(path, R_OK) != 0) skip();
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  assert_int_equal(m->count[PM_FACE], 129);
+  assert_int_equal(m->count[PM_VOLUME], 1);
+  assert_non_null(strstr(m->heal, "faces listed twice"));
+  pm_model_destroy(m);
+}
+
+/* ---- a sliver face ------------------------------------------------------------------------ */
+
+/* A unit square and a strip 1 x 0.01 along its edge x = 1, fragmented so that they share it:
+ * the strip is five times narrower than the default size (diagonal / 30 = 0.047). */
+static int square_and_sliver(void) {
+  int ierr = 0;
+  int a = gmshModelOccAddRectangle(0, 0, 0, 1, 1, -1, 0, &ierr);
+  int b = gmshModelOccAddRectangle(1, 0, 0, 0.01, 1, -1, 0, &ierr);
+  int o[2] = {2, a}, t[2] = {2, b}, *out = NULL, **map = NULL;
+  size_t nout = 0, *nmap = NULL, nnmap = 0;
+  if (!ierr) gmshModelOccFragment(o, 2, t, 2, &out, &nout, &map, &nmap, &nnmap, -1, 1, 1, &ierr);
+  free_bool(out, map, nmap, nnmap);
+  return ierr;
+}
+
+static void sliver_face_gives_no_needle(void **state) {
+  (void)state;
+  const char *path = write_shape("sliver", square_and_sliver);
+  cJSON *o = mesh_stats(path, "bubble", NULL);
+  assert_valid_no_unforced(o, "square and sliver, bubble");
+  /* No needle at all: the strip has no corner sharper than 10 degrees. */
+  assert_true(stat_num(o, "tri", "needles", "count") == 0);
+  assert_true(stat_num(o, "tri", "min_angle_deg", "min") >= 10);
+  cJSON_Delete(o);
+}
+
+/* ---- a pole with two neighbours ---------------------------------------------------------- */
+
+/* A cone (base radius 1 at z = 0, apex at z = 2). */
+static int cone(void) {
+  int ierr = 0;
+  gmshModelOccAddCone(0, 0, 0, 0, 0, 2, 1, 0, -1, 2 * M_PI, &ierr);
+  return ierr;
+}
+
+static void pole_with_two_neighbours(void **state) {
+  (void)state;
+  const char *path = write_shape("cone", cone);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  const pm_cell *f = NULL;
+  for (int32_t i = 0; i < m->count[PM_FACE]; ++i)
+    if (m->cells[PM_FACE][i].periodic[0]) f = &m->cells[PM_FACE][i];
+  assert_non_null(f);
+  /* The apex end of v: where S does not move with u. */
+  pm_face_point a, b;
+  double p0[2] = {f->lo[0], f->lo[1]}, p1[2] = {f->lo[0] + 1, f->lo[1]};
+  pm_face_eval(f, p0, 0, &a), pm_face_eval(f, p1, 0, &b);
+  const int apex_hi = pm_v3_dist(a.p, b.p) > 1e-6;
+  const double vlen = f->hi[1] - f->lo[1];
+  pm_mesh *mesh = pm_mesh_create();
+  assert_non_null(mesh);
+  /* Nodes on the curves: 12 on the base circle, 5 on the seam; on the face, one node only,
+   * near the apex: the apex's neighbours are that node and the seam's last node, whose fan
+   * closes with the same triangle on both sides of the seam. */
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+    if (cv->degenerate) continue;
+    int closed = cv->bound[0].cell == cv->bound[1].cell;
+    int n = closed ? 12 : 5;
+    for (int k = 1; k < n + (closed ? 0 : 1); ++k) {
+      double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * k / (closed ? n : n + 1), x[3];
+      pm_cell_point(cv, &t, x);
+      PM_ASSERT_OK(pm_mesh_add_node(mesh, x, PM_CURVE, c, &t, NULL, &e), e);
+    }
+  }
+  {
+    double uv[2] = {0.5 * (f->lo[0] + f->hi[0]), apex_hi ? f->hi[1] - 0.1 * vlen : f->lo[1] + 0.1 * vlen};
+    double x[3];
+    pm_cell_point(f, uv, x);
+    PM_ASSERT_OK(pm_mesh_add_node(mesh, x, PM_FACE, f->index, uv, NULL, &e), e);
+  }
+  pm_connect_report rep;
+  PM_ASSERT_OK(pm_connect(m, mesh, NULL, &rep, &e), e);
+  pm_check_report chk = {0};
+  PM_ASSERT_OK(pm_mesh_check(mesh, m, &chk, &e), e);
+  if (!chk.valid) fail_msg("%s", chk.nproblem ? chk.problem[0] : "invalid");
+  assert_true(rep.repair_nodes >= 1);
+  pm_check_report_clear(&chk);
+  pm_mesh_destroy(mesh);
+  pm_model_destroy(m);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(cylinder_hole_across_the_seam),
+      cmocka_unit_test(torus_patch_across_both_seams),
+      cmocka_unit_test(unsewn_faces_come_out_conforming),
+      cmocka_unit_test(touching_solids_share_their_face),
+      cmocka_unit_test(faces_listed_twice_are_kept_once),
+      cmocka_unit_test(sliver_face_gives_no_needle),
+      cmocka_unit_test(pole_with_two_neighbours),
+  };
+  int rc = cmocka_run_group_tests(tests, setup, teardown);
+  pm_gmsh_shutdown();
+  return rc;
+}
