@@ -842,18 +842,6 @@ static double seg_length_percentile(const pm_mesh *me, const int32_t *list, int6
 }
 
 /* Approximate 3D length of a curve (polygon of 64 chords). */
-static double curve_length(const pm_cell *c) {
-  if (c->degenerate) return 0;
-  double L = 0, prev[3];
-  for (int i = 0; i <= 64; ++i) {
-    pm_curve_point cp;
-    pm_curve_eval(c, c->lo[0] + (c->hi[0] - c->lo[0]) * i / 64, 0, &cp);
-    if (i) L += pm_v3_dist(prev, cp.p);
-    pm_v3_copy(prev, cp.p);
-  }
-  return L;
-}
-
 /* Samples evaluated per parallel chunk (results are reduced in index order after each). */
 #define CHUNK (1 << 15)
 
@@ -1077,7 +1065,7 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
         if (!(h < INFINITY)) h = Lglobal;
       }
       h *= p.spacing * grow;
-      double n = fmax(3, ceil(curve_length(cu) / h) + 1);
+      double n = fmax(3, ceil(pm_curve_length(cu, cu->lo[0], cu->hi[0]) / h) + 1);
       if (n > (double)p.max_face_samples) n = (double)p.max_face_samples;
       mblock *b = &blocks[nblock++];
       b->kind = S_CURVE, b->part = c.dangling[i] ? PART_WIRE : PART_SURF, b->cell = i;

@@ -280,6 +280,24 @@ void pm_cell_point(const pm_cell *c, const double *par, double xyz[3]) {
   }
 }
 
+double pm_curve_length(const pm_cell *c, double t1, double t2) {
+  static const double gx[5] = {-0.9061798459386640, -0.5384693101056831, 0.0, 0.5384693101056831,
+                               0.9061798459386640};
+  static const double gw[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889,
+                               0.4786286704993665, 0.2369268850561891};
+  if (c->degenerate) return 0;
+  double len = 0, h = (t2 - t1) / 4;
+  for (int piece = 0; piece < 4; ++piece) {
+    double mid = t1 + (piece + 0.5) * h;
+    for (int k = 0; k < 5; ++k) {
+      pm_curve_point cp;
+      pm_curve_eval(c, mid + 0.5 * h * gx[k], 1, &cp);
+      len += 0.5 * fabs(h) * gw[k] * pm_v3_norm(cp.d1);
+    }
+  }
+  return len;
+}
+
 double pm_curve_curvature(const pm_cell *c, double t) {
   if (c->degenerate) return 0;
   pm_curve_point cp;

@@ -210,6 +210,10 @@ void pm_face_eval_many(const pm_cell *f, int32_t n, const double *uv, int order,
 /* The 3D point of a cell at par (vertex: its point; volume: par itself). */
 void pm_cell_point(const pm_cell *c, const double *par, double xyz[3]);
 
+/* Arc length of curve c between parameters t1 and t2 (|t2 - t1| when c is a volume's axis is
+ * meaningless: curves only): Gauss-Legendre, 5 points on each of 4 pieces. */
+double pm_curve_length(const pm_cell *c, double t1, double t2);
+
 /* Curvature |C' x C''| / |C'|^3 of a curve (0 on a degenerate curve). */
 double pm_curve_curvature(const pm_cell *c, double t);
 

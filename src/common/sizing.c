@@ -8,6 +8,7 @@
  * pool) without copying it.
  */
 #include "common/sizing_private.h"
+#include "common/sizing_features.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -171,6 +172,7 @@ double pm_sizing_eval(const pm_sizing *s, const double xyz[3]) {
     case SZ_CALLBACK: return s->fn(xyz, s->user);
     case SZ_SAMPLED: return sz_sampled_eval(s->sampled, xyz);
     case SZ_SCALED: return s->value * pm_sizing_eval(s->base, xyz);
+    case SZ_FEATURES: return sz_features_eval(s, xyz);
   }
   return NAN;
 }
@@ -183,6 +185,7 @@ void pm_sizing_destroy(pm_sizing *s) {
     pm_sizing *base = s->base;
     if (s->expr) sz_expr_destroy(s->expr);
     if (s->sampled) sz_sampled_destroy(s->sampled);
+    if (s->features) pm_feature_size_destroy(s->features);
     free(s->desc);
     free(s);
     s = base; /* release the reference a scaled field held */

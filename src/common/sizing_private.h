@@ -1,6 +1,7 @@
 /* Internals shared by the sizing files: the field record and the per-kind entry points.
  * sizing.c holds the generic parts (constant, callback, scaled, parse, describe, check),
- * sizing_expr.c the muparser expressions, sizing_sampled.c the fields sampled on a mesh. */
+ * sizing_expr.c the muparser expressions, sizing_sampled.c the fields sampled on a mesh,
+ * sizing_features.c the fields a model's features ask for. */
 #ifndef PM_SIZING_PRIVATE_H
 #define PM_SIZING_PRIVATE_H
 
@@ -8,7 +9,7 @@
 
 #include "common/sizing.h"
 
-typedef enum sz_kind { SZ_CONSTANT, SZ_EXPR, SZ_CALLBACK, SZ_SAMPLED, SZ_SCALED } sz_kind;
+typedef enum sz_kind { SZ_CONSTANT, SZ_EXPR, SZ_CALLBACK, SZ_SAMPLED, SZ_SCALED, SZ_FEATURES } sz_kind;
 
 typedef struct sz_expr sz_expr;       /* sizing_expr.c */
 typedef struct sz_sampled sz_sampled; /* sizing_sampled.c */
@@ -20,7 +21,9 @@ struct pm_sizing {
   double value;           /* SZ_CONSTANT: d; SZ_SCALED: the factor */
   pm_sizing_fn fn;        /* SZ_CALLBACK */
   void *user;             /* SZ_CALLBACK, borrowed */
-  pm_sizing *base;        /* SZ_SCALED: the shared field (one reference held) */
+  pm_sizing *base;        /* SZ_SCALED, SZ_FEATURES: the shared field (one reference held;
+                             may be NULL for SZ_FEATURES) */
+  struct pm_feature_size *features; /* SZ_FEATURES, owned (sizing_features.c) */
   sz_expr *expr;          /* SZ_EXPR, owned */
   sz_sampled *sampled;    /* SZ_SAMPLED, owned */
 };
@@ -38,6 +41,9 @@ pm_status sz_sampled_create(const pm_mesh *samples, const double *values, sz_sam
                             pm_error *err);
 double sz_sampled_eval(const sz_sampled *s, const double xyz[3]);
 void sz_sampled_destroy(sz_sampled *s);
+
+/* min(base, the features) of an SZ_FEATURES field (sizing_features.c). */
+double sz_features_eval(const pm_sizing *s, const double xyz[3]);
 
 /* The shortest "%.Ng" text (N = 15..17) that reads back as exactly v. buf >= 32 chars. */
 void sz_format_double(double v, char *buf, size_t len);

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "common/geom_cad.h"
+#include "common/sizing_features.h"
 #include "common/vec3.h"
 
 int peer_is_planar_domain(const pm_model *m) {
@@ -38,7 +39,13 @@ pm_status peer_default_size(const pm_model *m, const void *params, uint64_t seed
   if (!(m->diagonal > 0) || !isfinite(m->diagonal))
     return pm_error_setf(err, PM_ERR_GEOM, "model '%s' has no extent: no default size",
                          m->name);
-  return pm_sizing_constant(PEER_DEFAULT_SIZE_FRACTION * m->diagonal, out, err);
+  pm_feature_size *fs = NULL;
+  pm_status s = pm_feature_size_create(m, PEER_DEFAULT_SIZE_FRACTION * m->diagonal,
+                                       PEER_DEFAULT_SIZE_GRADE, PM_FEATURE_ALL, &fs, err);
+  if (s) return s;
+  s = pm_sizing_features(NULL, fs, out, err);
+  if (s) pm_feature_size_destroy(fs);
+  return s;
 }
 
 /* One cell of a face's parameter box in the adaptive estimate. */

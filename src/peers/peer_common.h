@@ -20,9 +20,15 @@
  * "segment" and "arc". The CGAL peer and the planar path of the gmsh peers take these. */
 int peer_is_planar_domain(const pm_model *m);
 
-/* The peers' default size field: a constant 1/30 of the model's bounding-box diagonal. The
+/* The peers' default size field: 1/30 of the model's bounding-box diagonal, reduced at the
+ * model's small features with a grade of 0.3 (sizing_features.h: short curves, narrow faces and
+ * sharp wedges, curved faces) -- the rule of the bubble method's default (size_div 30,
+ * size_grade 0.3), so that at their defaults the methods mesh the same field, and a constant
+ * coarser than a part's features does not hand gmsh faces it can only mesh with needles or
+ * inverted shells (occ_large/simple_plane.brep, statreport/918_pump_carter_sup.stp). The
  * signature is pm_method.default_size's. */
 #define PEER_DEFAULT_SIZE_FRACTION (1.0 / 30.0)
+#define PEER_DEFAULT_SIZE_GRADE 0.3
 pm_status peer_default_size(const pm_model *m, const void *params, uint64_t seed, int threads,
                             pm_sizing **out, pm_error *err);
 
