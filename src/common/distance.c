@@ -8,6 +8,7 @@
 
 #include "common/cdt_cgal.h"
 #include "common/closest_embree.h"
+#include "common/mesh_topo.h"
 #include "common/trim.h"
 #include "common/vec3.h"
 
@@ -578,22 +579,43 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
   return best;
 }
 
-/* The hint of mesh triangle t: its face when the triangle and its three nodes are classified on
- * it, with the nodes' (u, v) unwrapped across a periodic face's seam (relative to the first node)
- * so that interpolating them stays on one sheet; the caller interpolates with barycentrics. */
+/* The hint of mesh triangle t: its face when the triangle is classified on it and at least one
+ * of its nodes lies on it, with the (u, v) of each node on the face, unwrapped across a
+ * periodic face's seam (relative to the first) so that interpolating them stays on one sheet; a
+ * node on a curve or vertex (no (u, v) of its own on the face) takes the nearest face node's.
+ * The caller interpolates with barycentrics: a start for the projection, which the Newton
+ * iteration refines. */
 static int tri_hint_nodes(const dctx *c, int32_t t, double par[3][2]) {
   const pm_mesh *me = c->mesh;
   if (!me->tri_cell || !me->node_dim || !me->node_cell || !me->node_par) return -1;
   int32_t f = me->tri_cell[t];
   if (f < 0 || f >= c->m->count[PM_FACE]) return -1;
   const pm_cell *fc = &c->m->cells[PM_FACE][f];
+  const int32_t *v = &me->tri[3 * (size_t)t];
+  int on[3], first = -1;
   for (int k = 0; k < 3; ++k) {
-    int32_t v = me->tri[3 * (size_t)t + k];
-    if (me->node_dim[v] != PM_FACE || me->node_cell[v] != f) return -1;
-    par[k][0] = me->node_par[2 * (size_t)v], par[k][1] = me->node_par[2 * (size_t)v + 1];
-    for (int q = 0; q < 2 && k > 0; ++q)
+    on[k] = me->node_dim[v[k]] == PM_FACE && me->node_cell[v[k]] == f;
+    if (!on[k]) continue;
+    par[k][0] = me->node_par[2 * (size_t)v[k]], par[k][1] = me->node_par[2 * (size_t)v[k] + 1];
+    if (first < 0) {
+      first = k;
+      continue;
+    }
+    for (int q = 0; q < 2; ++q)
       if (fc->periodic[q] && fc->period[q] > 0)
-        par[k][q] += fc->period[q] * round((par[0][q] - par[k][q]) / fc->period[q]);
+        par[k][q] += fc->period[q] * round((par[first][q] - par[k][q]) / fc->period[q]);
+  }
+  if (first < 0) return -1;
+  for (int k = 0; k < 3; ++k) {
+    if (on[k]) continue;
+    int best = first;
+    double bd = INFINITY;
+    for (int j = 0; j < 3; ++j) {
+      if (!on[j]) continue;
+      double d = pm_v3_dist(&me->xyz[3 * (size_t)v[k]], &me->xyz[3 * (size_t)v[j]]);
+      if (d < bd) bd = d, best = j;
+    }
+    par[k][0] = par[best][0], par[k][1] = par[best][1];
   }
   return f;
 }
@@ -783,6 +805,126 @@ static double refine_one(const dctx *c, const mblock *blocks, topk *e, double x_
   return best;
 }
 
+/* The mesh side's lattice points, each once: a triangle's lattice of level L has its corners
+ * (shared by the triangles at a node), L - 1 points on each edge (shared by the edge's
+ * triangles) and (L - 1)(L - 2) / 2 inside. Sampling the shared points once per mesh rather
+ * than once per triangle halves the samples (about 0.5 + 1.5 (L - 1) + (L - 1)(L - 2) / 2 per
+ * triangle instead of (L + 1)(L + 2) / 2) and gives every point the weight of all the triangles
+ * it stands for, so the area-weighted mean is the one the per-triangle lattices give. A point
+ * is evaluated through one of its triangles (the lowest-numbered), whose classification gives
+ * the projection's hint; a point on an edge between two faces also through a triangle of the
+ * other face, and the smaller distance is kept (each is the distance to a real model point, so
+ * the smaller is the nearer to the true one). */
+typedef struct lattice {
+  int64_t n;
+  int32_t *tri;  /* [n] the triangle a point is evaluated through */
+  double *par;   /* [2n] its barycentric (s, t) in that triangle */
+  int32_t *alt;  /* [n] a triangle of another face at the point, or -1 */
+  double *apar;  /* [2n] the point's barycentrics in alt */
+  double *w;     /* [n] area weight */
+} lattice;
+
+static void lattice_free(lattice *l) {
+  free(l->tri), free(l->par), free(l->alt), free(l->apar), free(l->w);
+  memset(l, 0, sizeof *l);
+}
+
+static int lattice_push(lattice *l, int64_t cap, int32_t t, double s, double u, double w) {
+  if (l->n >= cap) return 0;
+  l->tri[l->n] = t, l->par[2 * l->n] = s, l->par[2 * l->n + 1] = u, l->w[l->n] = w;
+  l->alt[l->n] = -1, l->apar[2 * l->n] = l->apar[2 * l->n + 1] = 0;
+  l->n++;
+  return 1;
+}
+
+/* Barycentric (s, t) of corner k of a triangle: the weights of corners 1 and 2. */
+static void corner_par(int k, double t, double par[2]) {
+  par[0] = k == 1 ? t : 0, par[1] = k == 2 ? t : 0;
+}
+
+static pm_status lattice_build(const pm_mesh *me, int level, lattice *l, pm_error *err) {
+  memset(l, 0, sizeof *l);
+  const int32_t nt = me->ntri;
+  const int npt = (level + 1) * (level + 2) / 2;
+  pm_edges e = {0};
+  pm_status st = pm_edges_build(me->nnode, me->tri, nt, 3, &e, err);
+  if (st) return st;
+  double *area = malloc(sizeof(double) * (size_t)(nt ? nt : 1));
+  double *nw = calloc((size_t)me->nnode + 1, sizeof(double));
+  int32_t *owner = malloc(sizeof(int32_t) * ((size_t)me->nnode + 1));
+  int64_t cap = (int64_t)me->nnode + e.nedge * (level - 1) +
+                (int64_t)nt * ((level - 1) * (level - 2) / 2) + 1;
+  l->tri = malloc(sizeof(int32_t) * (size_t)cap);
+  l->par = malloc(sizeof(double) * 2 * (size_t)cap);
+  l->w = malloc(sizeof(double) * (size_t)cap);
+  l->alt = malloc(sizeof(int32_t) * (size_t)cap);
+  l->apar = malloc(sizeof(double) * 2 * (size_t)cap);
+  if (!area || !nw || !owner || !l->tri || !l->par || !l->w || !l->alt || !l->apar) {
+    free(area), free(nw), free(owner), pm_edges_free(&e), lattice_free(l);
+    return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (lattice)");
+  }
+  for (int32_t i = 0; i < me->nnode; ++i) owner[i] = -1;
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t *v = &me->tri[3 * (size_t)t];
+    double ab[3], ac[3], n[3];
+    pm_v3_sub(ab, &me->xyz[3 * (size_t)v[1]], &me->xyz[3 * (size_t)v[0]]);
+    pm_v3_sub(ac, &me->xyz[3 * (size_t)v[2]], &me->xyz[3 * (size_t)v[0]]);
+    pm_v3_cross(n, ab, ac);
+    area[t] = 0.5 * pm_v3_norm(n) / npt;
+    for (int k = 0; k < 3; ++k) {
+      nw[v[k]] += area[t];
+      if (owner[v[k]] < 0) owner[v[k]] = t;
+    }
+  }
+  int ok = 1;
+  /* Corners, in node order. */
+  for (int32_t i = 0; i < me->nnode && ok; ++i) {
+    int32_t t = owner[i];
+    if (t < 0) continue;
+    int k = me->tri[3 * (size_t)t] == i ? 0 : (me->tri[3 * (size_t)t + 1] == i ? 1 : 2);
+    double par[2];
+    corner_par(k, 1, par);
+    ok = lattice_push(l, cap, t, par[0], par[1], nw[i]);
+  }
+  /* Edge points, in edge order. */
+  for (int64_t k = 0; k < e.nedge && ok && level > 1; ++k) {
+    double w = 0;
+    for (int64_t q = e.off[k]; q < e.off[k + 1]; ++q) w += area[e.elem[q]];
+    int32_t t = e.elem[e.off[k]], a = e.ends[2 * k], b = e.ends[2 * k + 1];
+    const int32_t *v = &me->tri[3 * (size_t)t];
+    int ia = v[0] == a ? 0 : (v[1] == a ? 1 : 2), ib = v[0] == b ? 0 : (v[1] == b ? 1 : 2);
+    /* A triangle of another face along the edge (a curve between two faces). */
+    int32_t t2 = -1;
+    for (int64_t q = e.off[k] + 1; q < e.off[k + 1] && t2 < 0 && me->tri_cell; ++q)
+      if (me->tri_cell[e.elem[q]] != me->tri_cell[t]) t2 = e.elem[q];
+    const int32_t *v2 = t2 >= 0 ? &me->tri[3 * (size_t)t2] : NULL;
+    int ja = v2 ? (v2[0] == a ? 0 : (v2[1] == a ? 1 : 2)) : 0;
+    int jb = v2 ? (v2[0] == b ? 0 : (v2[1] == b ? 1 : 2)) : 0;
+    for (int q = 1; q < level && ok; ++q) {
+      double f = (double)q / level, pa[2], pb[2];
+      corner_par(ia, 1 - f, pa), corner_par(ib, f, pb);
+      ok = lattice_push(l, cap, t, pa[0] + pb[0], pa[1] + pb[1], w);
+      if (ok && v2) {
+        corner_par(ja, 1 - f, pa), corner_par(jb, f, pb);
+        l->alt[l->n - 1] = t2;
+        l->apar[2 * (l->n - 1)] = pa[0] + pb[0], l->apar[2 * (l->n - 1) + 1] = pa[1] + pb[1];
+      }
+    }
+  }
+  /* Interior points, in triangle order. */
+  for (int32_t t = 0; t < nt && ok; ++t)
+    for (int i = 1; i < level && ok; ++i)
+      for (int j = 1; i + j < level && ok; ++j)
+        ok = lattice_push(l, cap, t, (double)i / level, (double)j / level, area[t]);
+  free(area), free(nw), free(owner);
+  pm_edges_free(&e);
+  if (!ok) {
+    lattice_free(l);
+    return pm_error_setf(err, PM_ERR_INTERNAL, "distance: lattice count");
+  }
+  return PM_OK;
+}
+
 /* Points allowed on one face: per_tri for each of its triangles, at least FACE_BUDGET_MIN (a
  * face with a handful of triangles still gets a grid that resolves its boundary), at most cap. */
 #define FACE_BUDGET_MIN 256
@@ -876,6 +1018,7 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
   mblock *blocks = NULL;
   face_info *finfo = NULL;
   double *dres = NULL, *wres = NULL, *rres = NULL, *xres = NULL;
+  lattice lat = {0};
   int *fres = NULL;
   if (!c.dangling || !face_tris_off || !face_tris || !Lface) goto nomem;
   int ndangling = 0;
@@ -1087,7 +1230,8 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
   c.npt_tri = (c.level + 1) * (c.level + 2) / 2;
   c.npt_seg = c.level + 1;
   out->tri_level = c.level;
-  int64_t ntri_s = c.surf ? (int64_t)mesh->ntri * c.npt_tri : 0;
+  if (c.surf && (s = lattice_build(mesh, c.level, &lat, err))) goto done;
+  int64_t ntri_s = c.surf ? lat.n : 0;
   int64_t nmesh = ntri_s + (int64_t)c.nwire * c.npt_seg;
 
   dres = malloc(sizeof(double) * CHUNK);
@@ -1116,17 +1260,9 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
       int32_t e;
       double par[2], w;
       if (sidx < ntri_s) {
-        kind = S_TRI, e = (int32_t)(sidx / c.npt_tri);
-        int q = (int)(sidx % c.npt_tri), i = 0;
-        /* q-th lattice point (i, j), i + j <= L, enumerated by i then j. */
-        while (q > c.level - i) q -= c.level - i + 1, ++i;
-        par[0] = (double)i / c.level, par[1] = (double)q / c.level;
-        const int32_t *v = &mesh->tri[3 * (size_t)e];
-        double ab[3], ac[3], nrm[3];
-        pm_v3_sub(ab, &mesh->xyz[3 * (size_t)v[1]], &mesh->xyz[3 * (size_t)v[0]]);
-        pm_v3_sub(ac, &mesh->xyz[3 * (size_t)v[2]], &mesh->xyz[3 * (size_t)v[0]]);
-        pm_v3_cross(nrm, ab, ac);
-        w = 0.5 * pm_v3_norm(nrm) / c.npt_tri;
+        kind = S_TRI, e = lat.tri[sidx];
+        par[0] = lat.par[2 * sidx], par[1] = lat.par[2 * sidx + 1];
+        w = lat.w[sidx];
       } else {
         int64_t r = sidx - ntri_s;
         kind = S_SEG, e = (int32_t)(r / c.npt_seg);
@@ -1136,6 +1272,12 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
       }
       double *x = &xres[3 * k];
       dres[k] = mesh_eval(&c, kind, e, par, x, &fres[k]);
+      if (kind == S_TRI && lat.alt[sidx] >= 0) {
+        double x2[3];
+        int f2;
+        double d2 = mesh_eval(&c, kind, lat.alt[sidx], &lat.apar[2 * sidx], x2, &f2);
+        if (d2 < dres[k] || !isfinite(dres[k])) dres[k] = d2, fres[k] = f2;
+      }
       wres[k] = w;
       double sz = size_at(&c, x);
       rres[k] = sz > 0 ? dres[k] / sz : 0;
@@ -1149,10 +1291,8 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
       topk t;
       t.d = dres[k];
       if (part == PART_SURF) {
-        t.kind = S_TRI, t.elem = (int32_t)(sidx / c.npt_tri);
-        int q = (int)(sidx % c.npt_tri), i = 0;
-        while (q > c.level - i) q -= c.level - i + 1, ++i;
-        t.par[0] = (double)i / c.level, t.par[1] = (double)q / c.level;
+        t.kind = S_TRI, t.elem = lat.tri[sidx];
+        t.par[0] = lat.par[2 * sidx], t.par[1] = lat.par[2 * sidx + 1];
         t.step[0] = t.step[1] = 0.5 / c.level;
       } else {
         int64_t r = sidx - ntri_s;
@@ -1288,6 +1428,7 @@ nomem:
   s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory");
 done:
   free(dres), free(wres), free(rres), free(xres), free(fres);
+  lattice_free(&lat);
   free(blocks), free(finfo);
   free(face_tris_off), free(face_tris), free(Lface);
   free(c.dangling), free(c.wire_seg);

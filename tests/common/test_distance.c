@@ -89,7 +89,9 @@ static void test_square_in_plane_is_zero(void **state) {
     PM_ASSERT_NEAR(d.model_to_mesh_max, 0.0, 1e-14);
     PM_ASSERT_NEAR(d.bbox_diagonal, sqrt(2.0), 1e-12);
     assert_int_equal(d.tri_level, 4);
-    assert_int_equal(d.nsamples_mesh, 128 * 15);
+    /* Each lattice point once: 81 nodes, 3 points on each of the 208 edges, 3 inside each of
+     * the 128 triangles (level 4). */
+    assert_int_equal(d.nsamples_mesh, 81 + 3 * 208 + 3 * 128);
     assert_true(d.nsamples_model > 1000);
     assert_int_equal(d.nfallback, 0);
     assert_int_equal(d.has_size, 0);
