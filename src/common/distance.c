@@ -66,8 +66,11 @@ pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
  * iteration count the result is a point of the cell at least as close as the start. */
 #define FOOT_MAX_IT 40
 #define FOOT_BACKTRACK 12
-/* Stop when the 3D step falls below this fraction of the model diagonal (round-off level). */
-#define FOOT_STEP_TOL 1e-14
+/* Stop when the 3D step falls below this fraction of the model diagonal: far below any distance
+ * worth reporting (chordal errors of meshes are 1e-6 .. 1e-2 of the diagonal), and 12% fewer
+ * surface evaluations than going on to round-off (1e-14) with the same figures to 15 digits on
+ * simple_plane.brep. */
+#define FOOT_STEP_TOL 1e-10
 
 static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
