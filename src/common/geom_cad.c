@@ -202,10 +202,11 @@ static void first_logged_error(char *out, size_t len) {
   if (log) gmshFree(log);
 }
 
-/* Import `path` into the current gmsh model and synchronize, with Geometry.OCCSewFaces set to
- * `sew` for the import. Returns 0, or 1 when gmsh failed (logged: its first logged error, or ""
+/* Import `path` into the current gmsh model, with Geometry.OCCSewFaces set to `sew` for the
+ * import, and synchronize when `sync`. Returns 0, or 1 when gmsh failed (logged: its first logged error, or ""
  * -- gmsh 4.8.4 reports a failed STEP read only in its log). */
-static int import_shapes(const char *path, cad_format fmt, int sew, char *logged, size_t len) {
+static int import_shapes(const char *path, cad_format fmt, int sew, int sync, char *logged,
+                         size_t len) {
   int ierr = 0;
   double sew_before = 0;
   gmshOptionGetNumber("Geometry.OCCSewFaces", &sew_before, &ierr);
@@ -225,7 +226,7 @@ static int import_shapes(const char *path, cad_format fmt, int sew, char *logged
   int import_err = ierr;
   if (dt) gmshFree(dt);
   ierr = 0;
-  if (!import_err) gmshModelOccSynchronize(&ierr);
+  if (!import_err && sync) gmshModelOccSynchronize(&ierr);
   int sync_err = ierr;
   pm_gmsh_unmute_stdout(token);
   first_logged_error(logged, len);
@@ -240,16 +241,20 @@ static pm_status heal_error(pm_error *err, const char *path, const char *what) {
   return pm_error_prefix(err, "%s", path);
 }
 
-/* Empty the current gmsh model and reset its tag counters, so that a second import numbers its
- * shapes as gmsh would number them in a fresh model. */
+/* Replace the current gmsh model by an empty one of the same name, so that a second import
+ * numbers its shapes as gmsh would number them in a fresh model. Removing the shapes instead
+ * (gmshModelOccRemove) keeps gmsh 4.8.4's entity objects allocated: GModel::remove takes them
+ * out of the model without deleting them, where removing the model deletes them. */
 static int clear_current_model(void) {
-  int *dt = NULL, ierr = 0;
-  size_t n = 0;
-  gmshModelOccGetEntities(&dt, &n, -1, &ierr);
-  if (!ierr && n > 0) gmshModelOccRemove(dt, n, 1, &ierr);
-  if (dt) gmshFree(dt);
-  for (int d = 0; d < 4 && !ierr; ++d) gmshModelOccSetMaxTag(d, 0, &ierr);
-  if (!ierr) gmshModelOccSynchronize(&ierr);
+  char *name = NULL;
+  int ierr = 0;
+  gmshModelGetCurrent(&name, &ierr);
+  if (ierr || !name) return -1;
+  char copy[64];
+  snprintf(copy, sizeof copy, "%s", name);
+  gmshFree(name);
+  gmshModelRemove(&ierr);
+  if (!ierr) gmshModelAdd(copy, &ierr);
   return ierr ? -1 : 0;
 }
 
@@ -261,6 +266,19 @@ static int clear_current_model(void) {
  * (statreport/sphere_Rhino3D_default.igs, one face) is left alone: sewing it replaces the
  * sphere's seam and poles and gmsh then fails to mesh it ("Impossible to mesh periodic
  * surface"). */
+static int synchronize(void) {
+  int ierr = 0;
+  gmshModelOccSynchronize(&ierr);
+  return ierr ? -1 : 0;
+}
+
+/* The file imported again into an empty model, not synchronized. */
+static int import_again(const char *path, cad_format fmt, int sew) {
+  char logged[256];
+  return clear_current_model() || import_shapes(path, fmt, sew, 0, logged, sizeof logged) ? -1
+                                                                                           : 0;
+}
+
 static pm_status heal(const char *path, cad_format fmt, char *healed, size_t len, pm_error *err) {
   healed[0] = '\0';
   cad_heal_counts before, after;
@@ -270,27 +288,32 @@ static pm_status heal(const char *path, cad_format fmt, char *healed, size_t len
   if (act == CAD_HEAL_NONE) return PM_OK;
   const char *how;
   if (fmt == FMT_IGES) {
-    char logged[256];
-    if (clear_current_model() || import_shapes(path, fmt, 1, logged, sizeof logged))
+    if (import_again(path, fmt, 1) || synchronize())
       return heal_error(err, path, "sewing the IGES faces");
     how = "imported again with the faces sewn (gmsh's Geometry.OCCSewFaces)";
   } else if (act == CAD_HEAL_SEW) {
-    if (cad_heal_sew()) return heal_error(err, path, "sewing the faces");
+    if (import_again(path, fmt, 0) || cad_heal_sew() || synchronize())
+      return heal_error(err, path, "sewing the faces");
     how = "sewed the faces (OpenCASCADE's BRepBuilderAPI_Sewing, gmsh's Geometry.OCCSewFaces)";
     /* Sewing leaves pairs whose faces do not meet along a whole edge (T-junctions: a vertex of
      * one face inside an edge of the other); fragmenting merges those. */
     cad_heal_counts sewn;
     if (cad_heal_count(&sewn)) return heal_error(err, path, "measuring the sewn model");
     if (sewn.coincident > 0) {
-      if (cad_heal_fragment()) return heal_error(err, path, "merging the sewn faces");
+      if (import_again(path, fmt, 0) || cad_heal_sew() || cad_heal_fragment() || synchronize())
+        return heal_error(err, path, "merging the sewn faces");
       how = "sewed the faces (OpenCASCADE's BRepBuilderAPI_Sewing, gmsh's Geometry.OCCSewFaces) "
             "and merged what sewing left (gmsh's RemoveAllDuplicates)";
     }
   } else if (act == CAD_HEAL_TWINS) {
-    if (cad_heal_drop_twins()) return heal_error(err, path, "removing faces listed twice");
+    cad_twin_plan plan;
+    if (cad_heal_plan_twins(&plan)) return heal_error(err, path, "finding the faces listed twice");
+    int failed = import_again(path, fmt, 0) || cad_heal_drop_twins(&plan) || synchronize();
+    cad_twin_plan_free(&plan);
+    if (failed) return heal_error(err, path, "removing faces listed twice");
     how = "removed the repeats and rebuilt the volumes that listed them";
   } else {
-    if (cad_heal_fragment())
+    if (import_again(path, fmt, 0) || cad_heal_fragment() || synchronize())
       return heal_error(err, path, "merging the touching solids");
     how = "merged the shapes that touch (gmsh's RemoveAllDuplicates)";
   }
@@ -331,7 +354,7 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
     return pm_error_prefix(err, "%s", path);
   }
   char logged[256];
-  int import_err = import_shapes(path, fmt, 0, logged, sizeof logged);
+  int import_err = import_shapes(path, fmt, 0, 1, logged, sizeof logged);
   if (import_err) {
     s = logged[0] ? pm_error_setf(err, PM_ERR_PARSE, "%s: gmsh cannot import it: %s", path, logged)
                   : pm_error_setf(err, PM_ERR_PARSE, "%s: gmsh cannot import it", path);

@@ -155,10 +155,13 @@ static double model_diagonal(void) {
   return diag > 0 && isfinite(diag) ? diag : 1;
 }
 
-int cad_heal_drop_twins(void) {
+int cad_heal_plan_twins(cad_twin_plan *plan) {
+  memset(plan, 0, sizeof *plan);
   int *twin = NULL;
   int32_t nt = 0;
   if (find_twins(COINCIDENT_TOL * model_diagonal(), &twin, &nt)) return -1;
+  plan->twin = twin;
+  plan->ntwin = nt;
   int ierr = 0;
   for (int32_t k = 0; k < nt && !ierr; ++k) {
     /* Every volume listing the twin is rebuilt from its other faces. */
@@ -169,28 +172,46 @@ int cad_heal_drop_twins(void) {
       int in[2] = {3, up[v]}, *bd = NULL;
       size_t nb = 0;
       gmshModelGetBoundary(in, 2, &bd, &nb, 0, 0, 0, &ierr);
-      int *faces = malloc(sizeof(int) * (nb / 2 + 1));
+      cad_twin_volume *grown =
+          ierr ? NULL : realloc(plan->volume, sizeof *grown * (size_t)(plan->nvolume + 1));
+      int *faces = grown ? malloc(sizeof(int) * (nb / 2 + 1)) : NULL;
+      if (grown) plan->volume = grown;
+      if (!faces) ierr = 1;
       size_t nfc = 0;
-      for (size_t q = 0; faces && !ierr && q < nb / 2; ++q)
+      for (size_t q = 0; !ierr && q < nb / 2; ++q)
         if (abs(bd[2 * q + 1]) != twin[k]) faces[nfc++] = abs(bd[2 * q + 1]);
       if (bd) gmshFree(bd);
-      if (!faces) ierr = 1;
-      int loop = -1, vol = -1;
-      if (!ierr) loop = gmshModelOccAddSurfaceLoop(faces, nfc, -1, 0, &ierr);
-      free(faces);
-      if (!ierr) vol = gmshModelOccAddVolume(&loop, 1, -1, &ierr);
-      int old[2] = {3, up[v]};
-      if (!ierr) gmshModelOccRemove(old, 2, 0, &ierr);
-      (void)vol;
+      if (!ierr)
+        plan->volume[plan->nvolume++] = (cad_twin_volume){up[v], faces, (int32_t)nfc};
     }
     if (up) gmshFree(up);
     if (down) gmshFree(down);
-    int tw[2] = {2, twin[k]};
-    if (!ierr) gmshModelOccRemove(tw, 2, 0, &ierr);
   }
-  free(twin);
-  if (!ierr) gmshModelOccSynchronize(&ierr);
+  if (ierr) cad_twin_plan_free(plan);
   return ierr ? -1 : 0;
+}
+
+int cad_heal_drop_twins(const cad_twin_plan *plan) {
+  int ierr = 0;
+  for (int32_t v = 0; v < plan->nvolume && !ierr; ++v) {
+    const cad_twin_volume *tv = &plan->volume[v];
+    int loop = gmshModelOccAddSurfaceLoop(tv->face, (size_t)tv->nface, -1, 0, &ierr);
+    if (!ierr) gmshModelOccAddVolume(&loop, 1, -1, &ierr);
+    int old[2] = {3, tv->tag};
+    if (!ierr) gmshModelOccRemove(old, 2, 0, &ierr);
+  }
+  for (int32_t k = 0; k < plan->ntwin && !ierr; ++k) {
+    int tw[2] = {2, plan->twin[k]};
+    gmshModelOccRemove(tw, 2, 0, &ierr);
+  }
+  return ierr ? -1 : 0;
+}
+
+void cad_twin_plan_free(cad_twin_plan *plan) {
+  for (int32_t v = 0; v < plan->nvolume; ++v) free(plan->volume[v].face);
+  free(plan->volume);
+  free(plan->twin);
+  memset(plan, 0, sizeof *plan);
 }
 
 /* ---- counting ------------------------------------------------------------------------------- */
@@ -258,14 +279,12 @@ int cad_heal_sew(void) {
   /* The tolerance is gmsh's default Geometry.Tolerance: the coincident pairs are far closer. */
   gmshModelOccHealShapes(&out, &nout, NULL, 0, 1e-8, 0, 0, 0, 1, 0, &ierr);
   if (out) gmshFree(out);
-  if (!ierr) gmshModelOccSynchronize(&ierr);
   return ierr ? -1 : 0;
 }
 
 int cad_heal_fragment(void) {
   int ierr = 0;
   gmshModelOccRemoveAllDuplicates(&ierr);
-  if (!ierr) gmshModelOccSynchronize(&ierr);
   return ierr ? -1 : 0;
 }
 

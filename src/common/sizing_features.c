@@ -221,12 +221,21 @@ static pm_status build(const pm_model *m, unsigned kinds, pm_feature_size *r, pm
     }
     poff[c + 1] = poff[c] + npts;
     if (!(kinds & PM_FEATURE_CURVES) || npts < 2) continue;
-    /* Short or curved curves. */
+    /* Short or curved curves: one h for the whole curve, along its even polyline (the points
+     * added towards the ends are for the widths below; here they would only multiply the
+     * features every evaluation visits). */
     int closed = cv->nbound >= 2 && cv->bound[0].cell == cv->bound[1].cell;
     double nseg = fmax(closed ? 3 : 1, ceil(turn[c] / (M_PI / 4) - 1e-9));
     double h = pm_curve_length(cv, cv->lo[0], cv->hi[0]) / nseg;
-    for (int k = 0; k + 1 < npts && ok; ++k)
-      ok = feat_push(r, &pts[3 * (poff[c] + k)], &pts[3 * (poff[c] + k + 1)], h);
+    int n = CURVE_PTS + (int)fmin(4 * ceil(turn[c] / (M_PI / 4)), 256);
+    double a[3], b[3];
+    pm_cell_point(cv, &cv->lo[0], a);
+    for (int k = 1; k <= n && ok; ++k) {
+      double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * k / n;
+      pm_cell_point(cv, &t, b);
+      ok = feat_push(r, a, b, h);
+      pm_v3_copy(a, b);
+    }
   }
   /* Narrow faces: along each boundary curve, the distance to the face's other boundary curves;
    * for two curves that share a vertex, only where it is below WEDGE_SIN times the distance to
