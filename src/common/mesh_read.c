@@ -14,7 +14,7 @@
 
 /* ---- gmsh's element types ------------------------------------------------------------------
  * gmsh 4.8.4's table (GmshDefines.h; gmshModelMeshGetElementProperties gives the same family,
- * node count and corners, which test_mesh_read checks type by type). Lines, triangles and tets
+ * node count and corners, which test_mesh_read checks type by type, 1 to 150). Lines, triangles and tets
  * of every order are read (reduced to their corners, which come first); points are read for
  * classification; every other type is refused by name. */
 static const rd_elem_type elem_types[] = {
@@ -40,25 +40,30 @@ static const rd_elem_type elem_types[] = {
     {58, -1, 28, "Quadrilateral"}, {59, -1, 32, "Quadrilateral"}, {60, -1, 36, "Quadrilateral"},
     {61, -1, 40, "Quadrilateral"}, {62, 1, 7, "Line"},        {63, 1, 8, "Line"},
     {64, 1, 9, "Line"},          {65, 1, 10, "Line"},         {66, 1, 11, "Line"},
-    {69, -1, 0, "Polygon Border"}, {71, 3, 84, "Tetrahedron"}, {72, 3, 120, "Tetrahedron"},
+    {67, -1, 2, "Line Border"},  {68, -1, 3, "Triangle Border"}, {69, -1, 0, "Polygon Border"},
+    {70, -1, 2, "Line Child"},   {71, 3, 84, "Tetrahedron"}, {72, 3, 120, "Tetrahedron"},
     {73, 3, 165, "Tetrahedron"}, {74, 3, 220, "Tetrahedron"}, {75, 3, 286, "Tetrahedron"},
     {79, 3, 34, "Tetrahedron"},  {80, 3, 40, "Tetrahedron"},  {81, 3, 46, "Tetrahedron"},
     {82, 3, 52, "Tetrahedron"},  {83, 3, 58, "Tetrahedron"},
     /* Order-0 elements: one node standing for a whole element; no corners to read. */
     {84, -1, 1, "Line"},         {85, -1, 1, "Triangle"},     {86, -1, 1, "Quadrilateral"},
     {87, -1, 1, "Tetrahedron"},  {88, -1, 1, "Hexahedron"},   {89, -1, 1, "Prism"},
-    {92, -1, 64, "Hexahedron"},  {93, -1, 125, "Hexahedron"}, {94, -1, 216, "Hexahedron"},
+    {90, -1, 40, "Prism"},       {91, -1, 75, "Prism"},       {92, -1, 64, "Hexahedron"},  {93, -1, 125, "Hexahedron"}, {94, -1, 216, "Hexahedron"},
     {95, -1, 343, "Hexahedron"}, {96, -1, 512, "Hexahedron"}, {97, -1, 729, "Hexahedron"},
     {98, -1, 1000, "Hexahedron"}, {99, -1, 32, "Hexahedron"}, {100, -1, 44, "Hexahedron"},
     {101, -1, 56, "Hexahedron"}, {102, -1, 68, "Hexahedron"}, {103, -1, 80, "Hexahedron"},
-    {104, -1, 92, "Hexahedron"}, {105, -1, 104, "Hexahedron"}, {118, -1, 30, "Pyramid"},
+    {104, -1, 92, "Hexahedron"}, {105, -1, 104, "Hexahedron"}, {106, -1, 126, "Prism"},
+    {107, -1, 196, "Prism"},     {108, -1, 288, "Prism"},     {109, -1, 405, "Prism"},
+    {110, -1, 550, "Prism"},     {111, -1, 24, "Prism"},      {112, -1, 33, "Prism"},
+    {113, -1, 42, "Prism"},      {114, -1, 51, "Prism"},      {115, -1, 60, "Prism"},
+    {116, -1, 69, "Prism"},      {117, -1, 78, "Prism"},      {118, -1, 30, "Pyramid"},
     {119, -1, 55, "Pyramid"},    {120, -1, 91, "Pyramid"},    {121, -1, 140, "Pyramid"},
     {122, -1, 204, "Pyramid"},   {123, -1, 285, "Pyramid"},   {124, -1, 385, "Pyramid"},
     {125, -1, 21, "Pyramid"},    {126, -1, 29, "Pyramid"},    {127, -1, 37, "Pyramid"},
     {128, -1, 45, "Pyramid"},    {129, -1, 53, "Pyramid"},    {130, -1, 61, "Pyramid"},
     {131, -1, 69, "Pyramid"},    {132, -1, 1, "Pyramid"},     {133, -1, 0, "Point Xfem"},
     {134, -1, 0, "Line Xfem"},   {135, -1, 0, "Triangle Xfem"}, {136, -1, 0, "Tetrahedron Xfem"},
-    {137, 3, 16, "Tetrahedron"},
+    {137, 3, 16, "Tetrahedron"}, {140, -1, 0, "Trihedron 4"},
 };
 
 const rd_elem_type *pm_rd_elem_type(int type) {
