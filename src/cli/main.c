@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "cli/cli.h"
+#include "cli/cli_signal.h"
 #include "cli/cli_util.h"
 #include "common/gmsh_session.h"
 
@@ -46,6 +47,7 @@ int main(int argc, char **argv) {
   }
   for (int i = 0; i < ncommands; ++i)
     if (strcmp(cmd, commands[i].name) == 0) {
+      pm_cli_signals_install(commands[i].name);
       int code = commands[i].run(argc - 1, argv + 1);
       fflush(stdout);
       pm_gmsh_shutdown();
