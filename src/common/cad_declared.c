@@ -10,6 +10,8 @@
 #include <strings.h>
 #include <sys/stat.h>
 
+#include "common/cad_probe.h"
+
 /* ---- IGES ------------------------------------------------------------------------------------ */
 
 /* An integer field of a fixed-column record: blanks and leading spaces allowed, 0 when blank;
@@ -320,6 +322,85 @@ static pm_status step(const char *path, const char *text, size_t len, pm_error *
   return s;
 }
 
+/* ---- BREP ------------------------------------------------------------------------------------ */
+
+/* The words of one line (CR LF or LF ended), at most `max`; their count. */
+static int words(const char *line, size_t n, const char **w, size_t *wl, int max) {
+  int k = 0;
+  for (size_t i = 0; i < n && k < max;) {
+    while (i < n && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+    if (i >= n) break;
+    size_t j = i;
+    while (j < n && line[j] != ' ' && line[j] != '\t' && line[j] != '\r') ++j;
+    w[k] = line + i, wl[k++] = j - i;
+    i = j;
+  }
+  return k;
+}
+
+static pm_status brep(const char *path, const char *text, size_t len, pm_error *err) {
+  long declared = -1, types = 0, stars = 0, line = 0, tline = 0;
+  int root = 0;
+  for (size_t at = 0; at < len;) {
+    const char *rec = text + at;
+    const char *nl = memchr(rec, '\n', len - at);
+    size_t rl = nl ? (size_t)(nl - rec) : len - at;
+    at += rl + 1;
+    ++line;
+    const char *w[4];
+    size_t wl[4];
+    int nw = words(rec, rl, w, wl, 4);
+    if (declared < 0) {
+      if (nw == 2 && wl[0] == 7 && !memcmp(w[0], "TShapes", 7)) {
+        char *end;
+        declared = strtol(w[1], &end, 10);
+        if (end != w[1] + wl[1] || declared < 0)
+          return pm_error_setf(err, PM_ERR_PARSE, "%s line %ld: unreadable TShapes count", path, line);
+        tline = line;
+      }
+      continue;
+    }
+    if (types < declared || stars < types) {
+      /* A record: its type alone on a line, ..., its sub-shapes ended by '*'. */
+      static const char *const kinds[] = {"Ve", "Ed", "Wi", "Fa", "Sh", "So", "CS", "Co"};
+      if (nw == 1 && wl[0] == 2)
+        for (int k = 0; k < 8; ++k)
+          if (!memcmp(w[0], kinds[k], 2)) {
+            if (stars < types)
+              return pm_error_setf(err, PM_ERR_PARSE,
+                                   "%s line %ld: shape record %ld begins before record %ld ends "
+                                   "(no '*'): the file is damaged",
+                                   path, line, types + 1, types);
+            ++types;
+          }
+      size_t e = rl;
+      while (e > 0 && (rec[e - 1] == ' ' || rec[e - 1] == '\t' || rec[e - 1] == '\r')) --e;
+      if (e > 0 && rec[e - 1] == '*') ++stars;
+      continue;
+    }
+    /* After the records: the root shape, an orientation and two numbers ("+1 0"). */
+    if (nw >= 2 && strchr("+-ie", w[0][0]) && wl[0] > 1) {
+      root = 1;
+      break;
+    }
+    if (nw > 0) break;
+  }
+  if (declared < 0)
+    return pm_error_setf(err, PM_ERR_PARSE,
+                         "%s: the BREP file has no TShapes section: it is truncated or not an "
+                         "OpenCASCADE BREP file",
+                         path);
+  if (types != declared || stars != declared)
+    return pm_error_setf(err, PM_ERR_PARSE,
+                         "%s: the BREP TShapes section (line %ld) declares %ld shapes, the file "
+                         "holds %ld: it is truncated or damaged",
+                         path, tline, declared, stars < types ? stars : types);
+  if (!root)
+    return pm_error_setf(err, PM_ERR_PARSE,
+                         "%s: the BREP file ends without its root shape: it is truncated", path);
+  return PM_OK;
+}
+
 /* ---- entry points ---------------------------------------------------------------------------- */
 
 static int ends_with(const char *path, const char *ext) {
@@ -327,15 +408,26 @@ static int ends_with(const char *path, const char *ext) {
   return n >= e && strcasecmp(path + n - e, ext) == 0;
 }
 
-pm_status pm_cad_check_declared_text(const char *path, int is_step, const char *text, size_t len,
-                                     pm_error *err) {
-  return is_step ? step(path, text, len, err) : iges(path, text, len, err);
+pm_status pm_cad_check_declared_text(const char *path, pm_cad_kind kind, const char *text,
+                                     size_t len, pm_error *err) {
+  switch (kind) {
+    case PM_CAD_STEP: return step(path, text, len, err);
+    case PM_CAD_IGES: return iges(path, text, len, err);
+    case PM_CAD_BREP: return brep(path, text, len, err);
+  }
+  return PM_OK;
 }
 
 pm_status pm_cad_check_declared(const char *path, pm_error *err) {
-  int is_step = ends_with(path, ".step") || ends_with(path, ".stp");
-  int is_iges = ends_with(path, ".iges") || ends_with(path, ".igs");
-  if (!is_step && !is_iges) return PM_OK;
+  pm_cad_kind kind;
+  if (ends_with(path, ".step") || ends_with(path, ".stp"))
+    kind = PM_CAD_STEP;
+  else if (ends_with(path, ".iges") || ends_with(path, ".igs"))
+    kind = PM_CAD_IGES;
+  else if (ends_with(path, ".brep"))
+    kind = PM_CAD_BREP;
+  else
+    return PM_OK;
   struct stat st;
   if (stat(path, &st) != 0)
     return pm_error_setf(err, PM_ERR_IO, "%s: cannot read: %s", path, strerror(errno));
@@ -351,7 +443,9 @@ pm_status pm_cad_check_declared(const char *path, pm_error *err) {
   size_t got = fread(text, 1, len, f);
   fclose(f);
   pm_status s = got != len ? pm_error_setf(err, PM_ERR_IO, "%s: cannot read it whole", path)
-                           : pm_cad_check_declared_text(path, is_step, text, len, err);
+                           : pm_cad_check_declared_text(path, kind, text, len, err);
   free(text);
+  /* What no count can tell: OpenCASCADE's BREP reader may never end on a damaged record. */
+  if (!s && kind == PM_CAD_BREP) s = pm_cad_probe(path, "brep", err);
   return s;
 }

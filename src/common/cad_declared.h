@@ -13,22 +13,27 @@
  * "END-ISO-10303-21;", each DATA section be closed by ENDSEC;, and every entity instance a
  * record refers to (#n) be defined in the file.
  *
- * OCCT BREP files declare no counts that matter here: OpenCASCADE refuses a truncated one itself
- * (it then imports to an empty model, which geom_cad reports).
+ * OpenCASCADE BREP (BRepTools_ShapeSet's text form): the TShapes section must be there, hold the
+ * number of shape records it declares (each a type line, Ve Ed Wi Fa Sh So CS Co, and a
+ * sub-shape list ended by '*'), and be followed by the root shape. OpenCASCADE's reader never
+ * ends on some damaged records that keep these counts, so a BREP file is then read once in a
+ * child process with a time limit (cad_probe.h) before it is read for real.
  */
 #ifndef PM_CAD_DECLARED_H
 #define PM_CAD_DECLARED_H
 
 #include <packmesh/packmesh.h>
 
-/* PM_OK for a file whose declarations hold (and for formats with none: by extension, .brep and
- * anything not .step/.stp/.iges/.igs); PM_ERR_PARSE naming the file and the first mismatch;
+typedef enum pm_cad_kind { PM_CAD_STEP, PM_CAD_IGES, PM_CAD_BREP } pm_cad_kind;
+
+/* PM_OK for a file whose declarations hold (and for any extension but .step .stp .iges .igs
+ * .brep); PM_ERR_PARSE naming the file and the first mismatch (or the trial read's failure);
  * PM_ERR_IO when it cannot be read; PM_ERR_NOMEM. */
 pm_status pm_cad_check_declared(const char *path, pm_error *err);
 
-/* The same for `len` bytes of text (need not end with '\0'); `step` selects STEP (1) or IGES
- * (0); `path` names the file in messages. */
-pm_status pm_cad_check_declared_text(const char *path, int step, const char *text, size_t len,
-                                     pm_error *err);
+/* The counts alone (no trial read) for `len` bytes of text (need not end with '\0') of format
+ * `kind`; `path` names the file in messages. */
+pm_status pm_cad_check_declared_text(const char *path, pm_cad_kind kind, const char *text,
+                                     size_t len, pm_error *err);
 
 #endif /* PM_CAD_DECLARED_H */
