@@ -34,6 +34,7 @@ static const char *const usage_text =
     "Running again into the same DIR resumes: finished runs are not redone; a run whose\n"
     "command changed (an edited suite) is. A failed run (error, crash, time limit) is recorded\n"
     "in its row and the study goes on; the exit code is 0 once the report is written.\n"
+    "SIGINT / SIGTERM end the running runs and exit 130 / 143; the next run resumes.\n"
     "The suite format is described in compare/README.md.\n";
 
 int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,

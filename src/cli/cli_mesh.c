@@ -61,6 +61,8 @@ static int usage_text(void) {
          "file (.json). --size is the desired edge length: a number, an expression in x, y, z, r,\n"
          "or 'inferred' (psys's sizing inference). Without --size the input's own size (built-in\n"
          "cases, case files) or the method's default is used.\n"
+         "The outputs (-o, --stats, --trace, --frames) are written together or not at all; two of\n"
+         "them naming one file is a usage error; SIGINT / SIGTERM leave none (exit 130 / 143).\n"
          "methods: %s (default bubble)\n",
          names);
   return PM_EXIT_OK;

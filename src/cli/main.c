@@ -31,7 +31,8 @@ static void help(void) {
          pm_version());
   for (int i = 0; i < ncommands; ++i) printf("  %-10s %s\n", commands[i].name, commands[i].summary);
   printf("\n'packmesh COMMAND --help' describes a command.\n"
-         "Exit codes: 0 success, 1 failure (one line on stderr), 2 usage error.\n");
+         "Exit codes: 0 success, 1 failure (one line on stderr), 2 usage error,\n"
+         "130 / 143 interrupted by SIGINT / SIGTERM (nothing half written is left).\n");
 }
 
 int main(int argc, char **argv) {

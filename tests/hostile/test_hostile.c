@@ -163,7 +163,9 @@ static void read_expectations(void) {
   assert_int_equal(matched, lines);
 }
 
-/* invocations.txt: "exit<TAB>text<TAB>arguments" lines; {OUT} is the run's output folder. */
+/* invocations.txt: "exit<TAB>text<TAB>arguments" lines; {OUT} is the run's output folder,
+ * {CORPUS} the corpus, {INPUT} a copy of seeds/plate.json that a run may damage (an older build
+ * that ignores the check being tested would overwrite it). */
 static int read_invocations(void) {
   char *text = pm_test_slurp(CORPUS "/invocations.txt");
   assert_non_null(text);
@@ -189,6 +191,8 @@ static int read_invocations(void) {
         arg(r, strdup(buf));
       } else if (!strncmp(w, "{CORPUS}", 8)) {
         arg(r, dupf("%s%s", CORPUS, w + 8));
+      } else if (!strcmp(w, "{INPUT}")) {
+        arg(r, dupf("%s/input.json", base, NULL));
       } else {
         arg(r, strdup(w));
       }
@@ -277,6 +281,13 @@ static void corpus_through_the_command(void **state) {
   const char *folders[] = {"seeds", "issue", "hand", "generated"};
   for (int k = 0; k < 4; ++k) files += collect(folders[k]);
   read_expectations();
+  char *plate = pm_test_slurp(CORPUS "/seeds/plate.json"), input[400];
+  assert_non_null(plate);
+  snprintf(input, sizeof input, "%s/input.json", base);
+  FILE *in_copy = fopen(input, "w");
+  fputs(plate, in_copy);
+  fclose(in_copy);
+  free(plate);
   int invocations = read_invocations();
   /* The issue's IGES file cut in half, made from the shared model when it is here. */
   if (pm_test_have_cad()) {
