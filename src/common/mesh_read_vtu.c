@@ -191,7 +191,8 @@ static pm_status read_array(vtu *u, const xml_tag *t, num_array *a, const char *
     double x;
     const char *at = r->p;
     if ((s = pm_rd_double(r, &x, "a value of DataArray '%s'", name))) break;
-    if (whole && !(x == (double)(int64_t)x && x > -1e18 && x < 1e18)) {
+    /* Range first: converting a double beyond int64 (or NaN) is undefined. */
+    if (whole && !(x > -1e18 && x < 1e18 && x == (double)(int64_t)x)) {
       s = pm_rd_fail(r, at, 0, "DataArray '%s' holds %g, not a whole number", name, x);
       break;
     }

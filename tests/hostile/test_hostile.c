@@ -11,8 +11,9 @@
  * or CAD file through `mesh FILE -o ... --stats ...` and `quality seeds/square.msh --geometry
  * FILE`. Case files are meshed with bubble (--max-nodes 20000), CAD files with gmsh-frontal (the
  * CAD geometry itself is OpenCASCADE's business; what is tested is packmesh's handling).
- * Two inputs are made at run time: a case file of 20001 pieces (one more than a case file may
- * hold), and, when the shared CAD models are there, bearing.iges cut in half.
+ * Inputs made at run time: a case file of 20001 pieces (one more than a case file may hold), two
+ * meshes of 400000 elements all on one face or one edge, and, when the shared CAD models are
+ * there, bearing.iges cut in half.
  * Runs go two at a time (PM_HOSTILE_JOBS). Set PM_TEST_CLI to run another build of packmesh. */
 #include "test_support.h"
 
@@ -321,6 +322,31 @@ static void corpus_through_the_command(void **state) {
   add_file("too_many_pieces.json", many);
   runs[nrun - 2].want_exit = 1;
   snprintf(runs[nrun - 2].want_text, sizeof runs[0].want_text, "more than 20000 pieces");
+  /* Meshes whose elements all share one face or one edge (8 MB each: made here). A sound mesh
+   * has one or two elements there; the checker compared them pairwise, 80 s for these. */
+  char star[2][400];
+  for (int k = 0; k < 2; ++k) {
+    snprintf(star[k], sizeof star[k], "%s/%s.msh", base, k ? "edge_book" : "one_face");
+    FILE *sf = fopen(star[k], "w");
+    assert_non_null(sf);
+    const int n = 200000;
+    fprintf(sf, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n%d\n", n + 3);
+    fprintf(sf, "1 0 0 0\n2 1 0 0\n3 0 1 0\n");
+    for (int i = 0; i < n; ++i) fprintf(sf, "%d 0.5 %.9g %.9g\n", i + 4, cos(i), 1 + sin(i));
+    fprintf(sf, "$EndNodes\n$Elements\n%d\n", 2 * n);
+    for (int i = 0; i < n; ++i) {
+      if (k == 0) {
+        fprintf(sf, "%d 2 2 0 1 1 2 3\n", 2 * i + 1);           /* the same triangle */
+        fprintf(sf, "%d 4 2 0 1 1 2 3 %d\n", 2 * i + 2, i + 4); /* tets on one face */
+      } else {
+        fprintf(sf, "%d 2 2 0 1 1 2 %d\n", 2 * i + 1, i + 4);   /* a book on edge 1-2 */
+        fprintf(sf, "%d 2 2 0 1 2 1 %d\n", 2 * i + 2, i + 4);
+      }
+    }
+    fprintf(sf, "$EndElements\n");
+    fclose(sf);
+    add_file(k ? "edge_book.msh" : "one_face.msh", star[k]);
+  }
   print_message("%d corpus files, %d invocations: %d runs\n", files, invocations, nrun);
   if (files < 200) fail_msg("only %d files in the corpus (200 wanted)", files);
 
