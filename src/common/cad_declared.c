@@ -445,6 +445,13 @@ pm_status pm_cad_check_declared(const char *path, pm_error *err) {
   pm_status s = got != len ? pm_error_setf(err, PM_ERR_IO, "%s: cannot read it whole", path)
                            : pm_cad_check_declared_text(path, kind, text, len, err);
   free(text);
+  /* As geom_cad words what OpenCASCADE cannot read: "<file>: cannot parse the file: <why>". */
+  if (s == PM_ERR_PARSE && err && strncmp(err->msg, path, strlen(path)) == 0) {
+    char why[sizeof err->msg];
+    const char *rest = err->msg + strlen(path);
+    snprintf(why, sizeof why, "%s", rest[0] == ':' ? rest + 2 : rest + 1);
+    pm_error_setf(err, PM_ERR_PARSE, "%s: cannot parse the file: %s", path, why);
+  }
   /* What no count can tell: OpenCASCADE's BREP reader may never end on a damaged record. */
   if (!s && kind == PM_CAD_BREP) s = pm_cad_probe(path, "brep", err);
   return s;
