@@ -1,15 +1,15 @@
 /* Every file of the hostile-input corpus (tests/data/hostile: the seeds, the cases found by hand
- * and the generated damages) through `packmesh mesh` and `packmesh quality`, and the hostile
- * invocations of invocations.txt. For every run:
+ * and the generated damages) through `packmesh quality` and, when `mesh` takes it as an input,
+ * `packmesh mesh`, and the hostile invocations of invocations.txt. For every run:
  *   - it ends by itself within the time limit (PM_HOSTILE_TIMEOUT seconds, default 60), with an
  *     exit code below 128 (no crash, no abort, no sanitizer report: sanitizers exit non-zero
  *     with many lines);
  *   - stderr is empty on success and exactly one line "packmesh: ..." otherwise;
  *   - nothing is left in its output folder but the outputs of a success;
  *   - where expect.tsv names the run, its exit code and a piece of its message are those given.
- * A mesh file goes through `quality FILE` and `mesh FILE -o ...` (refused: not an input); a case
- * or CAD file through `mesh FILE -o ... --stats ...` and `quality seeds/square.msh --geometry
- * FILE`. Case files are meshed with bubble (--max-nodes 20000), CAD files with gmsh-frontal (the
+ * A mesh file goes through `quality FILE` (`mesh` refuses it by its extension before reading a
+ * byte: invocations.txt runs that once); a case or CAD file, or one of another extension, through
+ * `mesh FILE -o ... --stats ...` and `quality seeds/square.msh --geometry FILE`. Case files are meshed with bubble (--max-nodes 20000), CAD files with gmsh-frontal (the
  * CAD geometry itself is OpenCASCADE's business; what is tested is packmesh's handling).
  * Inputs made at run time: a case file of 20001 pieces (one more than a case file may hold), two
  * meshes of 400000 elements all on one face or one edge, and, when the shared CAD models are
@@ -89,9 +89,13 @@ static void add_file(const char *rel, const char *path) {
   int is_case = has_ext(path, ".json");
   int is_cad = has_ext(path, ".step") || has_ext(path, ".stp") || has_ext(path, ".igs") ||
                has_ext(path, ".iges") || has_ext(path, ".brep");
+  int is_mesh = has_ext(path, ".msh") || has_ext(path, ".vtk") || has_ext(path, ".vtu") ||
+                has_ext(path, ".stl") || has_ext(path, ".mesh");
   char label[700];
+  run *m = NULL;
+  if (is_mesh) goto quality; /* `mesh` refuses a mesh file by its extension alone */
   snprintf(label, sizeof label, "%s: mesh", rel);
-  run *m = new_run(label);
+  m = new_run(label);
   arg(m, "mesh");
   arg(m, strdup(path));
   arg(m, "--method");
@@ -103,6 +107,7 @@ static void add_file(const char *rel, const char *path) {
   arg(m, "--stats");
   arg(m, dupf("%s/stats.json", m->outdir, NULL));
   m->outputs[0] = "out.msh", m->outputs[1] = "stats.json";
+quality:
   snprintf(label, sizeof label, "%s: quality", rel);
   run *q = new_run(label);
   arg(q, "quality");
