@@ -305,13 +305,13 @@ static pm_status step(const char *path, const char *text, size_t len, pm_error *
   if (!s && data_sections == 0)
     s = pm_error_setf(err, PM_ERR_PARSE, "%s: the STEP file has no DATA section", path);
   if (!s) {
-    qsort(def.v, def.n, sizeof *def.v, cmp_u64);
+    if (def.n > 1) qsort(def.v, def.n, sizeof *def.v, cmp_u64);
     for (size_t k = 1; k < def.n && !s; ++k)
       if (def.v[k] == def.v[k - 1])
         s = pm_error_setf(err, PM_ERR_PARSE, "%s: STEP entity #%llu is defined twice", path,
                           (unsigned long long)def.v[k]);
     for (size_t k = 0; k < ref.n && !s; ++k)
-      if (!bsearch(&ref.v[k], def.v, def.n, sizeof *def.v, cmp_u64))
+      if (def.n == 0 || !bsearch(&ref.v[k], def.v, def.n, sizeof *def.v, cmp_u64))
         s = pm_error_setf(err, PM_ERR_PARSE,
                           "%s: STEP entity #%llu is referred to but not defined: the file is "
                           "damaged or incomplete",
