@@ -567,13 +567,22 @@ static int walk_edges(ctx *c, const pm_edges *e, const int32_t *tri, const int32
     if (e->off[i + 1] - e->off[i] > maxn) maxn = e->off[i + 1] - e->off[i];
   erec *rec = malloc((size_t)(maxn ? maxn : 1) * sizeof *rec);
   int32_t *third = malloc((size_t)(maxn ? maxn : 1) * 2 * sizeof *third);
-  vacc *va = malloc((size_t)(maxn ? maxn : 1) * 4 * sizeof *va);
-  if (!rec || !third || !va) {
+  /* The volumes whose shells meet at one edge: a face may bound any number of volumes in a
+   * model read from a file, so one slot per volume of the model, found through va_at (the edge
+   * that last used a volume's slot, and which slot). */
+  int32_t nvol = c->md ? c->nv : 0;
+  vacc *va = malloc((size_t)(nvol ? nvol : 1) * sizeof *va);
+  int64_t *va_edge = malloc((size_t)(nvol ? nvol : 1) * sizeof *va_edge);
+  int32_t *va_at = malloc((size_t)(nvol ? nvol : 1) * sizeof *va_at);
+  if (!rec || !third || !va || !va_edge || !va_at) {
     free(rec);
     free(third);
     free(va);
+    free(va_edge);
+    free(va_at);
     return 0;
   }
+  for (int32_t v = 0; v < nvol; ++v) va_edge[v] = -1;
   for (int64_t i = 0; i < e->nedge; ++i) {
     int32_t a = e->ends[2 * i], b = e->ends[2 * i + 1];
     int n = (int)(e->off[i + 1] - e->off[i]);
@@ -642,9 +651,12 @@ static int walk_edges(ctx *c, const pm_edges *e, const int32_t *tri, const int32
         /* Shell counts: every volume this face bounds. */
         for (int64_t s = c->fv_off[f]; s < c->fv_off[f + 1]; ++s) {
           int32_t vol = c->fv_vol[s];
-          int j = 0;
-          while (j < nva && va[j].vol != vol) ++j;
-          if (j == nva) va[nva++] = (vacc){vol, 0, 0};
+          if (va_edge[vol] != i) {
+            va_edge[vol] = i;
+            va_at[vol] = nva;
+            va[nva++] = (vacc){vol, 0, 0};
+          }
+          int j = va_at[vol];
           va[j].k += nf;
           for (int r2 = g; r2 < h; ++r2) va[j].sdir += rec[r2].dir * c->fv_sense[s];
         }
@@ -693,6 +705,8 @@ static int walk_edges(ctx *c, const pm_edges *e, const int32_t *tri, const int32
   free(rec);
   free(third);
   free(va);
+  free(va_edge);
+  free(va_at);
   return 1;
 }
 
