@@ -45,6 +45,7 @@
 #include <string.h>
 
 #include "common/clock.h"
+#include "common/node_budget.h"
 #include "common/geom_cad.h"
 #include "common/gmsh_session.h"
 #include "common/vec3.h"
@@ -407,7 +408,7 @@ static pm_status gmsh_run(const pm_method *self, int algorithm, const char *algo
     if ((s = peer_default_size(m, NULL, in->seed, in->threads, &own, err))) return s;
     size = own;
   }
-  if ((s = peer_check_budget(m, size, in->max_nodes, self->name, err))) {
+  if ((s = pm_node_budget_check(m, size, in->max_nodes, "node cap", self->name, err))) {
     pm_sizing_destroy(own);
     return s;
   }

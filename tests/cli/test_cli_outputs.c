@@ -216,8 +216,9 @@ static void mesh_interrupted(void **state) {
   }
 }
 
-/* The issue's reproduction: a signal delivered as a rename returns, at every rename of the run
- * (the frames' files, then the outputs put in place), through strace's fault injection. (Under
+/* The reproduction of a hostile test of 82556e3: a signal delivered as a rename returns, at
+ * every rename of the run (the frames' files, then the outputs put in place), through strace's
+ * fault injection. (Under
  * ASan, LeakSanitizer cannot work in a traced process: it is turned off there.) */
 static void mesh_interrupted_at_each_rename(void **state) {
   (void)state;

@@ -284,7 +284,7 @@ static void corpus_through_the_command(void **state) {
   assert_non_null(mkdtemp(base));
   snprintf(square, sizeof square, "%s/seeds/square.msh", CORPUS);
   int files = 0;
-  const char *folders[] = {"seeds", "issue", "hand", "generated"};
+  const char *folders[] = {"seeds", "reported", "hand", "generated"};
   for (int k = 0; k < 4; ++k) files += collect(folders[k]);
   read_expectations();
   char *plate = pm_test_slurp(CORPUS "/seeds/plate.json"), input[400];
@@ -295,7 +295,8 @@ static void corpus_through_the_command(void **state) {
   fclose(in_copy);
   free(plate);
   int invocations = read_invocations();
-  /* The issue's IGES file cut in half, made from the shared model when it is here. */
+  /* bearing.iges cut in half (the hostile test's IGES file), made from the shared model when it
+   * is here. */
   if (pm_test_have_cad()) {
     FILE *in = fopen(PM_CAD_DIR "/bearing.iges", "rb");
     char half[400];
