@@ -10,6 +10,7 @@
 #include <signal.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "cli_run.h"
 #include "common/mesh.h"
@@ -82,6 +83,19 @@ static void failed_outputs_leave_nothing(void **state) {
     if (count_names(dir, NULL) != 2) /* adir and afile only */
       fail_msg("%s: %d files left in the folder", opts, count_names(dir, NULL));
   }
+  /* --stats in a folder where no file can be made: a read-only folder (which root may write
+   * anyway: then /proc, where nobody can create a file). */
+  char ro[700], args[2000];
+  snprintf(ro, sizeof ro, "%s", in_dir("ro"));
+  mkdir(ro, 0777);
+  chmod(ro, 0555);
+  if (geteuid() == 0) snprintf(ro, sizeof ro, "/proc");
+  snprintf(args, sizeof args, "mesh case:qi3 --method bubble -o '%s/out.msh' --stats '%s/s.json'",
+           dir, ro);
+  pm_test_cli_error(dir, args, 1, "s.json");
+  if (count_names(dir, NULL) != 3) /* adir, afile and ro only */
+    fail_msg("--stats in a read-only folder: %d files left in the folder", count_names(dir, NULL));
+  chmod(in_dir("ro"), 0755);
 }
 
 static void one_file_twice_is_a_usage_error(void **state) {
@@ -286,17 +300,23 @@ static void quality_interrupted(void **state) {
   }
 }
 
-static void compare_interrupted(void **state) {
-  (void)state;
+/* A study of one case and two methods, in the test's folder: argv for `compare`. */
+static char **tiny_study(void) {
+  static char out[700], suite[700];
+  static char *argv[] = {"compare", suite, "-o", out, "--quiet", NULL};
   FILE *f = fopen(in_dir("s.json"), "w");
   fputs("{\"name\": \"tiny\", \"cases\": [{\"input\": \"case:qi3\"}], \"methods\": [\"bubble\", "
         "\"gmsh-frontal\"], \"seeds\": [1]}",
         f);
   fclose(f);
-  char out[700], suite[700];
   snprintf(out, sizeof out, "%s/study", dir);
   snprintf(suite, sizeof suite, "%s/s.json", dir);
-  char *argv[] = {"compare", suite, "-o", out, "--quiet", NULL};
+  return argv;
+}
+
+static void compare_interrupted_running(void **state) {
+  (void)state;
+  char **argv = tiny_study();
   /* While the runs go: a run's temporaries appear first. */
   int ws = signal_when(start(argv), ".pmtmp-", SIGTERM, 60);
   char pe[700];
@@ -307,9 +327,14 @@ static void compare_interrupted(void **state) {
   free(err);
   assert_int_equal(count_names(dir, ".pmtmp-"), 0);
   assert_int_equal(count_names(dir, ".part"), 0);
-  /* While drawing: gnuplot's drawings are temporaries ".tmp-NAME.svg" until renamed. */
+}
+
+static void compare_interrupted_drawing(void **state) {
+  (void)state;
   if (system("gnuplot --version > /dev/null 2>&1") != 0) skip();
-  ws = signal_when(start(argv), ".tmp-", SIGINT, 120);
+  char **argv = tiny_study();
+  /* While drawing: gnuplot's drawings are temporaries ".tmp-NAME.svg" until renamed. */
+  int ws = signal_when(start(argv), ".tmp-", SIGINT, 120);
   interrupted_cleanly(ws, SIGINT, -1, "compare while drawing");
   assert_int_equal(count_names(dir, ".tmp-"), 0);
   assert_int_equal(count_names(dir, ".pmtmp-"), 0);
@@ -326,7 +351,8 @@ int main(void) {
       cmocka_unit_test_setup(mesh_interrupted, fresh_dir),
       cmocka_unit_test_setup(mesh_interrupted_at_each_rename, fresh_dir),
       cmocka_unit_test_setup(quality_interrupted, fresh_dir),
-      cmocka_unit_test_setup(compare_interrupted, fresh_dir),
+      cmocka_unit_test_setup(compare_interrupted_running, fresh_dir),
+      cmocka_unit_test_setup(compare_interrupted_drawing, fresh_dir),
   };
   int rc = cmocka_run_group_tests(tests, NULL, NULL);
   char cmd[300];

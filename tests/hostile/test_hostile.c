@@ -9,8 +9,9 @@
  *   - where expect.tsv names the run, its exit code and a piece of its message are those given.
  * A mesh file goes through `quality FILE` (`mesh` refuses it by its extension before reading a
  * byte: invocations.txt runs that once); a case or CAD file, or one of another extension, through
- * `mesh FILE -o ... --stats ...` and `quality seeds/square.msh --geometry FILE`. Case files are meshed with bubble (--max-nodes 20000), CAD files with gmsh-frontal (the
- * CAD geometry itself is OpenCASCADE's business; what is tested is packmesh's handling).
+ * `mesh FILE -o ... --stats ...` and `quality seeds/square.msh --geometry FILE`. Case files are
+ * meshed with bubble (--max-nodes 20000), CAD files with gmsh-frontal (the CAD geometry itself is
+ * OpenCASCADE's business; what is tested is packmesh's handling).
  * Inputs made at run time: a case file of 20001 pieces (one more than a case file may hold), two
  * meshes of 400000 elements all on one face or one edge, and, when the shared CAD models are
  * there, bearing.iges cut in half.
