@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "common/geom.h"
+#include "common/mesh.h"
 #include "common/sizing.h"
 
 #ifdef __cplusplus
@@ -37,6 +38,26 @@ pm_status pm_node_estimate_surface(const pm_model *m, const pm_sizing *s, double
  * inside a face. Messages start with `method`. cap <= 0 checks the field only. */
 pm_status pm_node_budget_check(const pm_model *m, const pm_sizing *s, int64_t cap,
                                const char *cap_name, const char *method, pm_error *err);
+
+/* Estimated count of the nodes inside the volumes of m under field s, given the surface mesh
+ * that bounds them (triangles tagged with face indices and oriented as connect.h leaves them:
+ * volume_inside.h decides what is inside): the integral over every volume of
+ * dV / (d^3 / sqrt(2)) (the volume per node of a face-centred cubic lattice of edge d), by the
+ * midpoint rule on each volume's bounding box: an 8 x 8 x 8 grid of cells, a cell split in eight
+ * while the field is finer than the cell, 10 times at most, cells whose centre lies outside left
+ * out (a cell clear of the shell needs no further inside test). Stops once the sum exceeds
+ * `stop`. A volume with no boundary triangle is skipped. A value of d that is not finite and > 0
+ * at a sample inside is PM_ERR_ARG naming the point. */
+pm_status pm_node_estimate_volume(const pm_model *m, const pm_mesh *surface, const pm_sizing *s,
+                                  double stop, double *estimate, pm_error *err);
+
+/* pm_node_budget_check for a volume mesh about to be grown from `surface`: its nodes plus the
+ * volume estimate against 1.5 x cap. Called between a surface mesh and its volume mesh, so that
+ * a field that is fine on the surfaces but far too fine inside is refused before the volume
+ * mesher runs. */
+pm_status pm_node_budget_check_volume(const pm_model *m, const pm_mesh *surface,
+                                      const pm_sizing *s, int64_t cap, const char *cap_name,
+                                      const char *method, pm_error *err);
 
 #ifdef __cplusplus
 }
