@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages packmesh builds and runs with. Run as root (or with sudo).
+# clang and libclang-rt-14-dev (libFuzzer) build the fuzz targets (fuzz/README.md); strace lets
+# test_cli_outputs deliver a signal at each rename of a run (the test is skipped without it).
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 SUDO=""
@@ -12,4 +14,5 @@ $SUDO apt-get install -y -qq --no-install-recommends \
   libembree-dev \
   libgmsh-dev gmsh \
   libmuparser-dev libcjson-dev libcmocka-dev \
-  gnuplot-nox
+  gnuplot-nox \
+  clang libclang-rt-14-dev strace

@@ -22,7 +22,9 @@
  *   - the bubble cap max_bubbles: reached by insertions, it ends population control like the
  *     adaptive stop (the run reports it). The run's node budget (in->max_nodes, --max-nodes) is
  *     a hard limit instead: a placement above it, or insertions that reach it, are PM_ERR_LIMIT
- *     (DESIGN.md: "a node budget that would be exceeded" is an error).
+ *     (DESIGN.md: "a node budget that would be exceeded" is an error). Before any placement, a
+ *     field whose estimated node count exceeds 1.5 x the lower of the two is PM_ERR_LIMIT
+ *     (node_budget.h): its placement alone would fill memory before reaching either check.
  *
  * Nodes for the connection: vertex bubbles (dim 0), curve bubbles (dim 1, t) and face bubbles
  * (dim 2, (u, v)); outside-layer bubbles exist only during a control and are never nodes.
@@ -67,6 +69,7 @@
 
 #include "common/clock.h"
 #include "common/connect.h"
+#include "common/node_budget.h"
 #include "common/quality.h"
 #include "common/vec3.h"
 
@@ -405,6 +408,14 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   if (in->max_nodes > 0 && in->max_nodes <= cap) cap = in->max_nodes, budget = 1;
   bub_params q = *p;
   q.max_bubbles = (double)cap;
+  /* The field is measured against the cap before the first bubble is placed: placing towards a
+   * field far beyond it would fill memory before the placement's own count check stopped it. */
+  st = pm_node_budget_check(m, size, cap, budget ? "node cap" : "cap max_bubbles", "bubble", err);
+  if (st) {
+    pm_sizing_destroy(own_size);
+    bub_size_rule_free(rule);
+    return st;
+  }
 
   bub_state *s = NULL;
   st = bub_state_create(m, size, &q, in->threads, in->seed, &s, err);

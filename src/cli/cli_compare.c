@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "cli/cli.h"
+#include "cli/cli_signal.h"
 #include "cli/cli_util.h"
 #include "cli/compare_study.h"
 #include "common/atomic_file.h"
@@ -33,12 +34,14 @@ static const char *const usage_text =
     "Running again into the same DIR resumes: finished runs are not redone; a run whose\n"
     "command changed (an edited suite) is. A failed run (error, crash, time limit) is recorded\n"
     "in its row and the study goes on; the exit code is 0 once the report is written.\n"
+    "SIGINT / SIGTERM end the running runs and exit 130 / 143; the next run resumes.\n"
     "The suite format is described in compare/README.md.\n";
 
 int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
                    const char *invocation) {
   double t0 = pm_seconds();
   pm_error e = {0};
+  pm_cli_signals_detail("; the finished runs are kept (run the same command again to resume)");
   if (o->timeout_s > 0) s->timeout_s = o->timeout_s;
   pm_cmp_study st;
   if (pm_cmp_study_init(&st, s, dir, &e)) {
@@ -65,6 +68,8 @@ int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
             st.nrow, ro.jobs, st.dir);
   if (pm_cmp_run(&st, &ro, &e) || pm_cmp_results_write(&st, &e)) {
     code = pm_cli_error(&e);
+    /* Interrupted: the exit code a shell gives a process ended by the signal. */
+    if (st.interrupted) code = 128 + st.interrupted;
     goto done;
   }
   if (pm_cmp_plots(&st, &figs, &e)) {

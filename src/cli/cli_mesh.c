@@ -7,7 +7,10 @@
  *                 [--frames DIR]
  *   packmesh mesh --method M --help      the method's parameters, defaults and sources
  *
- * Nothing is written unless the run succeeds; every file is written whole or not at all.
+ * The outputs are one set (atomic_file.h): each is reserved before the run (an unwritable one is
+ * reported at once), written under a temporary name, and all are put in place together once
+ * every one is complete; on any failure, or SIGINT / SIGTERM (cli_signal.h), none of them
+ * exists. Two options naming one file, or an output naming the input, are usage errors.
  */
 #include <math.h>
 #include <omp.h>
@@ -17,8 +20,10 @@
 
 #include "cli/cli.h"
 #include "cli/cli_methods.h"
+#include "cli/cli_signal.h"
 #include "cli/cli_size.h"
 #include "cli/cli_util.h"
+#include "common/atomic_file.h"
 #include "common/clock.h"
 #include "common/distance.h"
 #include "common/input.h"
@@ -56,6 +61,8 @@ static int usage_text(void) {
          "file (.json). --size is the desired edge length: a number, an expression in x, y, z, r,\n"
          "or 'inferred' (psys's sizing inference). Without --size the input's own size (built-in\n"
          "cases, case files) or the method's default is used.\n"
+         "The outputs (-o, --stats, --trace, --frames) are written together or not at all; two of\n"
+         "them naming one file is a usage error; SIGINT / SIGTERM leave none (exit 130 / 143).\n"
          "methods: %s (default bubble)\n",
          names);
   return PM_EXIT_OK;
@@ -192,6 +199,20 @@ int pm_cli_mesh(int argc, char **argv) {
   pm_error e = {0};
   pm_mesh_format fmt;
   if (pm_mesh_format_of(o.out, &fmt, &e)) return pm_cli_usage("mesh", "%s", e.msg);
+  /* One file for two outputs would leave only the last one written. */
+  const struct {
+    const char *opt, *path;
+  } outs[4] = {{"-o", o.out}, {"--stats", o.stats}, {"--trace", o.trace}, {"--frames", o.frames}};
+  int input_is_file = strncmp(o.input, "case:", 5) != 0;
+  for (int i = 0; i < 4; ++i) {
+    if (!outs[i].path) continue;
+    if (input_is_file && pm_path_same(outs[i].path, o.input))
+      return pm_cli_usage("mesh", "%s '%s' names the input file", outs[i].opt, outs[i].path);
+    for (int j = i + 1; j < 4; ++j)
+      if (outs[j].path && pm_path_same(outs[i].path, outs[j].path))
+        return pm_cli_usage("mesh", "%s and %s name the same file '%s'", outs[i].opt, outs[j].opt,
+                            outs[j].path);
+  }
 
   /* Parameters: defaults, then --set, then the range check. */
   void *params = NULL;
@@ -214,6 +235,21 @@ int pm_cli_mesh(int argc, char **argv) {
     free(params);
     return pm_cli_error(&e);
   }
+
+  /* Every output reserved before the run; written under these names, renamed at the end. */
+  pm_cli_signals_detail("; nothing was written");
+  pm_outputs *outputs = pm_outputs_create();
+  const char *tmp[4] = {NULL, NULL, NULL, NULL};
+  if (!outputs) {
+    free(params);
+    return pm_cli_fail("out of memory");
+  }
+  for (int i = 0; i < 4; ++i)
+    if (outs[i].path && pm_outputs_add(outputs, outs[i].path, i == 3, &tmp[i], &e)) {
+      pm_outputs_destroy(outputs);
+      free(params);
+      return pm_cli_error(&e);
+    }
 
   omp_set_num_threads((int)o.threads);
   double t_start = pm_seconds();
@@ -245,7 +281,7 @@ int pm_cli_mesh(int argc, char **argv) {
   if (size && (s = pm_sizing_check(size, model, &e))) goto fail;
 
   if (o.trace && (s = pm_trace_create(&trace, &e))) goto fail;
-  if (o.frames && (s = pm_frames_create(o.frames, model, &frames, &e))) goto fail;
+  if (o.frames && (s = pm_frames_create(tmp[3], model, &frames, &e))) goto fail;
   pm_stats_set_run(&stats, method->name, o.input);
 
   /* --target-nodes: scale the size field until the node count is within 3% of the target;
@@ -351,11 +387,14 @@ int pm_cli_mesh(int argc, char **argv) {
       }
   }
 
-  /* Files: the mesh first, then the stats, the trace and the frames' index. */
-  if ((s = pm_mesh_write(out.mesh, o.out, &e))) goto fail;
-  if (o.stats && (s = pm_stats_write_json(&stats, o.stats, &e))) goto fail;
-  if (trace && (s = pm_trace_write_csv(trace, o.trace, &e))) goto fail;
-  if (frames && (s = pm_frames_finish(frames, &e))) goto fail;
+  /* Files: the mesh, the stats, the trace and the frames' index under their temporary names,
+   * then all of them into place. Messages name the destinations, not the temporaries. */
+  if ((s = pm_mesh_write(out.mesh, tmp[0], &e)) ||
+      (o.stats && (s = pm_stats_write_json(&stats, tmp[1], &e))) ||
+      (trace && (s = pm_trace_write_csv(trace, tmp[2], &e))) ||
+      (frames && (s = pm_frames_finish(frames, &e))))
+    goto fail;
+  if ((s = pm_outputs_commit(outputs, &e))) goto fail;
 
   printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
          method->name, o.input, (int)out.mesh->nnode, (int)out.mesh->nseg, (int)out.mesh->ntri,
@@ -363,8 +402,18 @@ int pm_cli_mesh(int argc, char **argv) {
   rc = PM_EXIT_OK;
   goto done;
 fail:
+  /* Messages name the destinations, not their temporary names. */
+  for (int i = 0; i < 4; ++i)
+    if (tmp[i]) {
+      char *at = strstr(e.msg, tmp[i]);
+      if (!at) continue;
+      char rest[sizeof e.msg];
+      snprintf(rest, sizeof rest, "%s", at + strlen(tmp[i]));
+      snprintf(at, sizeof e.msg - (size_t)(at - e.msg), "%s%s", outs[i].path, rest);
+    }
   rc = pm_cli_error(&e);
 done:
+  pm_outputs_destroy(outputs);
   pm_stats_clear(&stats);
   pm_mesh_destroy(out.mesh);
   pm_trace_destroy(trace);

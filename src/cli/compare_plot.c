@@ -132,8 +132,17 @@ static void draw(plotctx *P, pm_cmp_figure *f) {
   snprintf(logp, sizeof logp, "%s/.%s.log", P->dir, f->name);
   char *argv[] = {"gnuplot", "-e", expr, gp, NULL};
   int ws = 0, to = 0;
-  int rc = pm_cmp_run_program(argv, P->dir, NULL, logp, GNUPLOT_TIMEOUT_S, &ws, &to);
   static const char *const ext[] = {"svg", "png", "pdf"};
+  /* gnuplot's drawings and log are temporaries until renamed (or kept, the log of a failure):
+   * a signal removes them. */
+  int track[4];
+  for (int k = 0; k < 3; ++k) {
+    char tmp[4400];
+    snprintf(tmp, sizeof tmp, "%s/.tmp-%s.%s", P->dir, f->name, ext[k]);
+    track[k] = pm_tmp_track(tmp, 0);
+  }
+  track[3] = pm_tmp_track(logp, 0);
+  int rc = pm_cmp_run_program(argv, P->dir, NULL, logp, GNUPLOT_TIMEOUT_S, &ws, &to);
   int ok = rc == 0 && !to && WIFEXITED(ws) && WEXITSTATUS(ws) == 0;
   if (!ok) {
     char *log = pm_cmp_read_file(logp, NULL);
@@ -166,6 +175,7 @@ static void draw(plotctx *P, pm_cmp_figure *f) {
     }
   }
   if (ok) unlink(logp);
+  for (int k = 0; k < 4; ++k) pm_tmp_untrack(track[k]);
   f->drawn = ok;
 }
 
@@ -817,6 +827,7 @@ pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *e
   snprintf(tmp, sizeof tmp, "%s/.gnuplot-version", P.dir);
   char *argv[] = {"gnuplot", "--version", NULL};
   int ws = 0, to = 0;
+  int track = pm_tmp_track(tmp, 0);
   if (pm_cmp_run_program(argv, NULL, tmp, NULL, 10, &ws, &to) == 0 && !to && WIFEXITED(ws) &&
       WEXITSTATUS(ws) == 0) {
     char *v = pm_cmp_read_file(tmp, NULL);
@@ -828,6 +839,7 @@ pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *e
     P.have_gnuplot = figs->have_gnuplot = 1;
   }
   unlink(tmp);
+  pm_tmp_untrack(track);
 
   const pm_cmp_suite *su = &st->suite;
   static const boxspec boxes[] = {

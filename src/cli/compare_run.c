@@ -11,10 +11,13 @@
  *
  * A failed child costs its row only: its status is "failed" with the child's one-line message
  * ("packmesh: ..." on stderr), "crashed (signal N, NAME)" when a library brought it down, or
- * "timed out after T s" when it was killed (the whole process group, so TetGen's helper process
- * goes too).
+ * "timed out after T s" when it was ended (the whole process group, so TetGen's helper process
+ * goes too: SIGTERM first, so that `packmesh mesh` removes its temporary files, then SIGKILL
+ * after END_GRACE_S). After a child that did not succeed, temporaries ("*.pmtmp-*",
+ * elements.csv.part) left in its run folder are removed.
  */
 #include <cjson/cJSON.h>
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
@@ -34,6 +37,8 @@
 #include "common/clock.h"
 
 #define MAX_ARGS 600
+/* Seconds a child has between SIGTERM and SIGKILL. */
+#define END_GRACE_S 2.0
 
 static volatile sig_atomic_t interrupted = 0;
 static void on_signal(int sig) { interrupted = sig; }
@@ -46,6 +51,7 @@ typedef struct job {
   pid_t pid;
   double t0;
   int timed_out;
+  double term_at; /* when SIGTERM was sent (0: not yet) */
 } job;
 
 typedef struct runner {
@@ -68,6 +74,37 @@ static void row_path(const pm_cmp_study *st, const pm_cmp_row *r, const char *fi
 static int file_exists(const char *p) {
   struct stat sb;
   return stat(p, &sb) == 0 && S_ISREG(sb.st_mode);
+}
+
+/* Remove the temporaries a child that did not finish left in its run folder. */
+static void sweep_row(const pm_cmp_study *st, const pm_cmp_row *r) {
+  char dir[4096];
+  snprintf(dir, sizeof dir, "%s/runs/%s", st->dir, r->id);
+  DIR *d = opendir(dir);
+  if (!d) return;
+  struct dirent *de;
+  while ((de = readdir(d))) {
+    size_t n = strlen(de->d_name);
+    if (!strstr(de->d_name, ".pmtmp-") && !(n > 5 && strcmp(de->d_name + n - 5, ".part") == 0))
+      continue;
+    char p[8192];
+    snprintf(p, sizeof p, "%s/%s", dir, de->d_name);
+    if (unlink(p) != 0) rmdir(p);
+  }
+  closedir(d);
+}
+
+/* End a child's process group: SIGTERM now; SIGKILL once END_GRACE_S has passed (call again). */
+static void end_child(job *j) {
+  double now = pm_seconds();
+  if (j->term_at == 0) {
+    j->term_at = now;
+    kill(-j->pid, SIGTERM);
+    kill(j->pid, SIGTERM);
+  } else if (now - j->term_at > END_GRACE_S) {
+    kill(-j->pid, SIGKILL);
+    kill(j->pid, SIGKILL);
+  }
 }
 
 /* The child's message: the last "packmesh: ..." line of its log, without the prefix (the same
@@ -418,6 +455,7 @@ static int start_mesh(runner *R, job *j, pm_cmp_row *r, pm_status *io, pm_error 
   j->stage = 0;
   j->t0 = pm_seconds();
   j->timed_out = 0;
+  j->term_at = 0;
   R->state[r->index] = R_RUNNING;
   R->st->nrun++;
   return 1;
@@ -436,6 +474,7 @@ static int start_quality(runner *R, job *j, pm_cmp_row *r) {
   j->stage = 1;
   j->t0 = pm_seconds();
   j->timed_out = 0;
+  j->term_at = 0;
   return 1;
 }
 
@@ -548,17 +587,15 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
       pid_t w = waitpid(j->pid, &ws, WNOHANG);
       if (w == 0) {
         double limit = st->suite.timeout_s;
-        if (!j->timed_out && pm_seconds() - j->t0 > limit) {
-          kill(-j->pid, SIGKILL);
-          kill(j->pid, SIGKILL);
-          j->timed_out = 1;
-        }
+        if (!j->timed_out && pm_seconds() - j->t0 > limit) j->timed_out = 1;
+        if (j->timed_out) end_child(j);
         continue;
       }
       if (w < 0 && errno == EINTR) continue;
       /* The group may still hold a grandchild (TetGen's helper): end it with its parent. */
       kill(-j->pid, SIGKILL);
       pm_cmp_row *r = &st->rows[j->row];
+      if (j->timed_out || !WIFEXITED(ws) || WEXITSTATUS(ws) != 0) sweep_row(st, r);
       if (w < 0) {
         r->status = PM_CMP_FAILED;
         snprintf(r->error, sizeof r->error, "lost the child process: %s", strerror(errno));
@@ -603,12 +640,30 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
     }
   }
   if (interrupted || io) {
+    /* SIGTERM to every running child, SIGKILL to those still there after the grace period. */
+    int left = 0;
     for (int k = 0; k < jobs; ++k)
-      if (slots[k].row >= 0) {
-        kill(-slots[k].pid, SIGKILL);
-        kill(slots[k].pid, SIGKILL);
-        waitpid(slots[k].pid, NULL, 0);
+      if (slots[k].row >= 0) end_child(&slots[k]), ++left;
+    while (left > 0) {
+      left = 0;
+      for (int k = 0; k < jobs; ++k) {
+        job *j = &slots[k];
+        if (j->row < 0) continue;
+        pid_t w = waitpid(j->pid, NULL, WNOHANG);
+        if (w == j->pid || (w < 0 && errno != EINTR)) {
+          kill(-j->pid, SIGKILL);
+          sweep_row(st, &st->rows[j->row]);
+          j->row = -1;
+          continue;
+        }
+        end_child(j);
+        ++left;
       }
+      if (left) {
+        struct timespec ts = {0, 10 * 1000 * 1000};
+        nanosleep(&ts, NULL);
+      }
+    }
   }
   if (o->progress == 2) {
     draw(&R, 0, 1);
@@ -620,10 +675,11 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
   free(qrows);
   free(R.state);
   free(slots);
+  st->interrupted = interrupted;
   if (!io && interrupted)
     io = pm_error_setf(err, PM_ERR_ARG,
-                       "interrupted (%s) with %d of %d runs finished; run the same command again "
-                       "to resume",
+                       "compare interrupted by %s with %d of %d runs finished; run the same "
+                       "command again to resume",
                        interrupted == SIGINT ? "SIGINT" : "SIGTERM", R.ndone, st->nrow);
   return io;
 }

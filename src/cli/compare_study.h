@@ -120,6 +120,7 @@ typedef struct pm_cmp_study {
   int nrow;
   double wall_s;       /* duration of the whole invocation */
   int nrun, nreused;   /* rows run now / taken from an earlier invocation */
+  int interrupted;     /* the signal that stopped pm_cmp_run (SIGINT, SIGTERM), else 0 */
 } pm_cmp_study;
 
 /* Expand the suite into rows (case-major, then seed, sweep value and method, the reference
@@ -146,8 +147,10 @@ typedef struct pm_cmp_run_opts {
 /* Run every row that is not finished yet. A row is finished when runs/ID/status.json records a
  * status for the same command (a changed suite reruns exactly the rows whose command changed).
  * Returns PM_OK when every row has a status (failed rows included); PM_ERR_IO when the study
- * folder cannot be written; PM_ERR_ARG when interrupted by SIGINT / SIGTERM (running children
- * are killed; the next invocation resumes). */
+ * folder cannot be written; PM_ERR_ARG when interrupted by SIGINT / SIGTERM, with the signal in
+ * st->interrupted (running children are ended -- SIGTERM, which makes `packmesh mesh` remove its
+ * temporaries, then SIGKILL after a grace period -- and whatever temporaries they left in their
+ * run folders are removed; the next invocation resumes). */
 pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err);
 
 /* ---- results ------------------------------------------------------------------------------- */

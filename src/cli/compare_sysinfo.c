@@ -9,14 +9,15 @@
 #include <unistd.h>
 
 #include "cli/compare_study.h"
+#include "common/atomic_file.h"
 
 /* The first line of a helper's stdout, "" when it cannot run. */
 static void first_line(char *const argv[], int need_success, char *out, size_t len) {
   out[0] = '\0';
-  char tmp[] = "/tmp/packmesh-sysinfo-XXXXXX";
-  int fd = mkstemp(tmp);
-  if (fd < 0) return;
-  close(fd);
+  /* A temporary file for its output, recorded so that a signal removes it (atomic_file.h). */
+  pm_atomic_file a;
+  if (pm_atomic_begin(&a, "/tmp/packmesh-sysinfo", 0, NULL)) return;
+  const char *tmp = a.tmp;
   int ws = 0, to = 0;
   if (pm_cmp_run_program(argv, NULL, tmp, NULL, 10, &ws, &to) == 0 && !to && WIFEXITED(ws) &&
       (!need_success || WEXITSTATUS(ws) == 0)) {
@@ -27,7 +28,7 @@ static void first_line(char *const argv[], int need_success, char *out, size_t l
       free(text);
     }
   }
-  unlink(tmp);
+  pm_atomic_abort(&a);
 }
 
 void pm_cmp_sysinfo_get(pm_cmp_sysinfo *si) {

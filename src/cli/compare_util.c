@@ -13,6 +13,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "cli/cli_signal.h"
 #include "cli/compare_study.h"
 #include "common/clock.h"
 
@@ -152,11 +153,16 @@ int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path
     _exit(127);
   }
   setpgid(pid, pid);
+  /* A signal ending packmesh ends the helper too. */
+  int group = pm_cli_signals_group(pid);
   double t0 = pm_seconds();
   for (;;) {
     pid_t w = waitpid(pid, wstatus, WNOHANG);
     if (w == pid) break;
-    if (w < 0 && errno != EINTR) return -1;
+    if (w < 0 && errno != EINTR) {
+      pm_cli_signals_forget(group);
+      return -1;
+    }
     if (!*timed_out && pm_seconds() - t0 > timeout_s) {
       kill(-pid, SIGKILL);
       kill(pid, SIGKILL);
@@ -165,6 +171,7 @@ int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path
     struct timespec ts = {0, 10 * 1000 * 1000};
     nanosleep(&ts, NULL);
   }
+  pm_cli_signals_forget(group);
   /* exec failure is exit code 127 from the child. */
   if (WIFEXITED(*wstatus) && WEXITSTATUS(*wstatus) == 127) return -1;
   return 0;

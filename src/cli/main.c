@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "cli/cli.h"
+#include "cli/cli_signal.h"
 #include "cli/cli_util.h"
 #include "common/gmsh_session.h"
 
@@ -30,7 +31,8 @@ static void help(void) {
          pm_version());
   for (int i = 0; i < ncommands; ++i) printf("  %-10s %s\n", commands[i].name, commands[i].summary);
   printf("\n'packmesh COMMAND --help' describes a command.\n"
-         "Exit codes: 0 success, 1 failure (one line on stderr), 2 usage error.\n");
+         "Exit codes: 0 success, 1 failure (one line on stderr), 2 usage error,\n"
+         "130 / 143 interrupted by SIGINT / SIGTERM (nothing half written is left).\n");
 }
 
 int main(int argc, char **argv) {
@@ -46,6 +48,7 @@ int main(int argc, char **argv) {
   }
   for (int i = 0; i < ncommands; ++i)
     if (strcmp(cmd, commands[i].name) == 0) {
+      pm_cli_signals_install(commands[i].name);
       int code = commands[i].run(argc - 1, argv + 1);
       fflush(stdout);
       pm_gmsh_shutdown();

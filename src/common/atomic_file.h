@@ -1,10 +1,22 @@
-/* Output files that appear whole or not at all.
+/* Output files that appear whole or not at all, alone or as a set.
  *
- * A file is written under a temporary name in the destination's folder (so that the final
- * rename stays on one file system and is atomic), with the destination's extension kept at the
- * end ("out.pmtmp-Ab12Cd.msh": gmsh chooses its writer by extension), and renamed onto the
+ * One file (pm_atomic_*): written under a temporary name in the destination's folder (so that the
+ * final rename stays on one file system and is atomic), with the destination's extension kept at
+ * the end ("out.pmtmp-Ab12Cd.msh": gmsh chooses its writer by extension), and renamed onto the
  * destination when complete. On any failure the temporary file is removed, so no half-written
- * file is ever left, neither at the destination nor beside it.
+ * file is ever left, neither at the destination nor beside it. Files are created with mode
+ * 0666 less the process's umask, like any file a program creates (0644 under umask 022).
+ *
+ * A set of outputs (pm_outputs_*), the files and folders one command writes: each is reserved
+ * before the work starts (a temporary file or folder beside it; an unwritable destination is
+ * reported then, not after the work), written under its temporary name, and all are renamed into
+ * place only once every one of them is complete. On any failure none of them exists: the
+ * temporaries are removed, and so are the destinations already renamed when a later rename fails.
+ *
+ * Live temporaries (pm_tmp_*): every temporary file and folder made here is recorded while it
+ * exists, and pm_tmp_remove_all() -- safe to call from a signal handler -- removes them all: the
+ * packmesh command calls it on SIGINT and SIGTERM. Other code that makes temporary files (a
+ * helper program's output) records them with pm_tmp_track.
  */
 #ifndef PM_ATOMIC_FILE_H
 #define PM_ATOMIC_FILE_H
@@ -21,6 +33,7 @@ typedef struct pm_atomic_file {
   char *path;   /* destination, owned */
   char *tmp;    /* temporary file name, owned */
   FILE *f;      /* open stream on tmp when requested, else NULL */
+  int slot;     /* its record among the live temporaries, -1 none */
 } pm_atomic_file;
 
 /* Create the (empty) temporary file for path; when `stream` is set, open it for writing in f.
@@ -36,6 +49,49 @@ void pm_atomic_abort(pm_atomic_file *a);
 
 /* Write `len` bytes of data to path atomically. */
 pm_status pm_atomic_write(const char *path, const void *data, size_t len, pm_error *err);
+
+/* ---- a set of outputs ---- */
+
+typedef struct pm_outputs pm_outputs;
+
+/* An empty set; NULL when out of memory. */
+pm_outputs *pm_outputs_create(void);
+
+/* Reserve `path` (a file, or a folder when `folder` is set) and return in *tmp (owned by the
+ * set, valid until it is destroyed) the name to write it under: an empty temporary file with
+ * the same extension in the same folder, or an empty temporary folder beside the destination
+ * (whose missing parent folders are made, and removed again if the set is not committed).
+ * PM_ERR_ARG when path names an output of the set already (pm_path_same); PM_ERR_IO naming path
+ * when it cannot be written (a missing or read-only folder, a file where a folder is asked for
+ * or the reverse). */
+pm_status pm_outputs_add(pm_outputs *s, const char *path, int folder, const char **tmp,
+                         pm_error *err);
+
+/* Rename every temporary onto its destination, in the order added. A folder replaces a missing
+ * or empty destination folder; into an existing folder its files are moved one by one. On
+ * failure nothing of the set is left (see above). */
+pm_status pm_outputs_commit(pm_outputs *s, pm_error *err);
+
+/* Remove what was not committed, and release the set. Accepts NULL. */
+void pm_outputs_destroy(pm_outputs *s);
+
+/* 1 when a and b name the same file: the same name in the same folder (folders compared by
+ * device and inode when they exist, so that "x.msh" and "./x.msh" or a path through a link are
+ * one file). Trailing slashes are ignored. */
+int pm_path_same(const char *a, const char *b);
+
+/* ---- live temporaries ---- */
+
+/* Record `path` (a file, or a folder when `folder` is set: its files are removed with it) as a
+ * temporary to remove on a signal. Returns its record, or -1 when the table is full or the path
+ * too long (it then goes unrecorded). */
+int pm_tmp_track(const char *path, int folder);
+
+/* Forget record `id` (the temporary was renamed or removed). Accepts -1. */
+void pm_tmp_untrack(int id);
+
+/* Remove every recorded temporary, the latest first. Async-signal-safe. */
+void pm_tmp_remove_all(void);
 
 #ifdef __cplusplus
 }

@@ -13,6 +13,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "common/cad_declared.h"
 #include "common/clock.h"
 #include "common/geom_cad_heal.h"
 #include "common/geom_cad_private.h"
@@ -341,6 +342,9 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
   if (!probe) return pm_error_setf(err, PM_ERR_IO, "%s: cannot read: %s", path, strerror(errno));
   fclose(probe);
   if (st.st_size == 0) return pm_error_setf(err, PM_ERR_PARSE, "%s: the file is empty", path);
+  /* A truncated or damaged file is refused by what it declares (cad_declared.h). */
+  pm_status declared = pm_cad_check_declared(path, err);
+  if (declared) return declared;
 
   pm_status s = pm_gmsh_begin(err);
   if (s) return pm_error_prefix(err, "%s", path);

@@ -269,6 +269,9 @@ int cad_heal_count(cad_heal_counts *out) {
 }
 
 cad_heal_action cad_heal_choose(const cad_heal_counts *c) {
+  /* Sewing and fragmenting join faces and solids: curves alone (a wire model) are left as they
+   * are, their coincident ends included. */
+  if (c->entities[2] == 0) return CAD_HEAL_NONE;
   if (c->coincident == 0) return c->twin_faces > 0 ? CAD_HEAL_TWINS : CAD_HEAL_NONE;
   return c->entities[3] > 0 ? CAD_HEAL_FRAGMENT : CAD_HEAL_SEW;
 }

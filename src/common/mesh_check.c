@@ -525,7 +525,29 @@ typedef struct vacc {
   int sdir;
 } vacc;
 
+/* Elements at one edge or face up to which pairs are compared directly (a sound mesh has one or
+ * two there); more, which only a broken mesh has, are sorted instead, so that no input makes the
+ * checker quadratic in the number of elements. */
+#define GROUP_DIRECT 8
+
+/* (value, tiebreak) pairs of int32. */
+static int cmp_pair(const void *pa, const void *pb) {
+  const int32_t *a = pa, *b = pb;
+  if (a[0] != b[0]) return (a[0] > b[0]) - (a[0] < b[0]);
+  return (a[1] > b[1]) - (a[1] < b[1]);
+}
+
+static int cmp_erec(const void *pa, const void *pb) {
+  const erec *a = pa, *b = pb;
+  if (a->cell != b->cell) return (a->cell > b->cell) - (a->cell < b->cell);
+  return (a->tri > b->tri) - (a->tri < b->tri);
+}
+
 static void sort_erecs(erec *r, int n) {
+  if (n > GROUP_DIRECT) {
+    qsort(r, (size_t)n, sizeof *r, cmp_erec);
+    return;
+  }
   for (int i = 1; i < n; ++i) {
     erec x = r[i];
     int j = i;
@@ -545,13 +567,22 @@ static int walk_edges(ctx *c, const pm_edges *e, const int32_t *tri, const int32
     if (e->off[i + 1] - e->off[i] > maxn) maxn = e->off[i + 1] - e->off[i];
   erec *rec = malloc((size_t)(maxn ? maxn : 1) * sizeof *rec);
   int32_t *third = malloc((size_t)(maxn ? maxn : 1) * 2 * sizeof *third);
-  vacc *va = malloc((size_t)(maxn ? maxn : 1) * 4 * sizeof *va);
-  if (!rec || !third || !va) {
+  /* The volumes whose shells meet at one edge: a face may bound any number of volumes in a
+   * model read from a file, so one slot per volume of the model, found through va_at (the edge
+   * that last used a volume's slot, and which slot). */
+  int32_t nvol = c->md ? c->nv : 0;
+  vacc *va = malloc((size_t)(nvol ? nvol : 1) * sizeof *va);
+  int64_t *va_edge = malloc((size_t)(nvol ? nvol : 1) * sizeof *va_edge);
+  int32_t *va_at = malloc((size_t)(nvol ? nvol : 1) * sizeof *va_at);
+  if (!rec || !third || !va || !va_edge || !va_at) {
     free(rec);
     free(third);
     free(va);
+    free(va_edge);
+    free(va_at);
     return 0;
   }
+  for (int32_t v = 0; v < nvol; ++v) va_edge[v] = -1;
   for (int64_t i = 0; i < e->nedge; ++i) {
     int32_t a = e->ends[2 * i], b = e->ends[2 * i + 1];
     int n = (int)(e->off[i + 1] - e->off[i]);
@@ -568,14 +599,23 @@ static int walk_edges(ctx *c, const pm_edges *e, const int32_t *tri, const int32
         ++nt;
       }
     }
-    for (int p = 1; p < nt; ++p)
-      for (int q = 0; q < p; ++q)
-        if (third[2 * p] == third[2 * q]) {
+    if (nt > GROUP_DIRECT) {
+      qsort(third, (size_t)nt, 2 * sizeof *third, cmp_pair);
+      for (int p = 1; p < nt; ++p)
+        if (third[2 * p] == third[2 * p - 2])
           note(c, PM_CHECK_DUP_ELEMENT, "triangles %ld and %ld (nodes %ld %ld %ld)",
-               (long)tri_id[third[2 * q + 1]], (long)tri_id[third[2 * p + 1]], (long)a, (long)b,
+               (long)tri_id[third[2 * p - 1]], (long)tri_id[third[2 * p + 1]], (long)a, (long)b,
                (long)third[2 * p]);
-          break;
-        }
+    } else {
+      for (int p = 1; p < nt; ++p)
+        for (int q = 0; q < p; ++q)
+          if (third[2 * p] == third[2 * q]) {
+            note(c, PM_CHECK_DUP_ELEMENT, "triangles %ld and %ld (nodes %ld %ld %ld)",
+                 (long)tri_id[third[2 * q + 1]], (long)tri_id[third[2 * p + 1]], (long)a, (long)b,
+                 (long)third[2 * p]);
+            break;
+          }
+    }
 
     for (int k = 0; k < n; ++k) {
       int32_t tl = e->elem[e->off[i] + k];
@@ -611,9 +651,12 @@ static int walk_edges(ctx *c, const pm_edges *e, const int32_t *tri, const int32
         /* Shell counts: every volume this face bounds. */
         for (int64_t s = c->fv_off[f]; s < c->fv_off[f + 1]; ++s) {
           int32_t vol = c->fv_vol[s];
-          int j = 0;
-          while (j < nva && va[j].vol != vol) ++j;
-          if (j == nva) va[nva++] = (vacc){vol, 0, 0};
+          if (va_edge[vol] != i) {
+            va_edge[vol] = i;
+            va_at[vol] = nva;
+            va[nva++] = (vacc){vol, 0, 0};
+          }
+          int j = va_at[vol];
           va[j].k += nf;
           for (int r2 = g; r2 < h; ++r2) va[j].sdir += rec[r2].dir * c->fv_sense[s];
         }
@@ -662,6 +705,8 @@ static int walk_edges(ctx *c, const pm_edges *e, const int32_t *tri, const int32
   free(rec);
   free(third);
   free(va);
+  free(va_edge);
+  free(va_at);
   return 1;
 }
 
@@ -859,6 +904,13 @@ static int build_shells(ctx *c) {
 
 /* ---- tets --------------------------------------------------------------------------------- */
 
+/* Tets at a face by volume, then by position at the face (so that a group keeps its order). */
+static int cmp_group(const void *pa, const void *pb) {
+  const int32_t *a = pa, *b = pb;
+  if (a[0] != b[0]) return (a[0] > b[0]) - (a[0] < b[0]);
+  return (a[3] > b[3]) - (a[3] < b[3]);
+}
+
 static int check_tets(ctx *c, const int32_t *tet, const int32_t *tet_id, int32_t ntet) {
   const pm_mesh *m = c->m;
   pm_faces F;
@@ -868,8 +920,11 @@ static int check_tets(ctx *c, const int32_t *tet, const int32_t *tet_id, int32_t
   int64_t maxn = 0;
   for (int64_t j = 0; j < F.nface; ++j)
     if (F.off[j + 1] - F.off[j] > maxn) maxn = F.off[j + 1] - F.off[j];
-  int32_t *grp = malloc((size_t)(maxn ? maxn : 1) * 3 * sizeof *grp);
-  if (!grp) {
+  int32_t *grp = malloc((size_t)(maxn ? maxn : 1) * 4 * sizeof *grp);
+  int32_t *fourth = malloc((size_t)(maxn ? maxn : 1) * 2 * sizeof *fourth);
+  if (!grp || !fourth) {
+    free(grp);
+    free(fourth);
     pm_faces_free(&F);
     return 0;
   }
@@ -918,43 +973,64 @@ static int check_tets(ctx *c, const int32_t *tet, const int32_t *tet_id, int32_t
     int32_t a = F.abc[3 * j], b = F.abc[3 * j + 1], cc = F.abc[3 * j + 2];
     int n = (int)(F.off[j + 1] - F.off[j]);
     /* Duplicate tets: the face's three nodes are the tet's smallest three and its fourth node
-     * repeats. */
-    for (int p = 0; p < n; ++p) {
-      const int32_t *vp = tet + 4 * (size_t)F.tet[F.off[j] + p];
-      int32_t xp = (int32_t)((int64_t)vp[0] + vp[1] + vp[2] + vp[3] - a - b - cc);
-      if (xp < cc) continue;
-      for (int q = 0; q < p; ++q) {
-        const int32_t *vq = tet + 4 * (size_t)F.tet[F.off[j] + q];
-        int32_t xq = (int32_t)((int64_t)vq[0] + vq[1] + vq[2] + vq[3] - a - b - cc);
-        if (xq == xp) {
-          note(c, PM_CHECK_DUP_ELEMENT, "tetrahedra %ld and %ld",
-               (long)tet_id[F.tet[F.off[j] + q]], (long)tet_id[F.tet[F.off[j] + p]]);
-          break;
+     * repeats. A sound mesh has one or two tets at a face; a broken one may have any number,
+     * which are then sorted rather than compared pairwise (quadratic in the count). */
+    if (n > GROUP_DIRECT) {
+      int64_t nx = 0;
+      for (int p = 0; p < n; ++p) {
+        const int32_t *vp = tet + 4 * (size_t)F.tet[F.off[j] + p];
+        int32_t xp = (int32_t)((int64_t)vp[0] + vp[1] + vp[2] + vp[3] - a - b - cc);
+        if (xp >= cc) fourth[2 * nx] = xp, fourth[2 * nx + 1] = tet_id[F.tet[F.off[j] + p]], ++nx;
+      }
+      qsort(fourth, (size_t)nx, 2 * sizeof *fourth, cmp_pair);
+      for (int64_t k = 1; k < nx; ++k)
+        if (fourth[2 * k] == fourth[2 * k - 2])
+          note(c, PM_CHECK_DUP_ELEMENT, "tetrahedra %ld and %ld", (long)fourth[2 * k - 1],
+               (long)fourth[2 * k + 1]);
+    } else {
+      for (int p = 0; p < n; ++p) {
+        const int32_t *vp = tet + 4 * (size_t)F.tet[F.off[j] + p];
+        int32_t xp = (int32_t)((int64_t)vp[0] + vp[1] + vp[2] + vp[3] - a - b - cc);
+        if (xp < cc) continue;
+        for (int q = 0; q < p; ++q) {
+          const int32_t *vq = tet + 4 * (size_t)F.tet[F.off[j] + q];
+          int32_t xq = (int32_t)((int64_t)vq[0] + vq[1] + vq[2] + vq[3] - a - b - cc);
+          if (xq == xp) {
+            note(c, PM_CHECK_DUP_ELEMENT, "tetrahedra %ld and %ld",
+                 (long)tet_id[F.tet[F.off[j] + q]], (long)tet_id[F.tet[F.off[j] + p]]);
+            break;
+          }
         }
       }
     }
-    /* Group by volume tag (no model: everything in one group). */
+    /* Group by volume tag (no model: everything in one group); many tets at a face are sorted
+     * by volume (and position) so that each group is one run. */
     for (int k = 0; k < n; ++k) {
       int32_t tl = F.tet[F.off[j] + k];
-      grp[3 * k] = c->md ? c->tet_c[tet_id[tl]] : 0;
-      grp[3 * k + 1] = tet_id[tl];
-      grp[3 * k + 2] = F.side[F.off[j] + k];
+      grp[4 * k] = c->md ? c->tet_c[tet_id[tl]] : 0;
+      grp[4 * k + 1] = tet_id[tl];
+      grp[4 * k + 2] = F.side[F.off[j] + k];
+      grp[4 * k + 3] = k;
     }
+    if (n > GROUP_DIRECT) qsort(grp, (size_t)n, 4 * sizeof *grp, cmp_group);
     for (int g = 0; g < n; ++g) {
-      int32_t vol = grp[3 * g];
+      int32_t vol = grp[4 * g];
       int first = 1;
-      for (int q = 0; q < g; ++q) first &= grp[3 * q] != vol;
+      if (n > GROUP_DIRECT)
+        first = g == 0 || grp[4 * (g - 1)] != vol;
+      else
+        for (int q = 0; q < g; ++q) first &= grp[4 * q] != vol;
       if (!first) continue;
       int nvol = 0, sum = 0, t1 = -1, t2 = -1, side = 0;
-      for (int q = g; q < n; ++q)
-        if (grp[3 * q] == vol) {
+      for (int q = g; q < n && (n <= GROUP_DIRECT || grp[4 * q] == vol); ++q)
+        if (grp[4 * q] == vol) {
           ++nvol;
-          sum += grp[3 * q + 2];
+          sum += grp[4 * q + 2];
           if (t1 < 0) {
-            t1 = grp[3 * q + 1];
-            side = grp[3 * q + 2];
+            t1 = grp[4 * q + 1];
+            side = grp[4 * q + 2];
           } else if (t2 < 0) {
-            t2 = grp[3 * q + 1];
+            t2 = grp[4 * q + 1];
           }
         }
       if (nvol > 2)
@@ -1002,28 +1078,31 @@ static int check_tets(ctx *c, const int32_t *tet, const int32_t *tet_id, int32_t
         int32_t vol = c->fv_vol[s];
         if (!c->vol_has_tets[vol]) continue;
         int nvol = 0;
-        for (int64_t k = j >= 0 ? F.off[j] : 0; j >= 0 && k < F.off[j + 1]; ++k)
+        /* At most a few tets per face in a sound mesh; stop counting at 2 in a broken one. */
+        for (int64_t k = j >= 0 ? F.off[j] : 0; j >= 0 && k < F.off[j + 1] && nvol < 2; ++k)
           nvol += c->tet_c[tet_id[F.tet[k]]] == vol;
         if (nvol != 1)
           note(c, PM_CHECK_TET_BOUNDARY,
-               "triangle %ld of face %ld is a face of %d tetrahedra of volume %ld, expected 1",
-               (long)t, (long)f, nvol, (long)vol);
+               "triangle %ld of face %ld is a face of %s tetrahedra of volume %ld, expected 1",
+               (long)t, (long)f, nvol ? "2 or more" : "0", (long)vol);
       }
       for (int64_t h = c->fh_off[f]; h < c->fh_off[f + 1]; ++h) {
         int32_t vol = c->fh_vol[h];
         if (!c->vol_has_tets[vol]) continue;
         int nvol = 0;
-        for (int64_t k = j >= 0 ? F.off[j] : 0; j >= 0 && k < F.off[j + 1]; ++k)
+        /* Two tets of the volume in a sound mesh; stop counting at 3 in a broken one. */
+        for (int64_t k = j >= 0 ? F.off[j] : 0; j >= 0 && k < F.off[j + 1] && nvol < 3; ++k)
           nvol += c->tet_c[tet_id[F.tet[k]]] == vol;
         if (nvol != 2)
           note(c, PM_CHECK_TET_BOUNDARY,
-               "triangle %ld of face %ld embedded in volume %ld is a face of %d of its "
+               "triangle %ld of face %ld embedded in volume %ld is a face of %s of its "
                "tetrahedra, expected 2",
-               (long)t, (long)f, (long)vol, nvol);
+               (long)t, (long)f, (long)vol, nvol == 3 ? "3 or more" : nvol ? "1" : "0");
       }
     }
   }
   free(grp);
+  free(fourth);
   free(tf_off);
   free(tf_tri);
   free(tf_par);

@@ -21,20 +21,29 @@
  *   .obj   Wavefront OBJ, written here (gmsh has no .obj writer): vertices, "l" segments and
  *          "f" triangles, a group "g cell_<index>" (or "g untagged") opening each run of
  *          elements of one cell. Tets have no OBJ form and are left out.
- * Reading goes through gmsh (into a temporary gmsh model, removed afterwards): .msh (any
- * version gmsh reads), .stl, .vtk and .mesh. Element entity tags t become cells t - 1 for .msh,
- * .mesh and .stl (PM_MSH_UNTAGGED becomes -1); nodes are classified only from .msh files (other
- * formats carry no classification: node_dim = -1). Lines, triangles and tets are read; a
- * higher-order element is reduced to its corner nodes (the other nodes are dropped); any other
- * element type (quadrangles, hexahedra, prisms, pyramids) is refused with a message naming it.
- * Point elements are ignored.
+ * Reading is packmesh's own (mesh_read*.c), for .msh (MSH 2.x and 4.1, text or binary), .vtk
+ * (legacy, ASCII or binary), .vtu (ascii arrays), .stl (ASCII or binary) and .mesh: no input file
+ * can crash the reader or make it allocate more than a small multiple of the file's size. Every
+ * count a file declares is checked against the bytes that follow, every number is parsed whole,
+ * coordinates must be finite and within +-PM_COORD_MAX (mesh.h), and every node an element uses
+ * must be one the file defines; a file that fails any check is refused with a message naming the
+ * file, the line (or byte) and the fault. Element entity tags t become cells t - 1 for .msh and
+ * .mesh (PM_MSH_UNTAGGED becomes -1), .stl solids are cells 0, 1, ... in file order, .vtu cells
+ * come from its "cell" array; nodes are classified from .msh (MSH 4.1: the entity block;
+ * MSH 2: the lowest-dimensional element using the node, as gmsh does) and from .vtu's node_dim /
+ * node_cell / node_par arrays; other formats carry no classification (node_dim = -1). Lines,
+ * triangles and tets are read; a higher-order element is reduced to its corner nodes (the other
+ * nodes are dropped unless an element has them as corners); any other element type
+ * (quadrangles, hexahedra, prisms, pyramids) is refused with a message naming it. Point
+ * elements are ignored. Nodes come in increasing tag order (file order for formats without
+ * tags), elements by kind (lines, triangles, tets) and, within a kind, by increasing tag.
  *
  * Writing is atomic: the file is written under a temporary name in the same directory (same
  * extension, so gmsh picks the same format) and renamed into place; on any failure the temporary
  * file is removed and nothing is left at the destination.
  *
- * gmsh calls are made under pm_gmsh_lock() inside a model scope (gmsh_session.h), so a CAD model
- * loaded in gmsh stays current and untouched.
+ * gmsh calls (writing) are made under pm_gmsh_lock() inside a model scope (gmsh_session.h), so a
+ * CAD model loaded in gmsh stays current and untouched. Reading makes no gmsh call.
  */
 #ifndef PM_MESH_IO_H
 #define PM_MESH_IO_H
@@ -71,11 +80,18 @@ const char *pm_mesh_format_ext(pm_mesh_format fmt);
  * written; PM_ERR_BACKEND when gmsh fails. */
 pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err);
 
-/* Read a mesh from path (.msh, .stl, .vtk, .mesh). *out receives a new mesh
- * (pm_mesh_destroy) on success, NULL on failure. PM_ERR_IO for a missing or unreadable file,
- * PM_ERR_PARSE for a file gmsh cannot read or that holds no mesh, PM_ERR_ARG for an unknown or
- * unreadable extension or an unsupported element type. */
+/* Read a mesh from path (.msh, .vtk, .vtu, .stl, .mesh). *out receives a new mesh
+ * (pm_mesh_destroy) on success, NULL on failure. PM_ERR_IO for a missing or unreadable file (or
+ * a directory, a FIFO: only regular files are read), PM_ERR_PARSE for a malformed file or one
+ * that holds no mesh, PM_ERR_ARG for an unknown or unreadable extension (.obj) or an unsupported
+ * element type or variant of a format, PM_ERR_LIMIT beyond INT32_MAX nodes or elements,
+ * PM_ERR_NOMEM. */
 pm_status pm_mesh_read(const char *path, pm_mesh **out, pm_error *err);
+
+/* The same from memory: `len` bytes at `data` (borrowed) in format fmt; `name` (may be NULL)
+ * names the data in messages. */
+pm_status pm_mesh_read_buffer(const char *name, pm_mesh_format fmt, const void *data, size_t len,
+                              pm_mesh **out, pm_error *err);
 
 #ifdef __cplusplus
 }

@@ -17,6 +17,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/mesh.h"
+
 pm_sizing *pm_sizing_alloc(sz_kind kind) {
   pm_sizing *s = calloc(1, sizeof *s);
   if (!s) return NULL;
@@ -204,11 +206,13 @@ void pm_sizing_destroy(pm_sizing *s) {
 static pm_status check_at(const pm_sizing *s, const double p[3], const char *where,
                           pm_error *err) {
   double d = pm_sizing_eval(s, p);
-  if (isfinite(d) && d > 0) return PM_OK;
+  /* PM_COORD_MAX (mesh.h) bounds lengths as it bounds coordinates: beyond it the methods' squared
+   * distances overflow. */
+  if (isfinite(d) && d > 0 && d <= PM_COORD_MAX) return PM_OK;
   return pm_error_setf(err, PM_ERR_ARG,
-                       "size '%s' is %g at %s, point (%.6g, %.6g, %.6g): sizes must be finite "
-                       "and > 0",
-                       pm_sizing_describe(s), d, where, p[0], p[1], p[2]);
+                       "size '%s' is %g at %s, point (%.6g, %.6g, %.6g): sizes must be finite, "
+                       "> 0 and at most %g",
+                       pm_sizing_describe(s), d, where, p[0], p[1], p[2], PM_COORD_MAX);
 }
 
 pm_status pm_sizing_check(const pm_sizing *s, const pm_model *m, pm_error *err) {

@@ -68,7 +68,8 @@ double pm_sizing_eval(const pm_sizing *s, const double xyz[3]);
 
 /* Evaluate the field at the vertices and at sample points of every curve (33 per curve) and face
  * (a 17 x 17 grid over its parameter box, points inside the trimming loops) of model m and
- * reject it (PM_ERR_ARG naming the cell and the point) when a value is not finite or not > 0.
+ * reject it (PM_ERR_ARG naming the cell and the point) when a value is not finite, not > 0 or
+ * beyond PM_COORD_MAX (mesh.h).
  * Volume interiors are not sampled. */
 pm_status pm_sizing_check(const pm_sizing *s, const pm_model *m, pm_error *err);
 

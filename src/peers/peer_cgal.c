@@ -29,6 +29,7 @@
 #include <string.h>
 
 #include "common/clock.h"
+#include "common/node_budget.h"
 #include "common/predicates.h"
 #include "peers/cgal_mesh2.h"
 #include "peers/peer_common.h"
@@ -270,7 +271,7 @@ static pm_status cgal_run(const pm_run_input *in, const void *params_v, pm_run_o
     if ((s = peer_default_size(m, NULL, in->seed, in->threads, &own, err))) return s;
     size = own;
   }
-  if ((s = peer_check_budget(m, size, in->max_nodes, "cgal", err))) {
+  if ((s = pm_node_budget_check(m, size, in->max_nodes, "node cap", "cgal", err))) {
     pm_sizing_destroy(own);
     return s;
   }

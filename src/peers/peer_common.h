@@ -1,5 +1,4 @@
-/* What the peers share: recognising a planar analytic domain, the default size, a node-count
- * estimate that refuses hopeless size fields before a backend runs out of memory, the map from
+/* What the peers share: recognising a planar analytic domain, the default size, the map from
  * a backend's entity tags to our cell indices, and the orientation rule of geom.h applied to a
  * backend's triangles. Internal to src/peers.
  */
@@ -31,24 +30,6 @@ int peer_is_planar_domain(const pm_model *m);
 #define PEER_DEFAULT_SIZE_GRADE 0.3
 pm_status peer_default_size(const pm_model *m, const void *params, uint64_t seed, int threads,
                             pm_sizing **out, pm_error *err);
-
-/* Estimated node count of a surface mesh of m under field s: the integral over every face of
- * dA / (sqrt(3)/2 d^2) (the area per node of a lattice of equilateral triangles of edge d), by
- * the midpoint rule on each face's parameter box: a 16 x 16 grid of cells, a cell split in four
- * while the field is finer than the cell (d at its centre below the cell's extent in space), 14
- * times at most, cells whose centre lies outside the trimming loops left out. Boundary effects
- * make real meshes some 5-20% larger. The integration stops once the sum exceeds `stop` (a field
- * that tends to 0 somewhere would otherwise run on). A value of d that is not finite and > 0 at
- * a sample inside a face is PM_ERR_ARG naming the point. */
-pm_status peer_estimate_surface_nodes(const pm_model *m, const pm_sizing *s, double stop,
-                                      double *estimate, pm_error *err);
-
-/* Refuse a run the field makes hopeless before a backend spends its time and memory on it:
- * PM_ERR_LIMIT when the estimate exceeds 1.5 x max_nodes (the mesh would exceed the cap for
- * certain), PM_ERR_ARG for a field that is not > 0 inside a face; messages start with the
- * method's name. */
-pm_status peer_check_budget(const pm_model *m, const pm_sizing *s, int64_t max_nodes,
-                            const char *method, pm_error *err);
 
 /* Entity tags of a backend (gmsh) to cell indices, per dimension. */
 typedef struct peer_tagmap {

@@ -45,6 +45,7 @@
 #include <string.h>
 
 #include "common/clock.h"
+#include "common/node_budget.h"
 #include "common/geom_cad.h"
 #include "common/gmsh_session.h"
 #include "common/vec3.h"
@@ -346,6 +347,26 @@ static pm_status convert_elements(const pm_model *m, const peer_tagmap *map, int
   return s;
 }
 
+/* Refuse a volume mesh the field makes hopeless before gmsh's 3D mesher grows it (node_budget.h):
+ * gmsh's surface mesh, converted and oriented as the run's result will be, bounds the volumes
+ * measured. (A field fine on the surfaces and far too fine inside passes the run's first check.) */
+static pm_status volume_budget(const pm_model *m, const peer_tagmap *map, int planar,
+                               const pm_sizing *size, int64_t cap, const char *method,
+                               pm_error *err) {
+  pm_mesh *surface = pm_mesh_create();
+  if (!surface) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  node_key *keys = NULL;
+  pm_status s = convert_nodes(m, map, planar, 2, surface, &keys, err);
+  if (!s) s = convert_elements(m, map, 2, keys, surface->nnode, surface, err);
+  if (!s) {
+    peer_orient_faces(m, surface);
+    s = pm_node_budget_check_volume(m, surface, size, cap, "node cap", method, err);
+  }
+  free(keys);
+  pm_mesh_destroy(surface);
+  return s;
+}
+
 /* Every face gmsh knows must have triangles, every volume tets when asked for: gmsh reports a
  * face it failed to mesh in its log, not always through ierr. */
 static pm_status check_complete(const pm_model *m, const pm_mesh *mesh, int want_tets,
@@ -407,7 +428,7 @@ static pm_status gmsh_run(const pm_method *self, int algorithm, const char *algo
     if ((s = peer_default_size(m, NULL, in->seed, in->threads, &own, err))) return s;
     size = own;
   }
-  if ((s = peer_check_budget(m, size, in->max_nodes, self->name, err))) {
+  if ((s = pm_node_budget_check(m, size, in->max_nodes, "node cap", self->name, err))) {
     pm_sizing_destroy(own);
     return s;
   }
@@ -470,6 +491,8 @@ static pm_status gmsh_run(const pm_method *self, int algorithm, const char *algo
       s = pm_gmsh_error(err, PM_ERR_BACKEND, what);
     }
   }
+  if (!s && gmsh_volume && !sc.bad)
+    s = volume_budget(m, &map, planar, size, in->max_nodes, self->name, err);
   if (!s && gmsh_volume) {
     double t0 = pm_seconds();
     gmshModelMeshGenerate(3, &ierr);

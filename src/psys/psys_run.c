@@ -7,6 +7,7 @@
 
 #include "common/clock.h"
 #include "common/connect.h"
+#include "common/node_budget.h"
 #include "psys/psys_private.h"
 
 static void init_params(void *p) { psys_params_init(p); }
@@ -50,9 +51,14 @@ static pm_status run(const pm_run_input *in, const void *params, pm_run_output *
   if (!in || !in->model) return pm_error_setf(err, PM_ERR_ARG, "psys: no model");
   psys_sys *s = NULL;
   pm_mesh *mesh = NULL;
-  pm_status st = psys_sys_create(in->model, p, in->size, in->seed, in->threads,
-                                 in->max_nodes > 0 ? in->max_nodes : PM_DEFAULT_MAX_NODES, &s,
-                                 err);
+  int64_t cap = in->max_nodes > 0 ? in->max_nodes : PM_DEFAULT_MAX_NODES;
+  /* A given field is measured against the cap before the first particle: splitting towards a
+   * field far beyond it would otherwise run for hours before the count reached the cap. (The
+   * inferred field follows the model's own features and is held by the count check alone.) */
+  pm_status st = PM_OK;
+  if (in->size && (st = pm_node_budget_check(in->model, in->size, cap, "node cap", "psys", err)))
+    return st;
+  st = psys_sys_create(in->model, p, in->size, in->seed, in->threads, cap, &s, err);
   if (st) return st;
   psys_observer obs = {in->trace, in->frames};
   psys_phase_report rep[3];

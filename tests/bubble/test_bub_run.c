@@ -257,17 +257,26 @@ static void caps_and_errors(void **state) {
   bub_params_init(&p);
   pm_run_output out;
   memset(&out, 0, sizeof out);
+  /* At d = 0.05 the square wants about 500 nodes (the estimate: 462 inside the square); the
+   * sparse start has fewer than 300. A cap below 462 / 1.5 is refused before the first bubble,
+   * naming the cap and the count the field needs. */
   pm_run_input in = {m, size, 1, 1, 0, 100, NULL, NULL};
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
   assert_null(out.mesh);
   assert_null(strchr(e.msg, '\n'));
-  /* The method's own cap ends the run when insertions reach it; the run's node budget is an
-   * error. (At d = 0.05 the square wants about 500 nodes; the sparse start has fewer than 300.) */
+  assert_non_null(strstr(e.msg, "the size field would need about 4"));
+  assert_non_null(strstr(e.msg, "over the node cap 100"));
   in.max_nodes = PM_DEFAULT_MAX_NODES;
   p.max_bubbles = 300;
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
+  assert_null(out.mesh);
+  assert_non_null(strstr(e.msg, "over the cap max_bubbles 300"));
+  /* The method's own cap ends the run when insertions reach it; the run's node budget is an
+   * error. */
+  p.max_bubbles = 400;
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
-  assert_non_null(strstr(out.stop_reason, "bubble cap (300) reached"));
-  assert_true(out.mesh->nnode <= 300);
+  assert_non_null(strstr(out.stop_reason, "bubble cap (400) reached"));
+  assert_true(out.mesh->nnode <= 400);
   pm_check_report cr;
   memset(&cr, 0, sizeof cr);
   PM_ASSERT_OK(pm_mesh_check(out.mesh, m, &cr, &e), e);
@@ -276,9 +285,9 @@ static void caps_and_errors(void **state) {
   pm_mesh_destroy(out.mesh);
   out.mesh = NULL;
   bub_params_init(&p);
-  in.max_nodes = 300;
+  in.max_nodes = 400;
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
-  assert_non_null(strstr(e.msg, "node budget of 300"));
+  assert_non_null(strstr(e.msg, "node budget of 400"));
   assert_null(out.mesh);
   in.max_nodes = PM_DEFAULT_MAX_NODES;
   p.k0 = 0;

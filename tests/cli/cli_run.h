@@ -8,6 +8,13 @@
 #include <string.h>
 #include <sys/wait.h>
 
+/* The packmesh binary under test: PM_CLI, or the environment's PM_TEST_CLI (to run these tests
+ * against another build of the command, an earlier commit's for instance). */
+static inline const char *pm_test_cli_path(void) {
+  const char *p = getenv("PM_TEST_CLI");
+  return p && p[0] ? p : PM_CLI;
+}
+
 /* Run `packmesh ARGS` (ARGS is shell text), with stdout and stderr captured through files in
  * `dir`; *out and *err receive malloc'ed copies (may be NULL when not wanted). Returns the exit
  * code; a crash fails the test. */
@@ -15,7 +22,7 @@ static inline int pm_test_cli(const char *dir, const char *args, char **out, cha
   char cmd[8192], po[600], pe[600];
   snprintf(po, sizeof po, "%s/cli.stdout", dir);
   snprintf(pe, sizeof pe, "%s/cli.stderr", dir);
-  snprintf(cmd, sizeof cmd, "'%s' %s > '%s' 2> '%s'", PM_CLI, args, po, pe);
+  snprintf(cmd, sizeof cmd, "'%s' %s > '%s' 2> '%s'", pm_test_cli_path(), args, po, pe);
   int st = system(cmd);
   if (!WIFEXITED(st)) fail_msg("packmesh %s: did not exit normally", args);
   const char *paths[2] = {po, pe};

@@ -6,3 +6,4 @@ pm_add_test(test_mesh_io LABELS unit backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/t
 pm_add_test(test_stats LABELS unit SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_stats.c)
 target_link_libraries(test_stats PRIVATE cjson)
 pm_add_test(test_mesh_check_cad LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh_check_cad.c)
+pm_add_test(test_mesh_read LABELS unit backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh_read.c)

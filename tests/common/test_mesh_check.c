@@ -688,6 +688,29 @@ static void face_normal(void **state) {
   model_free(md);
 }
 
+/* A face that bounds more volumes than any edge has triangles (a model read from a file may say
+ * so): every volume's shell is counted, each with all of the face's edges. */
+static void face_of_many_volumes(void **state) {
+  (void)state;
+  enum { NVOL = 12 };
+  pm_model *md = model_new(0, 0, 1, NVOL);
+  int32_t f = 0;
+  for (int v = 0; v < NVOL; ++v) cell_bound(md, 3, v, 1, &f, NULL);
+  pm_mesh *m = octahedron(-1);
+  pm_check_report r;
+  check(m, md, &r);
+  assert_int_equal(r.nshell, NVOL);
+  for (int v = 0; v < NVOL; ++v) {
+    assert_int_equal(r.shell[v].volume, v);
+    assert_int_equal(r.shell[v].edges, 12);
+    assert_int_equal(r.shell[v].triangles, 8);
+    assert_true(r.shell[v].closed);
+  }
+  pm_check_report_clear(&r);
+  model_free(md);
+  pm_mesh_destroy(m);
+}
+
 static void null_arguments(void **state) {
   (void)state;
   pm_check_report r;
@@ -707,7 +730,7 @@ int main(void) {
       cmocka_unit_test(torus_genus),      cmocka_unit_test(cube_valid),
       cmocka_unit_test(cube_defects),     cmocka_unit_test(embedded_face),
       cmocka_unit_test(two_volumes),      cmocka_unit_test(face_normal),
-      cmocka_unit_test(null_arguments),
+      cmocka_unit_test(null_arguments),   cmocka_unit_test(face_of_many_volumes),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,8 +1,8 @@
-/* Mesh files: every writer is checked by reading the file back. .msh, .vtk, .stl and .mesh are
- * read back through gmsh (pm_mesh_read merges them into a gmsh model); gmsh 4.8.4 reads neither
- * .vtu nor .obj, so those two are parsed back here by small independent parsers and compared
- * exactly. Also: atomic output, error cases, higher-order and non-simplex input, and that a
- * model current in gmsh stays current. */
+/* Mesh files: every writer is checked by reading the file back with pm_mesh_read (packmesh's own
+ * readers, mesh_read*.c) and, for .msh, with gmsh directly; .vtu and .obj are also parsed back
+ * here by small independent parsers and compared exactly. Also: atomic output, error cases,
+ * higher-order and non-simplex input written by gmsh, and that a model current in gmsh stays
+ * current. Hostile files are test_mesh_read's. */
 #include "test_support.h"
 
 #include <dirent.h>
@@ -108,6 +108,27 @@ static void assert_close_rel(double a, double b, double rel) {
 
 /* ---- .msh: everything round-trips, order included ------------------------------------------ */
 
+/* r is m read back: the same nodes (within rel), classification, elements and cells. */
+static void same_mesh(const pm_mesh *m, const pm_mesh *r, double rel) {
+  assert_int_equal(r->nnode, m->nnode);
+  assert_int_equal(r->nseg, m->nseg);
+  assert_int_equal(r->ntri, m->ntri);
+  assert_int_equal(r->ntet, m->ntet);
+  for (int32_t v = 0; v < m->nnode; ++v) {
+    for (int k = 0; k < 3; ++k) assert_close_rel(r->xyz[3 * v + k], m->xyz[3 * v + k], rel);
+    assert_int_equal(r->node_dim[v], m->node_dim[v]);
+    assert_int_equal(r->node_cell[v], m->node_cell[v]);
+    for (int k = 0; k < 2; ++k)
+      assert_close_rel(r->node_par[2 * v + k], m->node_par[2 * v + k], rel);
+  }
+  assert_memory_equal(r->seg, m->seg, 2 * sizeof(int32_t) * (size_t)m->nseg);
+  assert_memory_equal(r->tri, m->tri, 3 * sizeof(int32_t) * (size_t)m->ntri);
+  assert_memory_equal(r->tet, m->tet, 4 * sizeof(int32_t) * (size_t)m->ntet);
+  assert_memory_equal(r->seg_cell, m->seg_cell, sizeof(int32_t) * (size_t)m->nseg);
+  assert_memory_equal(r->tri_cell, m->tri_cell, sizeof(int32_t) * (size_t)m->ntri);
+  assert_memory_equal(r->tet_cell, m->tet_cell, sizeof(int32_t) * (size_t)m->ntet);
+}
+
 static void msh_round_trip(void **state) {
   (void)state;
   pm_mesh *m = sample_mesh();
@@ -116,24 +137,8 @@ static void msh_round_trip(void **state) {
   PM_ASSERT_OK(pm_mesh_write(m, path_in("a.msh", p), &e), e);
   pm_mesh *r = NULL;
   PM_ASSERT_OK(pm_mesh_read(p, &r, &e), e);
-  assert_int_equal(r->nnode, m->nnode);
-  assert_int_equal(r->nseg, m->nseg);
-  assert_int_equal(r->ntri, m->ntri);
-  assert_int_equal(r->ntet, m->ntet);
-  for (int32_t v = 0; v < m->nnode; ++v) {
-    for (int k = 0; k < 3; ++k) assert_close_rel(r->xyz[3 * v + k], m->xyz[3 * v + k], 1e-15);
-    assert_int_equal(r->node_dim[v], m->node_dim[v]);
-    assert_int_equal(r->node_cell[v], m->node_cell[v]);
-    for (int k = 0; k < 2; ++k)
-      assert_close_rel(r->node_par[2 * v + k], m->node_par[2 * v + k], 1e-15);
-  }
+  same_mesh(m, r, 1e-15);
   assert_true(r->node_par[2 * 9] != 0 && r->node_par[2 * 10 + 1] != 0);
-  assert_memory_equal(r->seg, m->seg, 2 * sizeof(int32_t) * (size_t)m->nseg);
-  assert_memory_equal(r->tri, m->tri, 3 * sizeof(int32_t) * (size_t)m->ntri);
-  assert_memory_equal(r->tet, m->tet, 4 * sizeof(int32_t) * (size_t)m->ntet);
-  assert_memory_equal(r->seg_cell, m->seg_cell, sizeof(int32_t) * (size_t)m->nseg);
-  assert_memory_equal(r->tri_cell, m->tri_cell, sizeof(int32_t) * (size_t)m->ntri);
-  assert_memory_equal(r->tet_cell, m->tet_cell, sizeof(int32_t) * (size_t)m->ntet);
   assert_int_equal(count_files("pmtmp"), 0);
 
   /* The file is MSH 4.1 with one entity per cell: read it with gmsh directly too. */
@@ -161,7 +166,7 @@ static void msh_round_trip(void **state) {
   pm_mesh_destroy(m);
 }
 
-/* ---- .vtk, .mesh, .stl: through gmsh ------------------------------------------------------- */
+/* ---- .vtk, .mesh, .stl: written by gmsh ------------------------------------------------------- */
 
 /* Canonical triangle: its three vertex coordinates sorted lexicographically. */
 typedef struct ctri {
@@ -368,6 +373,11 @@ static void vtu_round_trip(void **state) {
   free(nc);
   free(np);
   free(x);
+  /* And packmesh reads it back whole: %.17g, so bit for bit, classification included. */
+  pm_mesh *r = NULL;
+  PM_ASSERT_OK(pm_mesh_read(p, &r, &e), e);
+  same_mesh(m, r, 0);
+  pm_mesh_destroy(r);
   pm_mesh_destroy(m);
 }
 
@@ -477,7 +487,9 @@ static void read_errors(void **state) {
   assert_int_equal(pm_mesh_read(p, &r, &e), PM_ERR_PARSE);
   write_text(path_in("bad.stl", p), "solid x\nfacet normal 0 0 1\n outer loop\n  vertex 0 0\n");
   assert_int_equal(pm_mesh_read(p, &r, &e), PM_ERR_PARSE);
-  assert_int_equal(pm_mesh_read(path_in("x.vtu", p), &r, &e), PM_ERR_ARG);
+  assert_int_equal(pm_mesh_read(path_in("x.vtu", p), &r, &e), PM_ERR_IO); /* read, but missing */
+  assert_int_equal(pm_mesh_read(path_in("x.obj", p), &r, &e), PM_ERR_ARG);  /* never read */
+  assert_non_null(strstr(e.msg, ".obj"));
   assert_int_equal(pm_mesh_read(path_in("x.step", p), &r, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "'.step'"));
   assert_int_equal(pm_mesh_read(dir, &r, &e), PM_ERR_ARG); /* no extension */

@@ -167,6 +167,16 @@ static void errors(void **state) {
   assert_int_equal(psys_method.run(&in, &p, &out, &e), PM_ERR_LIMIT);
   assert_null(out.mesh);
   assert_non_null(strstr(e.msg, "cap"));
+  /* a given field far beyond the cap is refused before the first particle, naming the cap and
+   * the count it would need (it used to split towards it for hours) */
+  pm_sizing *tiny = NULL;
+  PM_ASSERT_OK(pm_sizing_constant(1e-12, &tiny, &e), e);
+  in.size = tiny, in.max_nodes = 0;
+  assert_int_equal(psys_method.run(&in, &p, &out, &e), PM_ERR_LIMIT);
+  assert_null(out.mesh);
+  assert_non_null(strstr(e.msg, "psys: the size field would need more than"));
+  assert_non_null(strstr(e.msg, "over the node cap 20000000"));
+  pm_sizing_destroy(tiny);
   /* a size field that is not positive on the model */
   pm_sizing *bad = NULL;
   PM_ASSERT_OK(pm_sizing_parse("z", &bad, &e), e);
