@@ -1,22 +1,32 @@
-/* Neighbour lists of the moving bubbles, found through the shared grid (grid.h), O(n) per build.
+/* Neighbour lists of the moving bubbles (Verlet lists), found through the shared grid (grid.h),
+ * O(n) per build.
  *
  * The force acts within 1.5 l0 (003 eq. 11). Querying the grid at every one of RK4's four stages
- * would cost four queries per bubble and step; instead each curve and face bubble keeps the list
- * of the bubbles it feels (bub_related) within (1 + skin) 1.5 l0 at build time, and the lists are
- * rebuilt when some bubble has moved far enough that a pair outside the list could have come
- * within 1.5 l0 (a Verlet list). With skin s, a pair missing from the list was at least
- * 0.75 (1 + s)(d_i + d_j) apart; after moves delta_i, delta_j its distance is at least that minus
- * delta_i + delta_j, while its new range 0.75 (d_i' + d_j') grew by at most 0.75 (delta_i +
- * delta_j) (a size field with Lipschitz constant <= 1). The pair stays out of range while
- * 1.75 (delta_i + delta_j) <= 0.75 s (d_i + d_j), which holds when every bubble moved less than
- * 0.75 s / 1.75 of its diameter: the rebuild threshold below.
+ * would cost four queries per bubble and step; instead each moving bubble keeps the list of the
+ * bubbles it feels (bub_related) within the reach 0.75 (1 + skin)(d_i + d_j) at build time
+ * (skin = list_skin), and the lists are used, across RK stages and steps, for as long as no pair
+ * missing from them can have come within 1.5 l0.
+ *
+ * The skin test. A pair missing from the lists was at least 0.75 (1 + s)(db_i + db_j) apart at
+ * the build (db: diameters then). After bubble i moved by delta_i from its build position and its
+ * diameter changed by Delta_i, the pair is at least that minus delta_i + delta_j apart, while its
+ * force range 0.75 (d_i + d_j) is at most 0.75 (db_i + db_j) + 0.75 (|Delta_i| + |Delta_j|). It
+ * stays out of range while e_i + e_j <= 0, with e_i = delta_i + 0.75 |Delta_i| - 0.75 s db_i
+ * (bub_skin_excess). For every pair at once: while the two largest e over all moving bubbles sum
+ * to at most 0. (No assumption on the size field's gradient: the diameters in use enter the test
+ * directly.) The dynamics (bub_dynamics.c) evaluates e at every point where forces are about to
+ * be computed -- each RK stage's points and the step's end -- and rebuilds the lists there when
+ * the test fails, so the lists are exact for every force evaluated: a bubble that crosses the
+ * skin forces a rebuild before its force is summed.
  *
  * Only the moving bubbles (bub_moving) have lists: curve and face bubbles, or volume bubbles in the
  * volume phase.
  *
  * Lists are sorted by id, so every per-bubble sum runs in the same order whatever the thread
- * count (the determinism rule of STYLE.md). The build runs in parallel over contiguous ranges of
- * bubbles, each thread filling its own buffer; the buffers are then concatenated in order.
+ * count (the determinism rule of STYLE.md). The build runs in parallel over chunks of bubbles,
+ * each thread appending to its own buffer (kept across builds: no allocation once the buffers have
+ * grown to their size) and noting where each chunk went; the pieces are then copied to the lists
+ * in chunk order.
  */
 #include "bubble/bub_private.h"
 
@@ -24,33 +34,54 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/clock.h"
 #include "common/vec3.h"
 
 #ifdef _OPENMP
 #include <omp.h>
 #endif
 
-#define REBUILD_FRACTION (0.75 * BUB_SKIN / 1.75)
+/* Bubbles per work item of a build. */
+#define NB_CHUNK 1024
 
-static int need_rebuild(const bub_state *s) {
-  if (!s->lists_valid) return 1;
-  int32_t a, b;
-  bub_moving(s, &a, &b);
-  for (int32_t i = a; i < b; ++i)
-    if (pm_v3_dist(&s->x[3 * i], &s->x_build[3 * i]) > REBUILD_FRACTION * s->d_build[i]) {
-      return 1;
-    }
-  return 0;
+/* A thread's buffers (kept in the state across builds). */
+typedef struct bub_nbscratch {
+  int32_t *v;     /* neighbour ids appended by this thread */
+  int64_t n, cap;
+  pm_idbuf q;     /* grid query results */
+  pm_status st;
+} bub_nbscratch;
+
+/* Where a chunk's lists went: thread, offset in its buffer. */
+typedef struct bub_nbpiece {
+  int32_t thread;
+  int64_t at;
+} nb_piece;
+
+static pm_status ensure(bub_state *s, pm_error *err) {
+  if (!s->nbs) {
+    s->nbs = calloc((size_t)s->threads, sizeof(bub_nbscratch));
+    if (!s->nbs) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  return PM_OK;
 }
 
-typedef struct ibuf {
-  int32_t *v;
-  int64_t n, cap;
-} ibuf;
+void bub_neighbors_free(bub_state *s) {
+  if (!s->nbs) return;
+  for (int t = 0; t < s->threads; ++t) {
+    free(s->nbs[t].v);
+    pm_idbuf_free(&s->nbs[t].q);
+  }
+  free(s->nbs);
+  s->nbs = NULL;
+  free(s->nb_piece);
+  s->nb_piece = NULL;
+  s->nb_piece_cap = 0;
+}
 
-static int ibuf_push(ibuf *b, int32_t x) {
+static int push(bub_nbscratch *b, int32_t x) {
   if (b->n == b->cap) {
-    int64_t nc = b->cap ? 2 * b->cap : 1024;
+    int64_t nc = b->cap ? 2 * b->cap : 4096;
     int32_t *nv = realloc(b->v, sizeof(int32_t) * (size_t)nc);
     if (!nv) return 0;
     b->v = nv, b->cap = nc;
@@ -59,94 +90,124 @@ static int ibuf_push(ibuf *b, int32_t x) {
   return 1;
 }
 
-pm_status bub_neighbors_update(bub_state *s, pm_error *err) {
-  if (!need_rebuild(s)) return PM_OK;
-  pm_status st = PM_OK;
-  /* The grid at the current positions and diameters. */
+/* Position and diameter of bubble i at the build. */
+static inline const double *at(const bub_state *s, const double *pos4, int32_t i, double *d) {
+  if (pos4) {
+    *d = pos4[4 * i + 3];
+    return &pos4[4 * i];
+  }
+  *d = s->d[i];
+  return &s->x[3 * i];
+}
+
+pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) {
+  if (s->lists_valid && !s->lists_stale) return PM_OK;
+  const double t0 = pm_seconds();
+  pm_status st = ensure(s, err);
+  if (st) return st;
+  int32_t a, b;
+  bub_moving(s, &a, &b);
+  /* The grid at the build positions: every bubble after a change of the set, else the moving
+   * ones (the others do not move). */
   if (!s->grid_valid) {
-    st = bub_state_grid_rebuild(s, err);
+    pm_grid_clear(s->grid);
+    st = pm_grid_reserve(s->grid, s->n, err);
+    for (int32_t i = 0; i < s->n && !st; ++i) {
+      if (s->flags[i] & BUB_FDEAD) continue;
+      double d;
+      const double *x = at(s, pos4, i, &d);
+      st = pm_grid_insert(s->grid, i, x, s->grid_factor * d, err);
+    }
+    s->grid_valid = !st;
   } else {
-    for (int32_t i = 0; i < s->n && !st; ++i)
-      if (!(s->flags[i] & BUB_FDEAD)) st = pm_grid_move(s->grid, i, &s->x[3 * i], BUB_GRID_FACTOR * s->d[i], err);
+    for (int32_t i = a; i < b && !st; ++i) {
+      if (s->flags[i] & BUB_FDEAD) continue;
+      double d;
+      const double *x = at(s, pos4, i, &d);
+      st = pm_grid_move(s->grid, i, x, s->grid_factor * d, err);
+    }
   }
   if (st) return st;
 
-  int32_t *off = realloc(s->nb_off, sizeof(int32_t) * ((size_t)s->n + 1));
-  double *xb = realloc(s->x_build, sizeof(double) * 3 * ((size_t)s->n + 1));
-  double *db = realloc(s->d_build, sizeof(double) * ((size_t)s->n + 1));
-  if (off) s->nb_off = off;
-  if (xb) s->x_build = xb;
-  if (db) s->d_build = db;
-  if (!off || !xb || !db) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  memcpy(s->x_build, s->x, sizeof(double) * 3 * (size_t)s->n);
-  memcpy(s->d_build, s->d, sizeof(double) * (size_t)s->n);
-
-  int32_t a, b;
-  bub_moving(s, &a, &b);
-  int T = bub_threads_for(s, b - a);
-  ibuf *tb = calloc((size_t)T, sizeof(ibuf));
-  pm_status *tst = calloc((size_t)T, sizeof(pm_status));
-  int32_t *tlo = calloc((size_t)T, sizeof(int32_t));
-  if (!tb || !tst || !tlo) {
-    free(tb), free(tst), free(tlo);
-    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  if (s->n + 1 > s->nb_build_cap) {
+    int32_t nc = s->n + s->n / 4 + 64;
+    int32_t *off = realloc(s->nb_off, sizeof(int32_t) * ((size_t)nc + 1));
+    if (off) s->nb_off = off;
+    double *xb = realloc(s->x_build, sizeof(double) * 3 * ((size_t)nc + 1));
+    if (xb) s->x_build = xb;
+    double *db = realloc(s->d_build, sizeof(double) * ((size_t)nc + 1));
+    if (db) s->d_build = db;
+    if (!off || !xb || !db) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    s->nb_build_cap = nc;
   }
-  const double reach = 0.75 * (1 + BUB_SKIN);
+  const int64_t nchunk = ((int64_t)(b - a) + NB_CHUNK - 1) / NB_CHUNK;
+  if (nchunk + 1 > s->nb_piece_cap) {
+    int64_t nc = nchunk + nchunk / 4 + 16;
+    nb_piece *np = realloc(s->nb_piece, sizeof(nb_piece) * (size_t)nc);
+    if (!np) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    s->nb_piece = np, s->nb_piece_cap = nc;
+  }
+  nb_piece *piece = s->nb_piece;
+  for (int32_t i = 0; i < s->n; ++i) {
+    double d;
+    const double *x = at(s, pos4, i, &d);
+    pm_v3_copy(&s->x_build[3 * i], x);
+    s->d_build[i] = d;
+  }
+  const double reach = bub_list_reach(&s->p);
   for (int32_t i = 0; i <= s->n; ++i) s->nb_off[i] = 0;
-#pragma omp parallel num_threads(T)
-  {
+  const int T = bub_threads_for(s, b - a);
+  for (int t = 0; t < T; ++t) s->nbs[t].n = 0, s->nbs[t].st = PM_OK;
+#pragma omp parallel for num_threads(T) schedule(dynamic, 1) if (T > 1)
+  for (int64_t c = 0; c < nchunk; ++c) {
 #ifdef _OPENMP
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    const int t = omp_get_thread_num();
 #else
-    int t = 0, nt = 1;
+    const int t = 0;
 #endif
-    int32_t lo = a + (int32_t)((int64_t)(b - a) * t / nt);
-    int32_t hi = a + (int32_t)((int64_t)(b - a) * (t + 1) / nt);
-    tlo[t] = lo;
-    pm_idbuf q = PM_IDBUF_INIT;
+    bub_nbscratch *buf = &s->nbs[t];
+    piece[c].thread = t, piece[c].at = buf->n;
+    const int32_t lo = a + (int32_t)(c * NB_CHUNK), hi = lo + NB_CHUNK < b ? lo + NB_CHUNK : b;
     pm_error e = {0};
-    for (int32_t i = lo; i < hi && !tst[t]; ++i) {
-      /* grid radius BUB_GRID_FACTOR d_j >= reach d_j: the query returns
-       * dist < reach d_i + BUB_GRID_FACTOR d_j, a superset of the list radius reach (d_i + d_j). */
-      tst[t] = pm_grid_query_overlap(s->grid, &s->x[3 * i], reach * s->d[i], &q, &e);
+    for (int32_t i = lo; i < hi && !buf->st; ++i) {
+      /* Grid radius grid_factor d_j >= reach d_j: the query returns dist < reach d_i +
+       * grid_factor d_j, a superset of the list's dist < reach (d_i + d_j). */
+      const double *xi = &s->x_build[3 * i], di = s->d_build[i];
+      buf->st = pm_grid_query_overlap(s->grid, xi, reach * di, &buf->q, &e);
       int32_t cnt = 0;
-      for (int32_t k = 0; k < q.n && !tst[t]; ++k) {
-        int32_t j = q.ids[k];
+      for (int32_t k = 0; k < buf->q.n && !buf->st; ++k) {
+        int32_t j = buf->q.ids[k];
         if (!bub_related(s, i, j)) continue;
-        if (pm_v3_dist(&s->x[3 * i], &s->x[3 * j]) >= reach * (s->d[i] + s->d[j])) continue;
-        if (!ibuf_push(&tb[t], j)) tst[t] = PM_ERR_NOMEM;
+        if (pm_v3_dist(xi, &s->x_build[3 * j]) >= reach * (di + s->d_build[j])) continue;
+        if (!push(buf, j)) buf->st = PM_ERR_NOMEM;
         ++cnt;
       }
       s->nb_off[i + 1] = cnt;
     }
-    pm_idbuf_free(&q);
   }
   for (int t = 0; t < T; ++t)
-    if (tst[t]) st = tst[t];
-  if (st) {
-    for (int t = 0; t < T; ++t) free(tb[t].v);
-    free(tb), free(tst), free(tlo);
+    if (s->nbs[t].st) st = s->nbs[t].st;
+  if (st)
     return st == PM_ERR_NOMEM ? pm_error_setf(err, PM_ERR_NOMEM, "out of memory")
                               : pm_error_setf(err, st, "neighbour query failed");
-  }
   for (int32_t i = 0; i < s->n; ++i) s->nb_off[i + 1] += s->nb_off[i];
   int64_t total = s->nb_off[s->n];
-  if (total > s->nb_cap) {
-    int32_t *nn = realloc(s->nb, sizeof(int32_t) * (size_t)(total + 1));
-    if (!nn) {
-      for (int t = 0; t < T; ++t) free(tb[t].v);
-      free(tb), free(tst), free(tlo);
-      return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    }
-    s->nb = nn, s->nb_cap = total + 1;
+  if (total + 1 > s->nb_cap) {
+    int64_t nc = total + total / 4 + 1024;
+    int32_t *nn = realloc(s->nb, sizeof(int32_t) * (size_t)nc);
+    if (!nn) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    s->nb = nn, s->nb_cap = nc;
   }
-  /* Thread t's bubbles are contiguous and in order: its buffer goes at the offset of its first. */
-  for (int t = 0; t < T; ++t) {
-    if (tb[t].n) memcpy(&s->nb[s->nb_off[tlo[t]]], tb[t].v, sizeof(int32_t) * (size_t)tb[t].n);
-    free(tb[t].v);
+  /* Chunk c's lists are contiguous in its thread's buffer: they go at the offset of its first
+   * bubble. */
+  for (int64_t c = 0; c < nchunk; ++c) {
+    const int32_t lo = a + (int32_t)(c * NB_CHUNK), hi = lo + NB_CHUNK < b ? lo + NB_CHUNK : b;
+    const int64_t len = s->nb_off[hi] - s->nb_off[lo];
+    if (len) memcpy(&s->nb[s->nb_off[lo]], &s->nbs[piece[c].thread].v[piece[c].at], sizeof(int32_t) * (size_t)len);
   }
-  free(tb), free(tst), free(tlo);
   s->lists_valid = 1;
+  s->lists_stale = 0;
   s->list_builds++;
+  s->t.neighbors += pm_seconds() - t0;
   return PM_OK;
 }

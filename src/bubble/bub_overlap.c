@@ -233,7 +233,7 @@ static pm_status add_outside(bub_state *s, const chord *c, void *user, pm_error 
   pm_v3_axpy(apex, mid, 0.86602540378443865 * c->len, c->w);
   int32_t id;
   pm_status st = bub_state_add(s, BUB_KOUT, c->face, NULL, apex, 0.5 * (s->d[c->A] + s->d[c->B]), &id, err);
-  if (!st) st = pm_grid_insert(s->grid, id, apex, BUB_GRID_FACTOR * s->d[id], err);
+  if (!st) st = pm_grid_insert(s->grid, id, apex, s->grid_factor * s->d[id], err);
   return st;
 }
 

@@ -47,6 +47,15 @@ static const pm_param_desc desc[] = {
     {"odd_from", PM_PARAM_DOUBLE, F(odd_from), 0.0005, 0, 1, PM_RANGE_CLOSED, "",
      "odd-bubble damping starts once a control changes the count by at most this fraction",
      "004 sec. 2.2 (0.05%)", NULL},
+    /* speed */
+    {"list_skin", PM_PARAM_DOUBLE, F(list_skin), 0.3, 0.02, 2, PM_RANGE_CLOSED, "",
+     "neighbour lists: pairs within (1 + list_skin) 1.5 l0, rebuilt once two bubbles may have "
+     "crossed the skin",
+     "our choice (bub_neighbors.c; bench_bubble)", NULL},
+    {"frame_tol", PM_PARAM_DOUBLE, F(frame_tol), 0.05, 0, 0.5, PM_RANGE_CLOSED, "d",
+     "a bubble within frame_tol d of its last exact evaluation uses its cell's second-order "
+     "Taylor model there (0 = exact evaluation at every RK stage)",
+     "our choice (bub_dynamics.c)", NULL},
     /* placement */
     {"w1", PM_PARAM_DOUBLE, F(w1), 1, 0, 4, PM_RANGE_LO_OPEN, "",
      "curve subdivision weight: split while w1 |P1P2| > r1 + r2", "004 sec. 2.3", NULL},

@@ -473,7 +473,7 @@ static pm_status place_face(bub_state *s, int32_t face, int64_t cap, pm_error *e
     }
     int32_t id;
     st = bub_state_add(s, BUB_KFACE, face, pt->uv, NULL, 0, &id, err);
-    if (!st) st = pm_grid_insert(s->grid, id, &s->x[3 * id], BUB_GRID_FACTOR * s->d[id], err);
+    if (!st) st = pm_grid_insert(s->grid, id, &s->x[3 * id], s->grid_factor * s->d[id], err);
   }
   pm_idbuf_free(&buf);
   free(order);
@@ -527,6 +527,7 @@ pm_status bub_place(bub_state *s, pm_error *err) {
   st = bub_state_grid_rebuild(s, err);
   for (int32_t f = 0; f < m->count[PM_FACE] && !st; ++f) st = place_face(s, f, cap, err);
   if (st) return st;
-  /* Arrays are in (kind, cell) order already; compact sets the ranges. */
-  return bub_state_compact(s, err);
+  /* Arrays are in (kind, cell) order already; ordering sets the ranges and sorts each cell's
+   * bubbles in space. */
+  return bub_state_order(s, err);
 }

@@ -58,6 +58,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/clock.h"
 #include "common/vec3.h"
 
 /* ---- a lazy priority queue (highest priority first, ties: smaller id) ------------------------ */
@@ -535,7 +536,7 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
     st = bub_state_add(s, kind, s->cell[o], best.par, best.x, 0, &id, c->err);
     if (st) break;
     s->flags[id] |= BUB_FNEW;
-    st = pm_grid_insert(s->grid, id, &s->x[3 * id], BUB_GRID_FACTOR * s->d[id], c->err);
+    st = pm_grid_insert(s->grid, id, &s->x[3 * id], s->grid_factor * s->d[id], c->err);
     if (st) break;
     c->live++;
     (*inserted)++;
@@ -559,7 +560,9 @@ static pm_status refresh_layer(ctl *c) {
   bub_state *s = c->s;
   const pm_model *m = s->model;
   if (!s->p.outside_layer) return PM_OK;
+  const double t0 = pm_seconds();
   pm_status st = bub_outside_layer(s, c->err);
+  s->t.overlap += pm_seconds() - t0;
   if (st) return st;
   int32_t nf = m->count[PM_FACE];
   uint8_t *face_hit = calloc((size_t)nf + 1, 1);
@@ -580,6 +583,7 @@ static pm_status refresh_layer(ctl *c) {
 pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *info,
                                  pm_error *err) {
   memset(info, 0, sizeof *info);
+  const double t_begin = pm_seconds(), overlap_begin = s->t.overlap;
   ctl c = {0};
   c.s = s, c.cap = cap, c.info = info, c.err = err;
   c.s_open = chain_spacing(s->p.curve_open), c.s_excess = chain_spacing(s->p.curve_excess);
@@ -591,7 +595,7 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   if (!s->grid_valid) {
     st = bub_state_grid_rebuild(s, err);
   } else {
-    for (int32_t i = 0; i < s->n && !st; ++i) st = pm_grid_move(s->grid, i, &s->x[3 * i], BUB_GRID_FACTOR * s->d[i], err);
+    for (int32_t i = 0; i < s->n && !st; ++i) st = pm_grid_move(s->grid, i, &s->x[3 * i], s->grid_factor * s->d[i], err);
   }
   if (st) return st;
   s->grid_valid = 1;
@@ -602,14 +606,18 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   int32_t k = 0;
   if (s->volume_phase) {
     /* Volumes, once the lower dimensions have settled: the same order for one kind. */
+    double t1 = pm_seconds();
     bub_alpha_all(s);
+    s->t.overlap += pm_seconds() - t1;
     st = remove_excess(&c, BUB_KVOLUME, &k);
     if (!st) st = insert_open(&c, BUB_KVOLUME, &k);
     if (!st) st = remove_excess(&c, BUB_KVOLUME, &k);
     goto finish;
   }
+  double t1 = pm_seconds();
   if (s->p.outside_layer) st = bub_outside_layer(s, err);
   if (!st) bub_alpha_all(s);
+  s->t.overlap += pm_seconds() - t1;
   if (!st) st = remove_excess(&c, BUB_KCURVE, &k);
   if (!st && k) st = refresh_layer(&c);
   if (!st) st = remove_excess(&c, BUB_KFACE, &k);
@@ -644,11 +652,12 @@ finish:
     if (s->flags[i] & BUB_FNEW) pm_v3_zero(&s->v[3 * i]);
   pm_idbuf_free(&c.buf);
   free(c.ev), free(c.lam), free(c.ngap), free(c.curve_changed);
-  if (!st) st = bub_state_compact(s, err);
+  if (!st) st = bub_state_order(s, err);
   info->after = s->volume_phase ? s->nw - s->nf : s->nf - s->nv;
   s->insertions += info->inserted;
   s->deletions += info->removed;
   s->failed_insertions += info->failed;
   s->last_ins = info->inserted, s->last_del = info->removed;
+  s->t.population += (pm_seconds() - t_begin) - (s->t.overlap - overlap_begin);
   return st;
 }

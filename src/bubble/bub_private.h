@@ -24,6 +24,7 @@
 #include "common/mesh.h"
 #include "common/volume_inside.h"
 
+#include <math.h>
 #include <stdint.h>
 
 /* What a bubble lives on. Bubbles are kept sorted by (kind, cell) outside population control,
@@ -93,18 +94,25 @@ typedef struct bub_state {
   pm_volume_shell **shell;       /* [count[PM_VOLUME]] owned, NULL before the phase */
   int64_t round0;        /* rounds done before the phase began (the saw-tooth restarts) */
 
-  pm_grid *grid;         /* every bubble, radius d (the overlap boundary of 000 section 3.1.3) */
+  pm_grid *grid;         /* every bubble, radius grid_factor d (the overlap boundary of 000
+                            section 3.1.3, or the list reach when that is larger) */
   int grid_valid;        /* the grid holds ids 0..n-1 at the current x, d */
+  double grid_factor;    /* a bubble of diameter d has radius grid_factor d in the grid */
 
-  /* Neighbour lists of the curve and face bubbles (bub_neighbors.c): nb[nb_off[i] ..
-   * nb_off[i+1]) are the bubbles i feels, sorted by id, within the list radius at build time. */
+  /* Neighbour lists of the moving bubbles (bub_neighbors.c): nb[nb_off[i] .. nb_off[i+1]) are
+   * the bubbles i feels, sorted by id, within the list reach at build time. */
   int32_t *nb_off;       /* [n+1] */
   int32_t *nb;           /* [nb_cap] */
   int64_t nb_cap;
   double *x_build;       /* [3n] positions at the last build */
   double *d_build;       /* [n] diameters at the last build */
-  int lists_valid;
+  int lists_valid;       /* the lists cover the bubbles 0..n-1 as they are now */
+  int lists_stale;       /* the skin test of the last step asks for a rebuild */
   int64_t list_builds;   /* statistics */
+  int32_t nb_build_cap;  /* allocated length of nb_off, x_build, d_build (minus one) */
+  struct bub_nbscratch *nbs;  /* [threads] per-thread build buffers, kept across builds */
+  struct bub_nbpiece *nb_piece; /* [nb_piece_cap] where each chunk of a build went */
+  int64_t nb_piece_cap;
 
   /* Cell relations (000 section 4.2.2): the sorted keys (bub_key) of the cells in the closure of
    * each curve and face (their boundary cells and embedded cells, recursively). */
@@ -112,12 +120,38 @@ typedef struct bub_state {
   uint32_t *clo[4];
   uint8_t *seam;         /* [ncurve] 1 when the curve is used twice by one face (a seam) */
 
-  /* Dynamics scratch (bub_dynamics.c), [3n] / [6n] / [2n] each. */
-  double *xs, *vs, *as, *ders, *pars, *sumv, *suma, *x0;
+  /* Frames (bub_dynamics.c): the second-order Taylor model of its cell around a point where
+   * the bubble was last evaluated exactly, so that a bubble that barely moved needs no surface
+   * evaluation. frame[BUB_FRAME_LEN i ...]: par (2), S (3), S_u (3), S_v (3), S_uu (3), S_uv (3),
+   * S_vv (3) (curves: t, C, C', -, C'', -, -). frame_r[i]: the radius, in units of d, within
+   * which the model is used (0: no frame yet). */
+  double *frame;         /* [BUB_FRAME_LEN n] */
+  double *frame_r;       /* [n] */
+  uint8_t *affine;       /* [count[PM_FACE] + count[PM_CURVE]] faces then curves: 1 when the
+                            cell is a plane / a line (its Taylor model is exact everywhere) */
+  int64_t evals;         /* exact cell evaluations made by the dynamics (statistics) */
+  int64_t bubble_steps;  /* moving bubbles summed over the steps taken (statistics) */
+
+  /* Dynamics scratch (bub_dynamics.c), allocated when the count grows (never in a step). */
+  double *pos[3];        /* [4n] each: packed (x, y, z, d) at the step start and two stage
+                            buffers (the force kernel gathers a neighbour's record at once) */
+  double *vs, *sumv, *suma, *ders; /* [3n], [3n], [3n], [6n] */
   double *pot;           /* [n] potential per bubble (half of each pair it feels) */
   double *disp;          /* [n] displacement of the last step, relative to d */
   int32_t *deg;          /* [n] neighbours within 1.3 l0 at the step start (eps_t) */
+  struct bub_chunk *chunks; /* [n / BUB_CHUNK + 1] per-chunk partial sums (fixed order) */
   int scratch_cap;
+
+  /* Wall-clock seconds per stage of the relaxation (bub_run.c writes them as time_s.bubble.*):
+   * the thread-seconds spent in a stage, summed over threads and divided by their number. */
+  struct bub_times {
+    double neighbors;    /* neighbour lists: grid updates and queries */
+    double force;        /* the force sums over the lists */
+    double integrate;    /* the RK stages' arithmetic, energies, the size field */
+    double project;      /* confinement: parameter steps, trimming, cell evaluation / frames */
+    double overlap;      /* overlap ratios and the outside layer of population control */
+    double population;   /* the rest of population control: removal, insertion, compaction */
+  } t;
 
   /* Run bookkeeping. */
   int64_t step;          /* steps taken */
@@ -168,6 +202,10 @@ pm_status bub_size_at(const bub_state *s, const double x[3], double *d, pm_error
  * (kind, cell, old index) and recompute the ranges. Invalidates grid and lists. */
 pm_status bub_state_compact(bub_state *s, pm_error *err);
 
+/* The same, the bubbles of each cell then in the Morton order of their positions (ties: the
+ * previous order), so that neighbours in space are neighbours in memory (bub_state.c). */
+pm_status bub_state_order(bub_state *s, pm_error *err);
+
 /* Put every bubble into the grid at its x with radius d (rebuilding it). */
 pm_status bub_state_grid_rebuild(bub_state *s, pm_error *err);
 
@@ -203,20 +241,70 @@ double bub_curve_length(const pm_cell *c, double t1, double t2);
 
 /* ---- neighbour lists (bub_neighbors.c) ------------------------------------------------------ */
 
-/* Skin of the lists: the list radius is (1 + skin) x 1.5 l0. */
-#define BUB_SKIN 0.6
-
-/* The radius a bubble of diameter d has in the grid: d (the overlap boundary of 000 section
- * 3.1.3), or the list reach 0.75 (1 + skin) d when that is larger. Every query below asks for a
- * superset of what it needs with this radius: the overlap ratio needs dist < d_i + d_j / 2
- * (query radius d_i), the lists dist < 0.75 (1 + skin)(d_i + d_j) (query radius
+/* The list reach of a pair: 0.75 (1 + list_skin) (d_i + d_j), i.e. (1 + skin) x 1.5 l0. The
+ * grid radius of a bubble is max(1, 0.75 (1 + list_skin)) d (grid_factor): every query below
+ * asks for a superset of what it needs with it (the overlap ratio needs dist < d_i + d_j / 2:
+ * query radius d_i; the lists dist < 0.75 (1 + skin)(d_i + d_j): query radius
  * 0.75 (1 + skin) d_i). */
-#define BUB_GRID_FACTOR (0.75 * (1 + BUB_SKIN) > 1 ? 0.75 * (1 + BUB_SKIN) : 1.0)
+static inline double bub_list_reach(const bub_params *p) { return 0.75 * (1 + p->list_skin); }
 
-/* Build the lists if they are invalid or some bubble moved too far since the last build. */
-pm_status bub_neighbors_update(bub_state *s, pm_error *err);
+/* Build the lists at the packed positions pos4 ((x, y, z, d) per bubble; NULL: the bubbles' x
+ * and d) if they are invalid or stale (the skin test, bub_skin_excess, failed). */
+pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err);
+
+/* Release the lists' build buffers (bub_state_destroy). */
+void bub_neighbors_free(bub_state *s);
+
+/* The skin test of one bubble at position x with diameter d: e = |x - x_build| + 0.75 |d -
+ * d_build| - 0.75 skin d_build. A pair missing from the lists can have come within the force's
+ * range 1.5 l0 only if e_i + e_j > 0, so the lists stay exact while the two largest e of all
+ * bubbles sum to at most 0 (bub_neighbors.c). */
+static inline double bub_skin_excess(const bub_state *s, int32_t i, const double x[3], double d) {
+  const double *xb = &s->x_build[3 * i];
+  double dx = x[0] - xb[0], dy = x[1] - xb[1], dz = x[2] - xb[2];
+  double dd = d - s->d_build[i];
+  return sqrt(dx * dx + dy * dy + dz * dz) + 0.75 * (dd < 0 ? -dd : dd) -
+         0.75 * s->p.list_skin * (1 - 1e-9) * s->d_build[i];
+}
+
+/* The largest two values of a set, for the skin test. */
+typedef struct bub_top2 {
+  double e1, e2; /* e1 >= e2 */
+} bub_top2;
+static inline void bub_top2_add(bub_top2 *t, double e) {
+  if (e > t->e1)
+    t->e2 = t->e1, t->e1 = e;
+  else if (e > t->e2)
+    t->e2 = e;
+}
 
 /* ---- dynamics (bub_dynamics.c) -------------------------------------------------------------- */
+
+/* Doubles per bubble in s->frame. */
+#define BUB_FRAME_LEN 20
+
+/* Bubbles per work item of the dynamics' parallel loops: sums over a chunk are formed in index
+ * order and chunks are combined in chunk order, so no sum depends on the thread count. */
+#define BUB_CHUNK 256
+
+/* Per-chunk partial results of a step. */
+typedef struct bub_chunk {
+  double kinetic, potential, edev, sum_disp, max_disp, max_rel;
+  int32_t nface;
+  int32_t evals;  /* exact cell evaluations */
+  int bad_size;  /* the size field was not finite and > 0 at a new position */
+  bub_top2 skin; /* the skin test of the chunk's bubbles */
+} bub_chunk;
+
+/* The force on moving bubble i (object space, before the projection onto its cell) from the
+ * bubbles of its neighbour list at the packed positions pos4 ((x, y, z, d) per bubble); pot and
+ * deg (may be NULL) receive half the potential of its pairs and its neighbours within 1.3 l0. */
+void bub_force_on(const bub_state *s, const double *pos4, int32_t i, double f[3], double *pot,
+                  int32_t *deg);
+
+/* Evaluate position and derivatives of every curve and face bubble exactly at its parameters
+ * and start new frames there (the relaxation ends with it, so that nodes lie on their cells). */
+void bub_state_refresh(bub_state *s);
 
 /* The time step in time units: dt x T0 (dt = 0: the automatic choice of the integrator). */
 double bub_time_step(const bub_params *p);

@@ -187,6 +187,11 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
       break;
     }
   }
+  if (!st) { /* nodes exactly on their cells (the frames' model is within FRAME_ERR d) */
+    double t0 = pm_seconds();
+    bub_state_refresh(s);
+    s->t.project += pm_seconds() - t0;
+  }
   return st;
 }
 
@@ -450,6 +455,17 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
       pm_stats_set_time(S, "relax", t_relax - t_place, &e);
       if (volumes) pm_stats_set_time(S, "volume", t_vrelax - t_relax, &e);
       pm_stats_set_time(S, "connect", t_end - t_vrelax, &e);
+      /* The relaxation by stage (bub_private.h, bub_times; "other": the trace, frames, the
+       * stopping rules, and the threads' waits at the end of each parallel stage). */
+      const struct bub_times *bt = &s->t;
+      double staged = bt->neighbors + bt->force + bt->integrate + bt->project + bt->overlap + bt->population;
+      pm_stats_set_time(S, "bubble.neighbors", bt->neighbors, &e);
+      pm_stats_set_time(S, "bubble.force", bt->force, &e);
+      pm_stats_set_time(S, "bubble.integrate", bt->integrate, &e);
+      pm_stats_set_time(S, "bubble.project", bt->project, &e);
+      pm_stats_set_time(S, "bubble.overlap", bt->overlap, &e);
+      pm_stats_set_time(S, "bubble.population", bt->population, &e);
+      pm_stats_set_time(S, "bubble.other", fmax(0, (t_vrelax - t_place) - staged), &e);
       pm_stats_add_number(S, "bubble.initial", initial, &e);
       pm_stats_add_number(S, "bubble.final", s->nf, &e);
       pm_stats_add_number(S, "bubble.steps", (double)s->step, &e);
@@ -458,6 +474,8 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
       pm_stats_add_number(S, "bubble.deletions", (double)s->deletions, &e);
       pm_stats_add_number(S, "bubble.failed_insertions", (double)s->failed_insertions, &e);
       pm_stats_add_number(S, "bubble.list_builds", (double)s->list_builds, &e);
+      pm_stats_add_number(S, "bubble.evaluations", (double)s->evals, &e);
+      pm_stats_add_number(S, "bubble.bubble_steps", (double)s->bubble_steps, &e);
       pm_stats_add_number(S, "bubble.border_dropped", border_dropped, &e);
       pm_stats_add_number(S, "bubble.time_step", bub_time_step(p), &e);
       if (volumes) {

@@ -63,6 +63,16 @@ typedef struct bub_params {
                        default 0.5 */
   double odd_from;  /* the odd-bubble scheme starts once a control changes the count by at most
                        this fraction (004: 0.05%); [0, 1], default 0.0005 */
+  /* ---- speed (bub_neighbors.c, bub_dynamics.c: no effect on the papers' equations) ---- */
+  double list_skin; /* skin of the neighbour lists: a pair is listed within (1 + list_skin)
+                       x 1.5 l0, and the lists are rebuilt once two bubbles may have crossed
+                       the skin; [0.02, 2], default 0.3 (our choice, measured with bench_bubble:
+                       fewer pairs per list against more rebuilds) */
+  double frame_tol; /* a bubble whose parameters moved less than frame_tol x d from where its
+                       cell was last evaluated takes position and tangents from the cell's
+                       second-order Taylor model there (exact on planes and lines, error below
+                       1e-6 d elsewhere, bub_dynamics.c); [0, 0.5], 0 = exact evaluation at every
+                       RK stage (the papers), default 0.05 */
   /* ---- initial placement (003 section 3.2, 000 section 4.1.1, 004 section 2.3) ---- */
   double w1;        /* curve insertion weight: split while w1 |P1P2| > r1 + r2; (0, 4],
                        default 1 */
