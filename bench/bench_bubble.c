@@ -51,6 +51,7 @@ static double cpu_seconds(void) {
  * statistics, the trace. */
 static const char *opt_dump, *opt_trace;
 static double opt_worst = -1;
+static const char *opt_bspline = "t20_component8.step"; /* a CAD model of B-spline faces */
 static int opt_extra;
 
 static result run_method(const pm_method *meth, const void *params, const pm_model *m,
@@ -264,10 +265,148 @@ static void section_cad(const bub_params *p, int threads, const char *only) {
   }
 }
 
-/* Bubble-steps per second: face bubbles on a jittered hexagonal lattice in face 0's parameter
- * space (scaled by the mean |Su|, |Sv|, as the placement does), its spacing calibrated until
- * there are n bubbles within 3%, then RK4 steps without population control (the jitter keeps the
- * bubbles moving, so lists get rebuilt as in a real run). */
+/* ---- throughput ------------------------------------------------------------------------------ */
+
+/* Thread-seconds of the process (the wall clock of a loaded machine overstates a run). */
+typedef struct clocks {
+  double wall, cpu;
+} clocks;
+
+static clocks clocks_now(void) { return (clocks){pm_seconds(), cpu_seconds()}; }
+
+/* Bubble-steps per second, from the wall clock and per CPU-second. */
+typedef struct rate {
+  double wall, cpu; /* bubble-steps per wall second, per CPU second */
+  int64_t bubbles, steps, builds;
+} rate;
+
+static void print_rate(const char *label, int threads, const rate *r, const char *note) {
+  printf("  %-34s %2d thr %9lld bubbles %5lld steps  %9.3g /s wall  %9.3g /s per core-second  %s\n",
+         label, threads, (long long)r->bubbles, (long long)r->steps, r->wall, r->cpu, note ? note : "");
+}
+
+/* The bare-arithmetic limit: the force sums and RK4 of bub_dynamics.c on a jittered hexagonal
+ * lattice of n bubbles in the plane (d = 1), lists built once with the default skin, no
+ * projection, no population control, no skin test. `soa` keeps x, y, z, d in separate arrays
+ * instead of the packed (x, y, z, d) records the dynamics uses (the layout check). */
+static rate bare_kernel(int64_t n_want, int threads, int soa, double skin) {
+  int side = (int)sqrt((double)n_want / 0.8660254), rows = (int)((double)n_want / side) + 1;
+  int64_t n = 0;
+  double *X = malloc(sizeof(double) * 4 * (size_t)side * (size_t)rows);
+  pm_rng r;
+  pm_rng_init(&r, 9, 0);
+  for (int j = 0; j < rows && n < n_want; ++j)
+    for (int i = 0; i < side && n < n_want; ++i, ++n) {
+      X[4 * n] = i + 0.5 * (j & 1) + 0.05 * pm_rng_range(&r, -1, 1);
+      X[4 * n + 1] = j * 0.8660254 + 0.05 * pm_rng_range(&r, -1, 1);
+      X[4 * n + 2] = 0, X[4 * n + 3] = 1;
+    }
+  /* Lists by binning on a unit grid (bubbles are in row order already). */
+  const double reach = 0.75 * (1 + skin) * 2;
+  const int R = (int)ceil(reach), W = side + 2, H = (int)(rows * 0.8660254) + 2;
+  int64_t *head = malloc(sizeof(int64_t) * (size_t)W * H), *next = malloc(sizeof(int64_t) * (size_t)n);
+  int32_t *off = malloc(sizeof(int32_t) * (size_t)(n + 1)), *nb = malloc(sizeof(int32_t) * (size_t)n * 32);
+  for (int64_t c = 0; c < (int64_t)W * H; ++c) head[c] = -1;
+  for (int64_t i = n - 1; i >= 0; --i) {
+    int64_t c = (int64_t)(X[4 * i] + 1) + (int64_t)W * (int64_t)(X[4 * i + 1] + 1);
+    next[i] = head[c], head[c] = i;
+  }
+  int64_t m = 0;
+  off[0] = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    int cx = (int)(X[4 * i] + 1), cy = (int)(X[4 * i + 1] + 1);
+    int32_t tmp[64], k = 0;
+    for (int a = -R; a <= R; ++a)
+      for (int b = -R; b <= R; ++b) {
+        int x = cx + a, y = cy + b;
+        if (x < 0 || y < 0 || x >= W || y >= H) continue;
+        for (int64_t j = head[x + (int64_t)W * y]; j >= 0; j = next[j]) {
+          double dx = X[4 * i] - X[4 * j], dy = X[4 * i + 1] - X[4 * j + 1];
+          if (j != i && dx * dx + dy * dy < reach * reach && k < 64) tmp[k++] = (int32_t)j;
+        }
+      }
+    for (int a = 1; a < k; ++a) { /* sorted by id, as the lists are */
+      int32_t v = tmp[a], b = a - 1;
+      while (b >= 0 && tmp[b] > v) tmp[b + 1] = tmp[b], --b;
+      tmp[b + 1] = v;
+    }
+    memcpy(&nb[m], tmp, sizeof(int32_t) * (size_t)k);
+    m += k, off[i + 1] = (int32_t)m;
+  }
+  double *P[3], *S[3][4];
+  for (int b = 0; b < 3; ++b) {
+    P[b] = malloc(sizeof(double) * 4 * (size_t)n);
+    memcpy(P[b], X, sizeof(double) * 4 * (size_t)n);
+    for (int k = 0; k < 4; ++k) {
+      S[b][k] = malloc(sizeof(double) * (size_t)n);
+      for (int64_t i = 0; i < n; ++i) S[b][k][i] = X[4 * i + k];
+    }
+  }
+  double *v = calloc(3 * (size_t)n, sizeof(double)), *vs = calloc(3 * (size_t)n, sizeof(double));
+  double *sv = calloc(3 * (size_t)n, sizeof(double)), *sa = calloc(3 * (size_t)n, sizeof(double));
+  const double k0 = 30, mass = 1, h = 0.1 * 2 * M_PI * sqrt(mass / k0), c = 2 * 0.7 * sqrt(mass * k0);
+  static const double w[4] = {1.0 / 6, 1.0 / 3, 1.0 / 3, 1.0 / 6}, offs[4] = {0, 0.5, 0.5, 1};
+  int64_t steps = 0;
+  clocks t0 = clocks_now(), t1 = t0;
+  do {
+    for (int stg = 0; stg < 4; ++stg) {
+      const int src = stg == 0 ? 0 : 1 + ((stg - 1) & 1), dst = stg == 3 ? 0 : 1 + (stg & 1);
+#pragma omp parallel for num_threads(threads) schedule(static)
+      for (int64_t i = 0; i < n; ++i) {
+        double fx = 0, fy = 0, fz = 0;
+        if (!soa) {
+          const double *pi = &P[src][4 * i];
+          for (int32_t k = off[i]; k < off[i + 1]; ++k) {
+            const double *pj = &P[src][4 * nb[k]];
+            double rx = pi[0] - pj[0], ry = pi[1] - pj[1], rz = pi[2] - pj[2], l0 = 0.5 * (pi[3] + pj[3]);
+            double r2 = rx * rx + ry * ry + rz * rz;
+            if (!(r2 < 2.25 * l0 * l0)) continue;
+            double l = sqrt(r2), lam = l / l0, g = l0 * (k0 * ((1.25 * lam - 2.375) * lam * lam + 1.125)) / l;
+            fx += g * rx, fy += g * ry, fz += g * rz;
+          }
+        } else {
+          double xi = S[src][0][i], yi = S[src][1][i], zi = S[src][2][i], di = S[src][3][i];
+          for (int32_t k = off[i]; k < off[i + 1]; ++k) {
+            int32_t j = nb[k];
+            double rx = xi - S[src][0][j], ry = yi - S[src][1][j], rz = zi - S[src][2][j], l0 = 0.5 * (di + S[src][3][j]);
+            double r2 = rx * rx + ry * ry + rz * rz;
+            if (!(r2 < 2.25 * l0 * l0)) continue;
+            double l = sqrt(r2), lam = l / l0, g = l0 * (k0 * ((1.25 * lam - 2.375) * lam * lam + 1.125)) / l;
+            fx += g * rx, fy += g * ry, fz += g * rz;
+          }
+        }
+        const double f[3] = {fx, fy, fz};
+        for (int q = 0; q < 3; ++q) {
+          double a = (f[q] - c * vs[3 * i + q]) / mass, x0 = soa ? S[0][q][i] : P[0][4 * i + q], nx;
+          sv[3 * i + q] += w[stg] * vs[3 * i + q], sa[3 * i + q] += w[stg] * a;
+          if (stg < 3) {
+            double hc = offs[stg + 1] * h;
+            nx = x0 + hc * vs[3 * i + q], vs[3 * i + q] = v[3 * i + q] + hc * a;
+          } else {
+            nx = x0 + h * sv[3 * i + q], v[3 * i + q] += h * sa[3 * i + q], vs[3 * i + q] = v[3 * i + q];
+            sv[3 * i + q] = sa[3 * i + q] = 0;
+          }
+          if (soa)
+            S[dst][q][i] = nx;
+          else
+            P[dst][4 * i + q] = nx;
+        }
+      }
+    }
+    ++steps;
+    t1 = clocks_now();
+  } while (t1.wall - t0.wall < 2.0);
+  rate out = {(double)n * steps / (t1.wall - t0.wall), (double)n * steps / (t1.cpu - t0.cpu), n, steps, 1};
+  for (int b = 0; b < 3; ++b) {
+    free(P[b]);
+    for (int k = 0; k < 4; ++k) free(S[b][k]);
+  }
+  free(X), free(head), free(next), free(off), free(nb), free(v), free(vs), free(sv), free(sa);
+  return out;
+}
+
+/* Face bubbles on a jittered hexagonal lattice in face f's parameter space (scaled by the mean
+ * |Su|, |Sv|, as the placement does), spacing h, jitter in units of h. */
 static int32_t lattice(bub_state *s, const pm_cell *f, double h, double jitter) {
   double su = 0, sv = 0;
   for (int a = 0; a < 8; ++a)
@@ -280,9 +419,9 @@ static int32_t lattice(bub_state *s, const pm_cell *f, double h, double jitter) 
     }
   double W = (f->hi[0] - f->lo[0]) * su, H = (f->hi[1] - f->lo[1]) * sv;
   pm_rng r;
-  pm_rng_init(&r, 5, 0);
+  pm_rng_init(&r, 5, (uint64_t)f->index);
   pm_error e = {0};
-  s->n = 0;
+  int32_t added = 0;
   int nj = (int)(H / (0.8660254 * h)) + 1, ni = (int)(W / h) + 2;
   for (int j = 0; j < nj; ++j)
     for (int i = 0; i < ni; ++i) {
@@ -291,72 +430,122 @@ static int32_t lattice(bub_state *s, const pm_cell *f, double h, double jitter) 
       double uv[2] = {f->lo[0] + U / su, f->lo[1] + V / sv};
       if (!(U > 0 && U < W && V > 0 && V < H) || !pm_face_inside(f, uv)) continue;
       if (bub_state_add(s, BUB_KFACE, f->index, uv, NULL, 0, NULL, &e)) return -1;
+      ++added;
     }
-  bub_state_compact(s, &e);
-  return s->n;
+  return added;
 }
 
-static void throughput(const char *label, const pm_model *m, int64_t n, int threads,
-                       const bub_params *base) {
-  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+/* bub_dynamics_step on face bubbles only (lattice() on every face of m, jitter 0.1 so that the
+ * bubbles move and the lists get rebuilt as in a run), n bubbles within 5%: steps for about 3 s
+ * (at least 3) after one warm-up step. */
+static rate step_rate(const pm_model *m, int64_t n, int threads, const bub_params *base) {
   bub_params p = *base;
   pm_sizing *size = NULL;
   pm_error e = {0};
-  pm_sizing_constant(1, &size, &e);
+  double area = 0; /* the faces' area by a coarse quadrature, for the first spacing */
+  for (int32_t f = 0; f < m->count[PM_FACE]; ++f) {
+    const pm_cell *c = pm_model_cell(m, PM_FACE, f);
+    for (int a = 0; a < 8; ++a)
+      for (int b = 0; b < 8; ++b) {
+        double uv[2] = {c->lo[0] + (c->hi[0] - c->lo[0]) * (a + 0.5) / 8,
+                        c->lo[1] + (c->hi[1] - c->lo[1]) * (b + 0.5) / 8}, nrm[3];
+        if (!pm_face_inside(c, uv)) continue;
+        pm_face_point fp;
+        pm_face_eval(c, uv, 1, &fp);
+        pm_v3_cross(nrm, fp.su, fp.sv);
+        area += pm_v3_norm(nrm) * (c->hi[0] - c->lo[0]) * (c->hi[1] - c->lo[1]) / 64;
+      }
+  }
+  double h = sqrt(area / (0.866 * (double)n));
   bub_state *s = NULL;
+  pm_sizing_constant(h, &size, &e);
   bub_state_create(m, size, &p, threads, 1, &s, &e);
-  double h = sqrt((f->hi[0] - f->lo[0]) * (f->hi[1] - f->lo[1]) / (0.866 * (double)n));
   for (int it = 0; it < 8; ++it) {
-    int32_t got = lattice(s, f, h, 0);
-    if (got <= 0) break;
+    s->n = 0;
+    int64_t got = 0;
+    for (int32_t f = 0; f < m->count[PM_FACE]; ++f) got += lattice(s, pm_model_cell(m, PM_FACE, f), h, 0);
     double ratio = (double)got / (double)n;
-    if (fabs(ratio - 1) < 0.03) break;
+    if (fabs(ratio - 1) < 0.05 || got <= 0) break;
     h *= sqrt(ratio);
   }
-  /* The bubbles' diameter: the lattice spacing; the jitter makes them move. */
   pm_sizing_destroy(size);
   pm_sizing_constant(h, &size, &e);
   s->size = size;
-  lattice(s, f, h, 0.1);
+  s->n = 0;
+  for (int32_t f = 0; f < m->count[PM_FACE]; ++f) lattice(s, pm_model_cell(m, PM_FACE, f), h, 0.1);
+  bub_state_order(s, &e);
   bub_step_info info;
-  bub_dynamics_step(s, &info, &e); /* warm-up: lists */
-  int steps = 0;
-  double t0 = pm_seconds(), t = 0;
+  bub_dynamics_step(s, &info, &e); /* warm-up: lists, frames */
+  int64_t steps = 0, b0 = s->list_builds;
+  clocks t0 = clocks_now(), t1 = t0;
   do {
     if (bub_dynamics_step(s, &info, &e)) {
-      printf("  %-22s step failed: %s\n", label, e.msg);
+      printf("  step failed: %s\n", e.msg);
       break;
     }
     ++steps;
-    t = pm_seconds() - t0;
-  } while (t < 3.0 && steps < 200);
-  int32_t moving = s->nf - s->nv;
-  printf("  %-22s %8d bubbles  %4d steps  %8.4f s/step  %6.2f us/bubble-step  %10.3g bubble-steps/s  (list builds %lld)\n",
-         label, (int)moving, steps, t / steps, 1e6 * t / steps / moving, moving * (double)steps / t,
-         (long long)s->list_builds);
+    t1 = clocks_now();
+  } while ((t1.wall - t0.wall < 3.0 || steps < 3) && steps < 400);
+  int64_t moving = s->nf - s->nv;
+  rate out = {(double)moving * steps / (t1.wall - t0.wall), (double)moving * steps / (t1.cpu - t0.cpu),
+              moving, steps, s->list_builds - b0};
   bub_state_destroy(s);
   pm_sizing_destroy(size);
+  return out;
 }
 
-static void section_throughput(const bub_params *p, int threads) {
-  printf("\nthroughput: one RK4 step of one bubble (threads %d)\n", threads);
-  pm_model *sq = NULL, *torus = NULL;
+/* The throughput figures of the targets (bubble-steps per second per core: planar at 10^5 and 10^6
+ * bubbles >= 2.5e6, BSpline faces >= 1e6, two threads >= 1.8 x one), beside the bare-arithmetic
+ * limit measured in the same run. */
+static void section_throughput(const bub_params *p, const char *cad) {
+  printf("\nthroughput: RK4 bubble-steps per second (a bubble-step: one bubble, one RK4 step)\n");
+  pm_model *sq = NULL, *torus = NULL, *bs = NULL;
   pm_error e = {0};
   const pm_planar_piece pc[4] = {{PM_PIECE_LINE, {0, 0}, {0, 0}, 0}, {PM_PIECE_LINE, {1, 0}, {0, 0}, 0},
                                  {PM_PIECE_LINE, {1, 1}, {0, 0}, 0}, {PM_PIECE_LINE, {0, 1}, {0, 0}, 0}};
   pm_planar_loop lp = {4, pc};
+  char note[160];
+  for (int k = 0; k < 2; ++k) {
+    int64_t n = k ? 1000000 : 100000;
+    rate b1 = bare_kernel(n, 1, 0, p->list_skin), b2 = bare_kernel(n, 2, 0, p->list_skin);
+    rate bs1 = bare_kernel(n, 1, 1, p->list_skin);
+    snprintf(note, sizeof note, "(separate x, y, z, d arrays: %.3g /s per core-second)", bs1.cpu);
+    print_rate(k ? "bare arithmetic, plane, 1e6" : "bare arithmetic, plane, 1e5", 1, &b1, note);
+    snprintf(note, sizeof note, "(x %.2f of one thread, wall)", b2.wall / b1.wall);
+    print_rate(k ? "bare arithmetic, plane, 1e6" : "bare arithmetic, plane, 1e5", 2, &b2, note);
+  }
   if (pm_planar_model("square", 1, &lp, &sq, &e) == PM_OK) {
-    throughput("planar square 1e4", sq, 10000, threads, p);
-    throughput("planar square 1e5", sq, 100000, threads, p);
+    for (int k = 0; k < 2; ++k) {
+      int64_t n = k ? 1000000 : 100000;
+      rate r1 = step_rate(sq, n, 1, p), r2 = step_rate(sq, n, 2, p);
+      snprintf(note, sizeof note, "target >= 2.5e6 per core: %s (list builds %lld)",
+               r1.cpu >= 2.5e6 ? "met" : "MISSED", (long long)r1.builds);
+      print_rate(k ? "bubble step, plane, 1e6" : "bubble step, plane, 1e5", 1, &r1, note);
+      snprintf(note, sizeof note, "x %.2f of one thread (target >= 1.8: %s)", r2.wall / r1.wall,
+               r2.wall / r1.wall >= 1.8 ? "met" : "MISSED");
+      print_rate(k ? "bubble step, plane, 1e6" : "bubble step, plane, 1e5", 2, &r2, note);
+    }
   }
   if (pm_cad_case("torus", &torus, &e) == PM_OK) {
-    throughput("torus face 1e4", torus, 10000, threads, p);
-    throughput("torus face 1e5", torus, 100000, threads, p);
+    rate r1 = step_rate(torus, 100000, 1, p);
+    print_rate("bubble step, torus (closed form), 1e5", 1, &r1, NULL);
+  }
+  char path[1024];
+  snprintf(path, sizeof path, "%s/%s", PM_CAD_DIR, cad);
+  if (pm_cad_load(path, &bs, &e) == PM_OK) {
+    rate r1 = step_rate(bs, 100000, 1, p), r2 = step_rate(bs, 100000, 2, p);
+    char lab[96];
+    snprintf(lab, sizeof lab, "bubble step, %.20s faces, 1e5", cad);
+    snprintf(note, sizeof note, "target >= 1e6 per core: %s", r1.cpu >= 1e6 ? "met" : "MISSED");
+    print_rate(lab, 1, &r1, note);
+    snprintf(note, sizeof note, "x %.2f of one thread", r2.wall / r1.wall);
+    print_rate(lab, 2, &r2, note);
   } else {
-    printf("  torus: %s\n", e.msg);
+    printf("  %s: %s\n", cad, e.msg);
   }
   pm_model_destroy(sq);
   pm_model_destroy(torus);
+  pm_model_destroy(bs);
 }
 
 int main(int argc, char **argv) {
@@ -388,7 +577,7 @@ int main(int argc, char **argv) {
   if (!want_planar && !want_cad && !want_tp) want_planar = want_cad = want_tp = 1;
   printf("bench_bubble: packmesh %s\n", pm_version());
   if (want_planar) section_planar(&p, threads, only_case);
-  if (want_tp) section_throughput(&p, threads);
+  if (want_tp) section_throughput(&p, opt_bspline);
   if (want_cad) section_cad(&p, threads, only_cad);
   return 0;
 }

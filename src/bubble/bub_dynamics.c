@@ -68,8 +68,8 @@
  * every stage exactly.
  *
  * Neighbour lists (bub_neighbors.c) are used across stages and steps. Every point where forces
- * are about to be computed passes the lists' skin test first (each stage's points and each step's
- * end points, tested as they are computed); when it fails the lists are rebuilt there.
+ * are about to be computed passes the lists' skin test first (each step's start points, and each
+ * stage's points as they are computed); when it fails the lists are rebuilt there.
  *
  * Layout and threads. The positions the force sums gather are packed (x, y, z, d) per bubble in
  * three buffers (the step start and two alternating stage buffers: a stage reads one and writes
@@ -94,6 +94,7 @@
 
 #include "common/clock.h"
 #include "common/rng.h"
+#include "common/trim.h"
 #include "common/vec3.h"
 
 #ifdef _OPENMP
@@ -179,37 +180,57 @@ static void pair_direction(uint64_t seed, int32_t i, int32_t j, double u[3]) {
   if (i > j) pm_v3_scale(u, u, -1);
 }
 
-void bub_force_on(const bub_state *s, const double *pos4, int32_t i, double f[3], double *pot,
-                  int32_t *deg) {
+/* The force sum of bub_force_on; `extras` (a constant at each call) adds the potential and the
+ * degree, wanted at the first stage only. */
+static inline __attribute__((always_inline)) void force_sum(const bub_state *s, const double *pos4,
+                                                            int32_t i, double f[3], int extras,
+                                                            double *pot, int32_t *deg) {
   const double k0 = s->p.k0;
   const double *pi = &pos4[4 * i];
   const double xi = pi[0], yi = pi[1], zi = pi[2], di = pi[3];
   double fx = 0, fy = 0, fz = 0, u = 0;
   int32_t nd = 0;
   const int32_t *nb = s->nb;
-  for (int32_t k = s->nb_off[i], end = s->nb_off[i + 1]; k < end; ++k) {
+  for (int32_t k = s->nb_off[i], end = s->nb_off[i] + s->nb_cnt[i]; k < end; ++k) {
     const int32_t j = nb[k];
     const double *pj = &pos4[4 * j];
     const double rx = xi - pj[0], ry = yi - pj[1], rz = zi - pj[2], l0 = 0.5 * (di + pj[3]);
     const double r2 = rx * rx + ry * ry + rz * rz;
     if (!(r2 < 2.25 * l0 * l0)) continue; /* beyond 1.5 l0: no force (003 eq. 11) */
-    const double l = sqrt(r2), lambda = l / l0;
-    /* bub_force: l0 k0 g(lambda), g = 5/4 lambda^3 - 19/8 lambda^2 + 9/8 (004 eq. 2.1). */
-    const double F = l0 * (k0 * ((1.25 * lambda - 2.375) * lambda * lambda + 1.125));
-    if (pot) u += 0.5 * bub_potential(k0, l, l0);
-    if (deg && l < 1.3 * l0) ++nd;
-    if (l > 1e-12 * l0) {
-      const double g = F / l;
-      fx += g * rx, fy += g * ry, fz += g * rz;
-    } else {
+    /* bub_force: F = l0 k0 g(lambda), g = 5/4 lambda^3 - 19/8 lambda^2 + 9/8 (004 eq. 2.1),
+     * lambda = l / l0; F / l = k0 l0^2 g(lambda) q and lambda = r2 q with q = 1 / (l l0): one
+     * division. */
+    const double l = sqrt(r2);
+    if (extras) {
+      u += 0.5 * bub_potential(k0, l, l0);
+      nd += l < 1.3 * l0;
+    }
+    if (__builtin_expect(l > 1e-12 * l0, 1)) {
+      const double q = 1 / (l * l0), lambda = r2 * q;
+      const double gl = k0 * l0 * l0 * ((1.25 * lambda - 2.375) * lambda * lambda + 1.125) * q;
+      fx += gl * rx, fy += gl * ry, fz += gl * rz;
+    } else { /* coincident: the saturated force along the pair's seeded direction */
+      const double lambda = l / l0, F = l0 * (k0 * ((1.25 * lambda - 2.375) * lambda * lambda + 1.125));
       double dir[3];
       pair_direction(s->seed, i, j, dir);
       fx += F * dir[0], fy += F * dir[1], fz += F * dir[2];
     }
   }
   f[0] = fx, f[1] = fy, f[2] = fz;
-  if (pot) *pot = u;
-  if (deg) *deg = nd;
+  if (extras) *pot = u, *deg = nd;
+}
+
+void bub_force_on(const bub_state *s, const double *pos4, int32_t i, double f[3], double *pot,
+                  int32_t *deg) {
+  if (pot || deg) {
+    double u;
+    int32_t nd;
+    force_sum(s, pos4, i, f, 1, &u, &nd);
+    if (pot) *pot = u;
+    if (deg) *deg = nd;
+  } else {
+    force_sum(s, pos4, i, f, 0, NULL, NULL);
+  }
 }
 
 /* ---- frames ------------------------------------------------------------------------------- */
@@ -251,8 +272,14 @@ static int frame_covers(const bub_state *s, int32_t i, const pm_cell *c, const d
   const double *F = &s->frame[(size_t)BUB_FRAME_LEN * i];
   double dp[2], first, second;
   frame_delta(c, F, par, s->kind[i] == BUB_KFACE ? 2 : 1, dp);
+  if (is_affine(s, s->kind[i], s->cell[i])) { /* a plane or a line: the first-order model is the cell */
+    for (int k = 0; k < 3; ++k) {
+      x[k] = F[F_S + k] + F[F_U + k] * dp[0] + F[F_V + k] * dp[1];
+      der[k] = F[F_U + k], der[3 + k] = F[F_V + k];
+    }
+    return 1;
+  }
   frame_eval(F, dp, x, der, &first, &second);
-  if (is_affine(s, s->kind[i], s->cell[i])) return 1;
   return first <= fr * s->d[i] && second <= 0.1 * first;
 }
 
@@ -317,6 +344,15 @@ void bub_state_refresh(bub_state *s) {
   s->evals += s->n;
 }
 
+/* A new clearance for face bubble i at its new parameters par (trim.h): up to about 2 d in
+ * object space (the parameter radius 2 d / sqrt(|S_u|^2 + |S_v|^2)). */
+static void clear_at(bub_state *s, int32_t i, const pm_cell *c, const double *par) {
+  const double *su = &s->der[6 * i], *sv = &s->der[6 * i + 3];
+  double g = pm_v3_dot(su, su) + pm_v3_dot(sv, sv), *cl = &s->clear[3 * i];
+  cl[0] = par[0], cl[1] = par[1];
+  cl[2] = g > 0 ? pm_trim_clearance(c, par, 2 * s->d[i] / sqrt(g)) : 0;
+}
+
 /* ---- one chunk of a stage --------------------------------------------------------------------- */
 
 typedef struct stage_ctx {
@@ -331,8 +367,8 @@ typedef struct stage_ctx {
 /* Confine the points par0 + M^-1 J dx of the chunk's curve and face bubbles (given in par, with the
  * clip results in r): position and tangents from the frame, or by exact evaluation (faces batched
  * per face); a final point evaluated exactly starts a new frame. */
-static int32_t confine(bub_state *s, int32_t lo, int32_t hi, const double *par, double *x,
-                       double *der, int final) {
+static int32_t confine(bub_state *s, int32_t lo, int32_t hi, const uint8_t *need, const double *par,
+                       double *x, double *der, int final) {
   pm_face_point fp[BUB_CHUNK];
   double uv[2 * BUB_CHUNK];
   int32_t who[BUB_CHUNK];
@@ -340,8 +376,8 @@ static int32_t confine(bub_state *s, int32_t lo, int32_t hi, const double *par, 
   int32_t nneed = 0, nexact = 0;
   for (int32_t i = lo; i < hi; ++i) {
     const int k = s->kind[i];
-    if (k == BUB_KVOLUME) continue;
     const int32_t q = i - lo;
+    if (!need[q]) continue;
     const pm_cell *c = pm_model_cell(s->model, k, s->cell[i]);
     if (frame_covers(s, i, c, &par[2 * q], &x[3 * q], &der[6 * q])) continue;
     ++nexact;
@@ -368,24 +404,40 @@ static int32_t confine(bub_state *s, int32_t lo, int32_t hi, const double *par, 
   return nexact;
 }
 
+/* 1 when bubble i lives on a plane and frames are on: its position follows from the step start
+ * x0 + S_u du + S_v dv exactly, its tangents never change, and its normal is the face's. */
+static inline int on_plane(const bub_state *s, int32_t i) {
+  return s->kind[i] == BUB_KFACE && s->affine[s->cell[i]] && s->p.frame_tol > 0;
+}
+
 /* Stage `stg` for bubbles [lo, hi): forces at ctx->src, the RK sums, the next stage's points (or
  * the step's end). */
 static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t hi, bub_chunk *out,
                         double *tm) {
   double acc[3 * BUB_CHUNK], dxc[3 * BUB_CHUNK], par[2 * BUB_CHUNK], x[3 * BUB_CHUNK], der[6 * BUB_CHUNK];
-  int rc[BUB_CHUNK];
+  int8_t rc[BUB_CHUNK];
+  uint8_t need[BUB_CHUNK], plane[BUB_CHUNK];
   const int stg = cx->stg, last = stg + 1 == cx->nstage;
-  const double m = cx->m, h = cx->h;
+  const double m = cx->m, inv_m = 1 / cx->m, h = cx->h;
+  for (int32_t i = lo; i < hi; ++i) plane[i - lo] = (uint8_t)on_plane(s, i);
   double t0 = pm_seconds();
   /* Forces, projected onto the cell at the stage point, and accelerations. */
   for (int32_t i = lo; i < hi; ++i) {
     double f[3];
     const int32_t q = i - lo;
-    bub_force_on(s, cx->src, i, f, stg == 0 ? &s->pot[i] : NULL, stg == 0 ? &s->deg[i] : NULL);
-    tangent_project(s->kind[i], stg == 0 ? &s->der[6 * i] : &s->ders[6 * i], f);
+    if (stg == 0)
+      force_sum(s, cx->src, i, f, 1, &s->pot[i], &s->deg[i]);
+    else
+      force_sum(s, cx->src, i, f, 0, NULL, NULL);
+    if (plane[q]) {
+      const double *nrm = &s->normal[3 * s->cell[i]];
+      pm_v3_axpy(f, f, -pm_v3_dot(f, nrm), nrm);
+    } else {
+      tangent_project(s->kind[i], stg == 0 ? &s->der[6 * i] : &s->ders[6 * i], f);
+    }
     const double c = (s->flags[i] & BUB_FODD) ? cx->c_odd : cx->c_norm;
     const double *vs = &s->vs[3 * i];
-    for (int k = 0; k < 3; ++k) acc[3 * q + k] = (f[k] - c * vs[k]) / m;
+    for (int k = 0; k < 3; ++k) acc[3 * q + k] = (f[k] - c * vs[k]) * inv_m;
   }
   double t1 = pm_seconds();
   /* The RK sums and the displacement from the step start to the next point. */
@@ -415,9 +467,10 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
   for (int32_t i = lo; i < hi; ++i) {
     const int32_t q = i - lo;
     const double *x0 = &s->pos[0][4 * i];
+    need[q] = 0;
     if (s->kind[i] == BUB_KVOLUME) {
       if (last) {
-        rc[q] = bub_volume_move(s, i, x0, &dxc[3 * q], &x[3 * q]);
+        rc[q] = (int8_t)bub_volume_move(s, i, x0, &dxc[3 * q], &x[3 * q]);
       } else {
         pm_v3_add(&x[3 * q], x0, &dxc[3 * q]);
         rc[q] = PM_MOVE_FREE;
@@ -427,18 +480,44 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
       continue;
     }
     const pm_cell *c = pm_model_cell(s->model, s->kind[i], s->cell[i]);
+    const double *par0 = &s->par[2 * i], *der0 = &s->der[6 * i];
     double dpar[3] = {0, 0, 0};
-    pm_cell_param_delta(c, &s->par[2 * i], &s->der[6 * i], &dxc[3 * q], dpar);
+    if (plane[q]) { /* M^-1 J of the face, a constant (bub_state.c) */
+      const double *P = &s->pinv[6 * s->cell[i]], *dx = &dxc[3 * q];
+      dpar[0] = P[0] * dx[0] + P[1] * dx[1] + P[2] * dx[2];
+      dpar[1] = P[3] * dx[0] + P[4] * dx[1] + P[5] * dx[2];
+    } else {
+      pm_cell_param_delta(c, par0, der0, &dxc[3 * q], dpar);
+    }
     par[2 * q + 1] = 0;
-    rc[q] = pm_cell_move(c, &s->par[2 * i], dpar, &par[2 * q]);
+    if (s->kind[i] == BUB_KFACE) {
+      const double *cl = &s->clear[3 * i];
+      const double u = par0[0] + dpar[0], v = par0[1] + dpar[1];
+      if ((u - cl[0]) * (u - cl[0]) + (v - cl[1]) * (v - cl[1]) < cl[2] * cl[2]) {
+        /* within the bubble's clearance: inside, no test, no wrap */
+        par[2 * q] = u, par[2 * q + 1] = v, rc[q] = PM_MOVE_FREE;
+      } else {
+        rc[q] = (int8_t)pm_cell_move(c, par0, dpar, &par[2 * q]);
+        if (last) clear_at(s, i, c, &par[2 * q]);
+      }
+    } else {
+      rc[q] = (int8_t)pm_cell_move(c, par0, dpar, &par[2 * q]);
+    }
+    if (plane[q]) {
+      const double du = par[2 * q] - par0[0], dv = par[2 * q + 1] - par0[1];
+      for (int k = 0; k < 3; ++k) x[3 * q + k] = x0[k] + der0[k] * du + der0[3 + k] * dv;
+      memcpy(&der[6 * q], der0, sizeof(double) * 6);
+    } else {
+      need[q] = 1;
+    }
   }
-  out->evals += confine(s, lo, hi, par, x, der, last);
+  out->evals += confine(s, lo, hi, need, par, x, der, last);
   if (!last) {
     for (int32_t i = lo; i < hi; ++i) {
       const int32_t q = i - lo;
       double *P = &cx->dst[4 * i];
       P[0] = x[3 * q], P[1] = x[3 * q + 1], P[2] = x[3 * q + 2], P[3] = s->d[i];
-      memcpy(&s->ders[6 * i], &der[6 * q], sizeof(double) * 6);
+      if (!plane[q]) memcpy(&s->ders[6 * i], &der[6 * q], sizeof(double) * 6);
       bub_top2_add(&out->skin, bub_skin_excess(s, i, &x[3 * q], s->d[i]));
     }
     double t3 = pm_seconds();
@@ -450,12 +529,17 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
     const int32_t q = i - lo;
     double *v = &s->v[3 * i];
     pm_v3_axpy(v, v, h, &s->suma[3 * i]);
-    tangent_project(s->kind[i], &der[6 * q], v);
+    if (plane[q]) {
+      const double *nrm = &s->normal[3 * s->cell[i]];
+      pm_v3_axpy(v, v, -pm_v3_dot(v, nrm), nrm);
+    } else {
+      tangent_project(s->kind[i], &der[6 * q], v);
+      memcpy(&s->der[6 * i], &der[6 * q], sizeof(double) * 6);
+    }
     if (rc[q] == PM_MOVE_CLIPPED) pm_v3_zero(v);
     s->disp[i] = pm_v3_dist(&x[3 * q], &s->pos[0][4 * i]);
     s->par[2 * i] = par[2 * q], s->par[2 * i + 1] = par[2 * q + 1];
     pm_v3_copy(&s->x[3 * i], &x[3 * q]);
-    memcpy(&s->der[6 * i], &der[6 * q], sizeof(double) * 6);
   }
   double t3 = pm_seconds();
   /* The diameter where the bubble moved far enough, the sums, the skin test. */
@@ -473,7 +557,6 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
     if (s->disp[i] > out->max_disp) out->max_disp = s->disp[i];
     double rel = s->disp[i] / s->d[i];
     if (rel > out->max_rel) out->max_rel = rel;
-    bub_top2_add(&out->skin, bub_skin_excess(s, i, &s->x[3 * i], s->d[i]));
   }
   double t4 = pm_seconds();
   tm[0] += t1 - t0, tm[1] += (t2 - t1) + (t4 - t3), tm[2] += t3 - t2;
@@ -500,15 +583,30 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   /* The step start, packed; the fixed bubbles' entries of the stage buffers with it when the set
    * of bubbles changed. */
   const int refill = !s->lists_valid;
-#pragma omp parallel for num_threads(T) schedule(static) if (T > 1)
-  for (int32_t i = 0; i < n; ++i) {
+  const int64_t nchunk = ((int64_t)(b - a) + BUB_CHUNK - 1) / BUB_CHUNK;
+  for (int32_t i = 0; i < n; i = (i + 1 == a) ? b : i + 1) { /* the fixed bubbles */
+    if (i >= a && i < b) continue; /* only when a == 0 */
     double *P = &s->pos[0][4 * i];
     P[0] = s->x[3 * i], P[1] = s->x[3 * i + 1], P[2] = s->x[3 * i + 2], P[3] = s->d[i];
-    if ((i < a || i >= b) && refill) memcpy(&s->pos[1][4 * i], P, 32), memcpy(&s->pos[2][4 * i], P, 32);
-    pm_v3_copy(&s->vs[3 * i], &s->v[3 * i]);
-    pm_v3_zero(&s->sumv[3 * i]), pm_v3_zero(&s->suma[3 * i]);
+    if (refill) memcpy(&s->pos[1][4 * i], P, 32), memcpy(&s->pos[2][4 * i], P, 32);
+  }
+  /* The moving bubbles, with the skin test of the step's start points (a step ends with the same
+   * points, but they may have been changed since: population control, a caller). */
+#pragma omp parallel for num_threads(T) schedule(dynamic, 1) if (T > 1)
+  for (int64_t c = 0; c < nchunk; ++c) {
+    const int32_t lo = a + (int32_t)(c * BUB_CHUNK), hi = lo + BUB_CHUNK < b ? lo + BUB_CHUNK : b;
+    bub_top2 t = {-INFINITY, -INFINITY};
+    for (int32_t i = lo; i < hi; ++i) {
+      double *P = &s->pos[0][4 * i];
+      P[0] = s->x[3 * i], P[1] = s->x[3 * i + 1], P[2] = s->x[3 * i + 2], P[3] = s->d[i];
+      pm_v3_copy(&s->vs[3 * i], &s->v[3 * i]);
+      pm_v3_zero(&s->sumv[3 * i]), pm_v3_zero(&s->suma[3 * i]);
+      if (s->lists_valid) bub_top2_add(&t, bub_skin_excess(s, i, P, P[3]));
+    }
+    s->chunks[c].skin = t;
   }
   s->t.integrate += pm_seconds() - t0;
+  if (s->lists_valid && skin_failed(s, nchunk)) s->lists_stale = 1;
   if ((st = bub_neighbors_update(s, s->pos[0], err))) return st;
 
   const double sq = sqrt(s->p.mass * s->p.k0);
@@ -517,7 +615,6 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   const int rk4 = s->p.integrator == BUB_RK4;
   stage_ctx cx = {s->p.mass, bub_time_step(&s->p), 2 * bub_zeta_now(s) * sq, 2 * s->p.zeta_odd * sq,
                   rk4 ? w4 : w2, rk4 ? off4 : off2, 0, rk4 ? 4 : 2, NULL, NULL, timers};
-  const int64_t nchunk = ((int64_t)(b - a) + BUB_CHUNK - 1) / BUB_CHUNK;
   for (int stg = 0; stg < cx.nstage; ++stg) {
     cx.stg = stg;
     cx.src = stg == 0 ? s->pos[0] : s->pos[1 + ((stg - 1) & 1)];
@@ -563,7 +660,6 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
     sum += ch->sum_disp, mx = fmax(mx, ch->max_disp), mrel = fmax(mrel, ch->max_rel);
     bad |= ch->bad_size;
   }
-  if (skin_failed(s, nchunk)) s->lists_stale = 1;
   if (bad)
     for (int32_t i = a; i < b; ++i) {
       double d;

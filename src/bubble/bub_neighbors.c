@@ -1,11 +1,15 @@
-/* Neighbour lists of the moving bubbles (Verlet lists), found through the shared grid (grid.h),
- * O(n) per build.
+/* Neighbour lists of the moving bubbles (Verlet lists), two levels, found through the shared grid
+ * (grid.h).
  *
  * The force acts within 1.5 l0 (003 eq. 11). Querying the grid at every one of RK4's four stages
  * would cost four queries per bubble and step; instead each moving bubble keeps the list of the
  * bubbles it feels (bub_related) within the reach 0.75 (1 + skin)(d_i + d_j) at build time
  * (skin = list_skin), and the lists are used, across RK stages and steps, for as long as no pair
- * missing from them can have come within 1.5 l0.
+ * missing from them can have come within 1.5 l0. A short skin keeps the lists short (the force sums
+ * are most of a step's cost: with skin 0.15 a hexagonal packing lists its 6 neighbours, with 0.6
+ * 18), but needs rebuilds more often; a grid query costs about as much as a bubble's whole step.
+ * So the lists are rebuilt from outer lists of skin list_outer (0.6), by filtering their distances,
+ * and only the outer lists come from the grid, as rarely as their longer skin allows.
  *
  * The skin test. A pair missing from the lists was at least 0.75 (1 + s)(db_i + db_j) apart at
  * the build (db: diameters then). After bubble i moved by delta_i from its build position and its
@@ -19,14 +23,22 @@
  * the test fails, so the lists are exact for every force evaluated: a bubble that crosses the
  * skin forces a rebuild before its force is summed.
  *
+ * The outer test. Filtering the outer lists (skin S, built at positions po with diameters do)
+ * gives complete lists (skin s) at the current positions when every pair missing from the outer
+ * lists is still beyond 0.75 (1 + s)(d_i + d_j): by the same argument, when the two largest
+ * e'_i = |x_i - po_i| + 0.75 (1 + s) |d_i - do_i| - 0.75 (S - s) do_i sum to at most 0. When they
+ * do not, the outer lists are built again from the grid first.
+ *
  * Only the moving bubbles (bub_moving) have lists: curve and face bubbles, or volume bubbles in the
  * volume phase.
  *
- * Lists are sorted by id, so every per-bubble sum runs in the same order whatever the thread
- * count (the determinism rule of STYLE.md). The build runs in parallel over chunks of bubbles,
- * each thread appending to its own buffer (kept across builds: no allocation once the buffers have
- * grown to their size) and noting where each chunk went; the pieces are then copied to the lists
- * in chunk order.
+ * Lists are sorted by id (a grid query returns sorted ids; filtering keeps the order), so every
+ * per-bubble sum runs in the same order whatever the thread count (the determinism rule of
+ * STYLE.md). An outer build runs in parallel over chunks of bubbles, each thread appending to its
+ * own buffer (kept across builds: no allocation once the buffers have grown to their size) and
+ * noting where each chunk went; the pieces are then copied to the outer lists in chunk order. A
+ * list is stored at the start of its bubble's outer list (it is a subset), so the lists need no
+ * offsets of their own and their build is one parallel pass.
  */
 #include "bubble/bub_private.h"
 
@@ -100,9 +112,8 @@ static inline const double *at(const bub_state *s, const double *pos4, int32_t i
   return &s->x[3 * i];
 }
 
-pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) {
-  if (s->lists_valid && !s->lists_stale) return PM_OK;
-  const double t0 = pm_seconds();
+/* The outer lists at pos4 (or x, d), from the grid. */
+static pm_status build_outer(bub_state *s, const double *pos4, pm_error *err) {
   pm_status st = ensure(s, err);
   if (st) return st;
   int32_t a, b;
@@ -129,17 +140,6 @@ pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) 
   }
   if (st) return st;
 
-  if (s->n + 1 > s->nb_build_cap) {
-    int32_t nc = s->n + s->n / 4 + 64;
-    int32_t *off = realloc(s->nb_off, sizeof(int32_t) * ((size_t)nc + 1));
-    if (off) s->nb_off = off;
-    double *xb = realloc(s->x_build, sizeof(double) * 3 * ((size_t)nc + 1));
-    if (xb) s->x_build = xb;
-    double *db = realloc(s->d_build, sizeof(double) * ((size_t)nc + 1));
-    if (db) s->d_build = db;
-    if (!off || !xb || !db) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    s->nb_build_cap = nc;
-  }
   const int64_t nchunk = ((int64_t)(b - a) + NB_CHUNK - 1) / NB_CHUNK;
   if (nchunk + 1 > s->nb_piece_cap) {
     int64_t nc = nchunk + nchunk / 4 + 16;
@@ -151,10 +151,10 @@ pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) 
   for (int32_t i = 0; i < s->n; ++i) {
     double d;
     const double *x = at(s, pos4, i, &d);
-    pm_v3_copy(&s->x_build[3 * i], x);
-    s->d_build[i] = d;
+    pm_v3_copy(&s->xo_build[3 * i], x);
+    s->do_build[i] = d;
   }
-  const double reach = bub_list_reach(&s->p);
+  const double reach = bub_outer_reach(&s->p);
   for (int32_t i = 0; i <= s->n; ++i) s->nb_off[i] = 0;
   const int T = bub_threads_for(s, b - a);
   for (int t = 0; t < T; ++t) s->nbs[t].n = 0, s->nbs[t].st = PM_OK;
@@ -171,14 +171,14 @@ pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) 
     pm_error e = {0};
     for (int32_t i = lo; i < hi && !buf->st; ++i) {
       /* Grid radius grid_factor d_j >= reach d_j: the query returns dist < reach d_i +
-       * grid_factor d_j, a superset of the list's dist < reach (d_i + d_j). */
-      const double *xi = &s->x_build[3 * i], di = s->d_build[i];
+       * grid_factor d_j, a superset of the outer list's dist < reach (d_i + d_j). */
+      const double *xi = &s->xo_build[3 * i], di = s->do_build[i];
       buf->st = pm_grid_query_overlap(s->grid, xi, reach * di, &buf->q, &e);
       int32_t cnt = 0;
       for (int32_t k = 0; k < buf->q.n && !buf->st; ++k) {
         int32_t j = buf->q.ids[k];
         if (!bub_related(s, i, j)) continue;
-        if (pm_v3_dist(xi, &s->x_build[3 * j]) >= reach * (di + s->d_build[j])) continue;
+        if (pm_v3_dist(xi, &s->xo_build[3 * j]) >= reach * (di + s->do_build[j])) continue;
         if (!push(buf, j)) buf->st = PM_ERR_NOMEM;
         ++cnt;
       }
@@ -194,20 +194,95 @@ pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) 
   int64_t total = s->nb_off[s->n];
   if (total + 1 > s->nb_cap) {
     int64_t nc = total + total / 4 + 1024;
-    int32_t *nn = realloc(s->nb, sizeof(int32_t) * (size_t)nc);
-    if (!nn) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    s->nb = nn, s->nb_cap = nc;
+    int32_t *no = realloc(s->nbo, sizeof(int32_t) * (size_t)nc);
+    if (no) s->nbo = no;
+    int32_t *ni = realloc(s->nb, sizeof(int32_t) * (size_t)nc);
+    if (ni) s->nb = ni;
+    if (!no || !ni) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    s->nb_cap = nc;
   }
   /* Chunk c's lists are contiguous in its thread's buffer: they go at the offset of its first
    * bubble. */
   for (int64_t c = 0; c < nchunk; ++c) {
     const int32_t lo = a + (int32_t)(c * NB_CHUNK), hi = lo + NB_CHUNK < b ? lo + NB_CHUNK : b;
     const int64_t len = s->nb_off[hi] - s->nb_off[lo];
-    if (len) memcpy(&s->nb[s->nb_off[lo]], &s->nbs[piece[c].thread].v[piece[c].at], sizeof(int32_t) * (size_t)len);
+    if (len) memcpy(&s->nbo[s->nb_off[lo]], &s->nbs[piece[c].thread].v[piece[c].at], sizeof(int32_t) * (size_t)len);
   }
+  s->outer_builds++;
+  return PM_OK;
+}
+
+/* The outer test at pos4 (or x, d): 1 when filtering the outer lists gives complete lists. */
+static int outer_holds(const bub_state *s, const double *pos4) {
+  int32_t a, b;
+  bub_moving(s, &a, &b);
+  const double reach = bub_list_reach(&s->p), gap = 0.75 * (s->p.list_outer - s->p.list_skin);
+  bub_top2 t = {-INFINITY, -INFINITY};
+  for (int32_t i = a; i < b; ++i) {
+    double d;
+    const double *x = at(s, pos4, i, &d);
+    const double *xo = &s->xo_build[3 * i];
+    double dx = x[0] - xo[0], dy = x[1] - xo[1], dz = x[2] - xo[2], dd = fabs(d - s->do_build[i]);
+    bub_top2_add(&t, sqrt(dx * dx + dy * dy + dz * dz) + reach * dd - gap * (1 - 1e-9) * s->do_build[i]);
+  }
+  return t.e1 + t.e2 <= 0;
+}
+
+/* The lists at pos4 (or x, d), filtered from the outer lists. */
+static void build_lists(bub_state *s, const double *pos4) {
+  int32_t a, b;
+  bub_moving(s, &a, &b);
+  const double reach = bub_list_reach(&s->p);
+  for (int32_t i = 0; i < s->n; ++i) {
+    double d;
+    const double *x = at(s, pos4, i, &d);
+    pm_v3_copy(&s->x_build[3 * i], x);
+    s->d_build[i] = d;
+  }
+  const int T = bub_threads_for(s, b - a);
+  for (int32_t i = 0; i < a; ++i) s->nb_cnt[i] = 0;
+  for (int32_t i = b; i < s->n; ++i) s->nb_cnt[i] = 0;
+#pragma omp parallel for num_threads(T) schedule(static) if (T > 1)
+  for (int32_t i = a; i < b; ++i) {
+    const double *xi = &s->x_build[3 * i], di = s->d_build[i];
+    int32_t cnt = 0, o = s->nb_off[i];
+    for (int32_t k = o; k < s->nb_off[i + 1]; ++k) {
+      int32_t j = s->nbo[k];
+      const double *xj = &s->x_build[3 * j];
+      double dx = xi[0] - xj[0], dy = xi[1] - xj[1], dz = xi[2] - xj[2], r = reach * (di + s->d_build[j]);
+      if (dx * dx + dy * dy + dz * dz < r * r) s->nb[o + cnt++] = j;
+    }
+    s->nb_cnt[i] = cnt;
+  }
+  s->list_builds++;
+}
+
+pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) {
+  if (s->lists_valid && !s->lists_stale) return PM_OK;
+  const double t0 = pm_seconds();
+  if (s->n + 1 > s->nb_build_cap) {
+    int32_t nc = s->n + s->n / 4 + 64;
+#define R(ptr, per)                                                                   \
+  do {                                                                                \
+    void *np = realloc(s->ptr, sizeof(*s->ptr) * (size_t)(per) * ((size_t)nc + 1));  \
+    if (!np) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");                \
+    s->ptr = np;                                                                      \
+  } while (0)
+    R(nb_off, 1);
+    R(nb_cnt, 1);
+    R(x_build, 3);
+    R(d_build, 1);
+    R(xo_build, 3);
+    R(do_build, 1);
+#undef R
+    s->nb_build_cap = nc;
+  }
+  pm_status st = PM_OK;
+  if (!s->lists_valid || !outer_holds(s, pos4)) st = build_outer(s, pos4, err);
+  if (st) return st;
+  build_lists(s, pos4);
   s->lists_valid = 1;
   s->lists_stale = 0;
-  s->list_builds++;
   s->t.neighbors += pm_seconds() - t0;
   return PM_OK;
 }

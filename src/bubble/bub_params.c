@@ -48,9 +48,13 @@ static const pm_param_desc desc[] = {
      "odd-bubble damping starts once a control changes the count by at most this fraction",
      "004 sec. 2.2 (0.05%)", NULL},
     /* speed */
-    {"list_skin", PM_PARAM_DOUBLE, F(list_skin), 0.3, 0.02, 2, PM_RANGE_CLOSED, "",
-     "neighbour lists: pairs within (1 + list_skin) 1.5 l0, rebuilt once two bubbles may have "
-     "crossed the skin",
+    {"list_skin", PM_PARAM_DOUBLE, F(list_skin), 0.15, 0.02, 2, PM_RANGE_CLOSED, "",
+     "neighbour lists: pairs within (1 + list_skin) 1.5 l0, rebuilt from the outer lists once two "
+     "bubbles may have crossed the skin",
+     "our choice (bub_neighbors.c; bench_bubble)", NULL},
+    {"list_outer", PM_PARAM_DOUBLE, F(list_outer), 0.6, 0.02, 3, PM_RANGE_CLOSED, "",
+     "outer neighbour lists: pairs within (1 + list_outer) 1.5 l0, from the grid once two bubbles "
+     "may have crossed that skin (>= list_skin)",
      "our choice (bub_neighbors.c; bench_bubble)", NULL},
     {"frame_tol", PM_PARAM_DOUBLE, F(frame_tol), 0.05, 0, 0.5, PM_RANGE_CLOSED, "d",
      "a bubble within frame_tol d of its last exact evaluation uses its cell's second-order "
@@ -169,6 +173,11 @@ pm_status bub_params_check(const bub_params *p, pm_error *err) {
                          "bubble parameters curve_open=%g and curve_excess=%g must satisfy "
                          "curve_open < 2 < curve_excess",
                          p->curve_open, p->curve_excess);
+  if (!(p->list_outer >= p->list_skin))
+    return pm_error_setf(err, PM_ERR_ARG,
+                         "bubble parameters list_skin=%g and list_outer=%g must satisfy "
+                         "list_skin <= list_outer",
+                         p->list_skin, p->list_outer);
   if (!(p->volume_open < 12 && p->volume_excess > 12))
     return pm_error_setf(err, PM_ERR_ARG,
                          "bubble parameters volume_open=%g and volume_excess=%g must satisfy "

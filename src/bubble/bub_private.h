@@ -99,16 +99,23 @@ typedef struct bub_state {
   int grid_valid;        /* the grid holds ids 0..n-1 at the current x, d */
   double grid_factor;    /* a bubble of diameter d has radius grid_factor d in the grid */
 
-  /* Neighbour lists of the moving bubbles (bub_neighbors.c): nb[nb_off[i] .. nb_off[i+1]) are
-   * the bubbles i feels, sorted by id, within the list reach at build time. */
+  /* Neighbour lists of the moving bubbles (bub_neighbors.c), two levels: the outer lists
+   * nbo[nb_off[i] .. nb_off[i+1]) (reach list_outer, from the grid), and the lists the forces use,
+   * nb[nb_off[i] .. nb_off[i] + nb_cnt[i]) (reach list_skin, filtered from the outer ones). Both
+   * are sorted by id. */
   int32_t *nb_off;       /* [n+1] */
-  int32_t *nb;           /* [nb_cap] */
+  int32_t *nbo;          /* [nb_cap] outer lists */
+  int32_t *nb;           /* [nb_cap] lists */
+  int32_t *nb_cnt;       /* [n] length of each list */
   int64_t nb_cap;
-  double *x_build;       /* [3n] positions at the last build */
-  double *d_build;       /* [n] diameters at the last build */
+  double *x_build;       /* [3n] positions at the last build of the lists */
+  double *d_build;       /* [n] diameters then */
+  double *xo_build;      /* [3n] positions at the last build of the outer lists */
+  double *do_build;      /* [n] diameters then */
   int lists_valid;       /* the lists cover the bubbles 0..n-1 as they are now */
   int lists_stale;       /* the skin test of the last step asks for a rebuild */
-  int64_t list_builds;   /* statistics */
+  int64_t list_builds;   /* statistics: builds of the lists, */
+  int64_t outer_builds;  /* and of the outer lists (grid queries) */
   int32_t nb_build_cap;  /* allocated length of nb_off, x_build, d_build (minus one) */
   struct bub_nbscratch *nbs;  /* [threads] per-thread build buffers, kept across builds */
   struct bub_nbpiece *nb_piece; /* [nb_piece_cap] where each chunk of a build went */
@@ -127,8 +134,15 @@ typedef struct bub_state {
    * which the model is used (0: no frame yet). */
   double *frame;         /* [BUB_FRAME_LEN n] */
   double *frame_r;       /* [n] */
+  double *clear;         /* [3n] face bubbles: a point (u, v) and a radius r in parameter space such
+                            that every point within r of it is inside the trimmed face
+                            (pm_trim_clearance): a step that ends there needs no inside test;
+                            r = 0: unknown */
   uint8_t *affine;       /* [count[PM_FACE] + count[PM_CURVE]] faces then curves: 1 when the
                             cell is a plane / a line (its Taylor model is exact everywhere) */
+  double *normal;        /* [3 count[PM_FACE]] the unit normal of the affine faces */
+  double *pinv;          /* [6 count[PM_FACE]] affine faces: M^-1 J, the parameter step of an
+                            object-space step (geom.h, pm_cell_param_delta), rows du, dv */
   int64_t evals;         /* exact cell evaluations made by the dynamics (statistics) */
   int64_t bubble_steps;  /* moving bubbles summed over the steps taken (statistics) */
 
@@ -241,12 +255,14 @@ double bub_curve_length(const pm_cell *c, double t1, double t2);
 
 /* ---- neighbour lists (bub_neighbors.c) ------------------------------------------------------ */
 
-/* The list reach of a pair: 0.75 (1 + list_skin) (d_i + d_j), i.e. (1 + skin) x 1.5 l0. The
- * grid radius of a bubble is max(1, 0.75 (1 + list_skin)) d (grid_factor): every query below
- * asks for a superset of what it needs with it (the overlap ratio needs dist < d_i + d_j / 2:
- * query radius d_i; the lists dist < 0.75 (1 + skin)(d_i + d_j): query radius
- * 0.75 (1 + skin) d_i). */
+/* The reach of the lists: a pair is listed within 0.75 (1 + list_skin) (d_i + d_j), i.e. (1 +
+ * skin) x 1.5 l0, and in the outer lists within 0.75 (1 + list_outer) (d_i + d_j). The grid
+ * radius of a bubble is max(1, 0.75 (1 + list_outer)) d (grid_factor): every query asks for a
+ * superset of what it needs with it (the overlap ratio needs dist < d_i + d_j / 2: query radius
+ * d_i; the outer lists dist < 0.75 (1 + list_outer)(d_i + d_j): query radius
+ * 0.75 (1 + list_outer) d_i). */
 static inline double bub_list_reach(const bub_params *p) { return 0.75 * (1 + p->list_skin); }
+static inline double bub_outer_reach(const bub_params *p) { return 0.75 * (1 + p->list_outer); }
 
 /* Build the lists at the packed positions pos4 ((x, y, z, d) per bubble; NULL: the bubbles' x
  * and d) if they are invalid or stale (the skin test, bub_skin_excess, failed). */

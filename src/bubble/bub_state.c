@@ -160,6 +160,7 @@ static pm_status grow(bub_state *s, int32_t need, pm_error *err) {
   GROW(wall, 1);
   GROW(frame, BUB_FRAME_LEN);
   GROW(frame_r, 1);
+  GROW(clear, 3);
 #undef GROW
   s->cap = nc;
   return PM_OK;
@@ -219,7 +220,27 @@ static pm_status find_affine(bub_state *s, pm_error *err) {
   s->affine = calloc((size_t)(nf + nc) + 1, 1);
   if (!s->affine) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   double scale = m->diagonal > 0 ? m->diagonal : 1;
-  for (int32_t f = 0; f < nf; ++f) s->affine[f] = (uint8_t)cell_affine(pm_model_cell(m, PM_FACE, f), scale);
+  s->normal = calloc(3 * (size_t)nf + 1, sizeof(double));
+  s->pinv = calloc(6 * (size_t)nf + 1, sizeof(double));
+  if (!s->normal || !s->pinv) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t f = 0; f < nf; ++f) {
+    const pm_cell *c = pm_model_cell(m, PM_FACE, f);
+    s->affine[f] = (uint8_t)cell_affine(c, scale);
+    if (!s->affine[f]) continue;
+    pm_face_point fp;
+    double uv[2] = {c->lo[0], c->lo[1]};
+    pm_face_eval(c, uv, 1, &fp);
+    pm_v3_cross(&s->normal[3 * f], fp.su, fp.sv);
+    if (!(pm_v3_normalize(&s->normal[3 * f]) > 0)) s->affine[f] = 0;
+    /* The rows of M^-1 J: the parameter steps of the unit steps along x, y, z (the shared rule
+     * applied to each, so that the fast path steps exactly as pm_cell_param_delta would). */
+    for (int k = 0; k < 3; ++k) {
+      double e[3] = {k == 0, k == 1, k == 2}, dp[3] = {0, 0, 0};
+      double der[6] = {fp.su[0], fp.su[1], fp.su[2], fp.sv[0], fp.sv[1], fp.sv[2]};
+      pm_cell_param_delta(c, uv, der, e, dp);
+      s->pinv[6 * f + k] = dp[0], s->pinv[6 * f + 3 + k] = dp[1];
+    }
+  }
   for (int32_t c = 0; c < nc; ++c)
     s->affine[nf + c] = (uint8_t)cell_affine(pm_model_cell(m, PM_CURVE, c), scale);
   return PM_OK;
@@ -233,7 +254,7 @@ pm_status bub_state_create(const pm_model *m, const pm_sizing *size, const bub_p
   s->model = m, s->size = size, s->p = *p;
   s->threads = threads >= 1 ? threads : 1;
   s->seed = seed;
-  s->grid_factor = fmax(1.0, bub_list_reach(p));
+  s->grid_factor = fmax(1.0, bub_outer_reach(p));
   pm_status st = build_closures(s, err);
   if (!st) st = find_affine(s, err);
   /* hmin of the grid: far below any bubble (it only affects speed). */
@@ -251,12 +272,14 @@ void bub_state_destroy(bub_state *s) {
   if (!s) return;
   free(s->x), free(s->v), free(s->par), free(s->der), free(s->d), free(s->dmoved), free(s->alpha);
   free(s->kind), free(s->cell), free(s->flags), free(s->wall), free(s->frame), free(s->frame_r);
+  free(s->clear), free(s->normal), free(s->pinv);
   free(s->affine);
   if (s->shell)
     for (int32_t v = 0; v < s->model->count[PM_VOLUME]; ++v) pm_volume_shell_destroy(s->shell[v]);
   free(s->shell);
   pm_grid_destroy(s->grid);
-  free(s->nb_off), free(s->nb), free(s->x_build), free(s->d_build);
+  free(s->nb_off), free(s->nb), free(s->nbo), free(s->nb_cnt), free(s->x_build), free(s->d_build);
+  free(s->xo_build), free(s->do_build);
   for (int k = 0; k < 4; ++k) free(s->clo_off[k]), free(s->clo[k]);
   free(s->seam);
   for (int k = 0; k < 3; ++k) free(s->pos[k]);
@@ -305,6 +328,7 @@ pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
   s->dmoved[i] = 0;
   s->wall[i] = 0;
   s->frame_r[i] = 0; /* no frame yet: the first step evaluates the cell (bub_dynamics.c) */
+  s->clear[3 * i + 2] = 0;
   s->par[2 * i] = par && kind >= BUB_KCURVE && kind <= BUB_KFACE ? par[0] : 0;
   s->par[2 * i + 1] = par && kind == BUB_KFACE ? par[1] : 0;
   pm_v3_zero(&s->v[3 * i]);
@@ -412,6 +436,7 @@ static pm_status compact(bub_state *s, int spatial, pm_error *err) {
   PERMUTE(flags, 1, uint8_t);
   PERMUTE(wall, 1, double);
   PERMUTE(frame_r, 1, double);
+  PERMUTE(clear, 3, double);
 #undef PERMUTE
   /* The frames, 20 doubles a bubble, through a buffer of their own. */
   double *fb = malloc(sizeof(double) * BUB_FRAME_LEN * need);

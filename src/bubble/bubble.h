@@ -65,9 +65,12 @@ typedef struct bub_params {
                        this fraction (004: 0.05%); [0, 1], default 0.0005 */
   /* ---- speed (bub_neighbors.c, bub_dynamics.c: no effect on the papers' equations) ---- */
   double list_skin; /* skin of the neighbour lists: a pair is listed within (1 + list_skin)
-                       x 1.5 l0, and the lists are rebuilt once two bubbles may have crossed
-                       the skin; [0.02, 2], default 0.3 (our choice, measured with bench_bubble:
-                       fewer pairs per list against more rebuilds) */
+                       x 1.5 l0, and the lists are rebuilt (from the outer lists) once two
+                       bubbles may have crossed the skin; [0.02, 2], default 0.15 (our choice,
+                       bench_bubble: fewer pairs per list against more rebuilds) */
+  double list_outer; /* skin of the outer lists, from which the lists are rebuilt: pairs within
+                        (1 + list_outer) x 1.5 l0, found through the grid once two bubbles may
+                        have crossed it; [list_skin, 3], default 0.6 */
   double frame_tol; /* a bubble whose parameters moved less than frame_tol x d from where its
                        cell was last evaluated takes position and tangents from the cell's
                        second-order Taylor model there (exact on planes and lines, error below

@@ -153,6 +153,79 @@ static void thread_independence(void **state) {
   pm_model_destroy(m);
 }
 
+/* The forces from the lists against a fresh search: every pair of related bubbles within 1.5 l0
+ * by brute force (bub_force), at the bubbles' current positions; the largest difference relative
+ * to k0 d. */
+static double force_mismatch(const bub_state *s) {
+  double *pos = malloc(sizeof(double) * 4 * (size_t)s->n), worst = 0;
+  for (int32_t i = 0; i < s->n; ++i) {
+    memcpy(&pos[4 * i], &s->x[3 * i], sizeof(double) * 3);
+    pos[4 * i + 3] = s->d[i];
+  }
+  int32_t a, b;
+  bub_moving(s, &a, &b);
+  for (int32_t i = a; i < b; ++i) {
+    double f[3], g[3] = {0, 0, 0};
+    bub_force_on(s, pos, i, f, NULL, NULL);
+    for (int32_t j = 0; j < s->n; ++j) {
+      if (!bub_related(s, i, j)) continue;
+      double r[3], l0 = 0.5 * (s->d[i] + s->d[j]);
+      pm_v3_sub(r, &s->x[3 * i], &s->x[3 * j]);
+      double l = pm_v3_norm(r);
+      if (l < 1.5 * l0 && l > 0) pm_v3_axpy(g, g, bub_force(s->p.k0, l, l0) / l, r);
+    }
+    worst = fmax(worst, pm_v3_dist(f, g) / (s->p.k0 * s->d[i]));
+  }
+  free(pos);
+  return worst;
+}
+
+/* Neighbour lists reused across steps: a packing at rest keeps its lists; a bubble moved across
+ * the skin forces a rebuild from the outer lists at the next step, one moved across the outer
+ * skin a rebuild of those from the grid; the forces from the lists match a fresh search (every
+ * pair, brute force) to 1e-12 throughout. */
+static void lists_reuse_and_skin(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 10);
+  pm_sizing *size = const_size(0.5);
+  bub_params p = bt_params();
+  bub_state *s = bt_state(m, size, &p, 1);
+  int32_t c = bt_hex_patch(s, 5, 5, 0.5, 6);
+  pm_error e = {0};
+  PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  bt_steps(s, 3);
+  assert_true(force_mismatch(s) <= 1e-12);
+  int64_t b0 = s->list_builds, o0 = s->outer_builds;
+  bt_steps(s, 5); /* a relaxed lattice: nothing moves, nothing is rebuilt */
+  assert_int_equal(s->list_builds, b0);
+  assert_int_equal(s->outer_builds, o0);
+  /* Across the skin, not the outer one. The test sums the excesses of the pair: a bubble moving
+   * alone among bubbles at rest crosses the skin after 2 x 0.75 x 0.15 d = 0.225 d, the outer skin
+   * after 2 x 0.75 x (0.6 - 0.15) d = 0.675 d. 0.25 d towards the second ring's bubble at 30
+   * degrees, at sqrt3 d, beyond the lists' reach 1.725 d: it comes within 1.5 d. The lists are
+   * filtered again from the outer ones. */
+  const double dx = 0.25 * 0.5 * cos(M_PI / 6), dy = 0.25 * 0.5 * sin(M_PI / 6);
+  s->x[3 * c] += dx, s->par[2 * c] += dx, s->x[3 * c + 1] += dy, s->par[2 * c + 1] += dy;
+  assert_true(force_mismatch(s) > 1e-3); /* the stale lists miss that pair: the check can fail */
+  bt_steps(s, 1);
+  assert_int_equal(s->list_builds, b0 + 1);
+  assert_int_equal(s->outer_builds, o0);
+  assert_true(force_mismatch(s) <= 1e-12);
+  /* Across the outer skin: the outer lists from the grid as well. */
+  s->x[3 * c + 1] -= 0.9 * 0.5, s->par[2 * c + 1] -= 0.9 * 0.5;
+  bt_steps(s, 1);
+  assert_int_equal(s->list_builds, b0 + 2);
+  assert_int_equal(s->outer_builds, o0 + 1);
+  assert_true(force_mismatch(s) <= 1e-12);
+  for (int k = 0; k < 20; ++k) {
+    bt_steps(s, 1);
+    assert_true(force_mismatch(s) <= 1e-12);
+  }
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
 /* Two bubbles on top of each other (distance 0) separate along a seeded direction. */
 static void coincident_pair(void **state) {
   (void)state;
@@ -244,7 +317,8 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(two_bubbles_rk4),  cmocka_unit_test(two_bubbles_rk2),
       cmocka_unit_test(chain_uniform),    cmocka_unit_test(k0_invariance),
-      cmocka_unit_test(thread_independence), cmocka_unit_test(coincident_pair),
+      cmocka_unit_test(thread_independence), cmocka_unit_test(lists_reuse_and_skin),
+      cmocka_unit_test(coincident_pair),
       cmocka_unit_test(stays_in_face),    cmocka_unit_test(bad_parameters),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
