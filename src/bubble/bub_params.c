@@ -11,6 +11,7 @@
 static const char *const integrators[] = {"rk4", "rk2", NULL};
 static const char *const viscosities[] = {"constant", "sawtooth", NULL};
 static const char *const tet_sources[] = {"bubbles", "tetgen", NULL};
+static const char *const placements[] = {"quadtree", "lattice", NULL};
 
 #define F(field) offsetof(bub_params, field)
 
@@ -61,6 +62,10 @@ static const pm_param_desc desc[] = {
      "Taylor model there (0 = exact evaluation at every RK stage)",
      "our choice (bub_dynamics.c)", NULL},
     /* placement */
+    {"place", PM_PARAM_CHOICE, F(place), BUB_PLACE_LATTICE, 0, 0, 0, "",
+     "face bubbles from the rhombic quadtree (the papers) or a hexagonal lattice grown from the "
+     "border at the stable distance",
+     "003 sec. 3.2, 000 sec. 4.1.1; lattice: our addition (bub_lattice.c)", placements},
     {"w1", PM_PARAM_DOUBLE, F(w1), 1, 0, 4, PM_RANGE_LO_OPEN, "",
      "curve subdivision weight: split while w1 |P1P2| > r1 + r2", "004 sec. 2.3", NULL},
     {"w2", PM_PARAM_DOUBLE, F(w2), 0.5, 0, 1, PM_RANGE_LO_OPEN, "",

@@ -514,7 +514,8 @@ pm_status bub_place(bub_state *s, pm_error *err) {
   for (int32_t c = 0; c < m->count[PM_CURVE] && !st; ++c) {
     double *t = NULL;
     int32_t nt = 0;
-    st = bub_place_curve(s, c, &t, &nt, err);
+    st = s->p.place == BUB_PLACE_LATTICE ? bub_place_curve_lattice(s, c, cap - s->n, &t, &nt, err)
+                                         : bub_place_curve(s, c, &t, &nt, err);
     if (!st && s->n + (int64_t)nt > cap)
       st = pm_error_setf(err, PM_ERR_LIMIT,
                          "bubble placement exceeds the cap of %lld bubbles (curve %d)",
@@ -525,7 +526,9 @@ pm_status bub_place(bub_state *s, pm_error *err) {
   if (st) return st;
   /* Boundary bubbles into the grid, so that faces can keep their points away from them. */
   st = bub_state_grid_rebuild(s, err);
-  for (int32_t f = 0; f < m->count[PM_FACE] && !st; ++f) st = place_face(s, f, cap, err);
+  if (!st && s->p.place == BUB_PLACE_LATTICE) st = bub_place_lattice(s, cap, err);
+  for (int32_t f = 0; f < m->count[PM_FACE] && !st && s->p.place == BUB_PLACE_QUADTREE; ++f)
+    st = place_face(s, f, cap, err);
   if (st) return st;
   /* Arrays are in (kind, cell) order already; ordering sets the ranges and sorts each cell's
    * bubbles in space. */

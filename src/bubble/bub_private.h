@@ -239,6 +239,15 @@ int bub_related_cell(const bub_state *s, int kind, int32_t cell, int32_t j);
 /* Bubbles on every vertex, every curve, every face (003 section 3.2, 000 section 4.1.1). */
 pm_status bub_place(bub_state *s, pm_error *err);
 
+/* Face bubbles of every face by lattice growth from the border (bub_lattice.c); the vertex and
+ * curve bubbles are placed and in the grid. cap limits the bubbles. */
+pm_status bub_place_lattice(bub_state *s, int64_t cap, pm_error *err);
+
+/* The curve bubbles of place = lattice (bub_lattice.c): round(integral of ds / d) segments of
+ * equal integral; their parameters, sorted, in a malloc'ed *t (count *nt). */
+pm_status bub_place_curve_lattice(const bub_state *s, int32_t curve, int64_t cap, double **t,
+                                  int32_t *nt, pm_error *err);
+
 /* Binary subdivision of one curve: the parameters of its interior bubbles, sorted, written to a
  * malloc'ed *t (count *nt). */
 pm_status bub_place_curve(const bub_state *s, int32_t curve, double **t, int32_t *nt,
@@ -351,6 +360,21 @@ double bub_alpha(const bub_state *s, int32_t i);
 
 /* Compute alpha of every moving bubble (needs a valid grid). */
 void bub_alpha_all(bub_state *s);
+
+/* A border chord of a face: consecutive boundary bubbles A, B along one of its loops (in loop
+ * order, face on the left in (u, v)), on boundary curve `curve`; e the unit chord direction, w
+ * the unit outward direction in the face's tangent plane at uv (the pcurves' midpoint of the
+ * chord), len the chord length. */
+typedef struct bub_chord {
+  int32_t face, A, B, curve;
+  double e[3], w[3], len, uv[2];
+} bub_chord;
+
+typedef pm_status (*bub_chord_fn)(bub_state *s, const bub_chord *c, void *user, pm_error *err);
+
+/* Call fn for every border chord of every face, face by face, loop by loop, in loop order (seams
+ * and degenerate curves are not borders). */
+pm_status bub_for_each_chord(bub_state *s, bub_chord_fn fn, void *user, pm_error *err);
 
 /* Replace the outside layer: remove the outside bubbles (from arrays and grid) and place new
  * ones outside the borders of every face (000 section 4.2.1). Needs a valid grid. */

@@ -414,6 +414,12 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   bub_state *s = NULL;
   st = bub_state_create(m, size, &q, in->threads, in->seed, &s, err);
   if (!st) st = bub_place(s, err);
+  if (st == PM_ERR_LIMIT && budget && err) { /* name the budget the caller set */
+    char msg[sizeof err->msg];
+    snprintf(msg, sizeof msg, "%s", err->msg);
+    st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the node budget of %lld would be exceeded (%.400s)",
+                       (long long)cap, msg);
+  }
   if (!st && s->n > cap)
     st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the initial placement has %d bubbles, above the %s of %lld",
                        (int)s->n, budget ? "node budget" : "cap max_bubbles", (long long)cap);

@@ -33,6 +33,8 @@ extern "C" {
 enum { BUB_RK4 = 0, BUB_RK2 = 1 };
 /* Viscosity schedules. */
 enum { BUB_VISC_CONSTANT = 0, BUB_VISC_SAWTOOTH = 1 };
+/* Initial placement of face bubbles. */
+enum { BUB_PLACE_QUADTREE = 0, BUB_PLACE_LATTICE = 1 };
 /* Where the tets' interior nodes come from with --volume. */
 enum { BUB_TETS_BUBBLES = 0, BUB_TETS_TETGEN = 1 };
 
@@ -77,6 +79,11 @@ typedef struct bub_params {
                        1e-6 d elsewhere, bub_dynamics.c); [0, 0.5], 0 = exact evaluation at every
                        RK stage (the papers), default 0.05 */
   /* ---- initial placement (003 section 3.2, 000 section 4.1.1, 004 section 2.3) ---- */
+  int place;        /* face bubbles: BUB_PLACE_QUADTREE, the rhombic quadtree of the papers (003
+                       section 3.2, 000 section 4.1.1, weights w1, w2 of 004 section 2.3), or
+                       BUB_PLACE_LATTICE, a hexagonal lattice grown from the border at the stable
+                       distance (our addition, bub_lattice.c: one grain, the final count);
+                       default lattice */
   double w1;        /* curve insertion weight: split while w1 |P1P2| > r1 + r2; (0, 4],
                        default 1 */
   double w2;        /* face insertion weight (004: 0.5..0.8); (0, 1], default 0.5 (a sparse

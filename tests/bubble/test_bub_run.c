@@ -262,9 +262,14 @@ static void caps_and_errors(void **state) {
   assert_null(out.mesh);
   assert_null(strchr(e.msg, '\n'));
   /* The method's own cap ends the run when insertions reach it; the run's node budget is an
-   * error. (At d = 0.05 the square wants about 500 nodes; the sparse start has fewer than 300.) */
+   * error. (At d = 0.05 the square wants about 500 nodes; the quadtree's sparse start has fewer
+   * than 300; the lattice starts with about 500 and fails at once, naming the cap.) */
   in.max_nodes = PM_DEFAULT_MAX_NODES;
   p.max_bubbles = 300;
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
+  assert_non_null(strstr(e.msg, "cap of 300"));
+  assert_null(out.mesh);
+  p.place = BUB_PLACE_QUADTREE;
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
   assert_non_null(strstr(out.stop_reason, "bubble cap (300) reached"));
   assert_true(out.mesh->nnode <= 300);

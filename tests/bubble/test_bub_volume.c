@@ -216,7 +216,7 @@ static void pushed_removed_hole_refilled(void **state) {
     pm_v3_axpy(mid, &s->x[3 * c], 0.15 * s->d[c], dir);
   }
   const double sp0 = min_spacing(s, mid);
-  assert_true(sp0 > 0.75);
+  assert_true(sp0 > 0.7);
   int32_t id;
   PM_ASSERT_OK(bub_state_add(s, BUB_KVOLUME, 0, NULL, mid, 0, &id, &e), e);
   PM_ASSERT_OK(bub_state_compact(s, &e), e);
@@ -241,7 +241,7 @@ static void pushed_removed_hole_refilled(void **state) {
   print_message("local spacing / l0: relaxed %.3f, pushed %.3f, after control and relaxation %.3f; "
                 "%d -> %d volume bubbles\n",
                 sp0, sp1, min_spacing(s, mid), (int)N + 1, (int)count_volume(s));
-  assert_true(min_spacing(s, mid) > 0.75);
+  assert_true(min_spacing(s, mid) > 0.95 * sp0); /* the packing's spacing is back */
   assert_true(abs(count_volume(s) - N) <= 3);
 
   /* A hole: the centre bubble and every volume bubble within 1.2 d of it removed. */
