@@ -143,6 +143,7 @@ static pm_status scratch(bub_state *s, pm_error *err) {
   R(pot, 1);
   R(disp, 1);
   R(deg, 1);
+  R(skin0, 1);
 #undef R
   bub_chunk *ch = realloc(s->chunks, sizeof(bub_chunk) * ((size_t)nc / BUB_CHUNK + 2));
   if (!ch) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
@@ -170,8 +171,7 @@ static void tangent_project(int kind, const double *der, double w[3]) {
   }
 }
 
-/* A unit direction for a coincident pair, from (seed, pair), pointing from j to i. */
-static void pair_direction(uint64_t seed, int32_t i, int32_t j, double u[3]) {
+void bub_pair_direction(uint64_t seed, int32_t i, int32_t j, double u[3]) {
   int32_t a = i < j ? i : j, b = i < j ? j : i;
   pm_rng r;
   pm_rng_init(&r, seed, ((uint64_t)(uint32_t)a << 32) | (uint32_t)b);
@@ -180,57 +180,9 @@ static void pair_direction(uint64_t seed, int32_t i, int32_t j, double u[3]) {
   if (i > j) pm_v3_scale(u, u, -1);
 }
 
-/* The force sum of bub_force_on; `extras` (a constant at each call) adds the potential and the
- * degree, wanted at the first stage only. */
-static inline __attribute__((always_inline)) void force_sum(const bub_state *s, const double *pos4,
-                                                            int32_t i, double f[3], int extras,
-                                                            double *pot, int32_t *deg) {
-  const double k0 = s->p.k0;
-  const double *pi = &pos4[4 * i];
-  const double xi = pi[0], yi = pi[1], zi = pi[2], di = pi[3];
-  double fx = 0, fy = 0, fz = 0, u = 0;
-  int32_t nd = 0;
-  const int32_t *nb = s->nb;
-  for (int32_t k = s->nb_off[i], end = s->nb_off[i] + s->nb_cnt[i]; k < end; ++k) {
-    const int32_t j = nb[k];
-    const double *pj = &pos4[4 * j];
-    const double rx = xi - pj[0], ry = yi - pj[1], rz = zi - pj[2], l0 = 0.5 * (di + pj[3]);
-    const double r2 = rx * rx + ry * ry + rz * rz;
-    if (!(r2 < 2.25 * l0 * l0)) continue; /* beyond 1.5 l0: no force (003 eq. 11) */
-    /* bub_force: F = l0 k0 g(lambda), g = 5/4 lambda^3 - 19/8 lambda^2 + 9/8 (004 eq. 2.1),
-     * lambda = l / l0; F / l = k0 l0^2 g(lambda) q and lambda = r2 q with q = 1 / (l l0): one
-     * division. */
-    const double l = sqrt(r2);
-    if (extras) {
-      u += 0.5 * bub_potential(k0, l, l0);
-      nd += l < 1.3 * l0;
-    }
-    if (__builtin_expect(l > 1e-12 * l0, 1)) {
-      const double q = 1 / (l * l0), lambda = r2 * q;
-      const double gl = k0 * l0 * l0 * ((1.25 * lambda - 2.375) * lambda * lambda + 1.125) * q;
-      fx += gl * rx, fy += gl * ry, fz += gl * rz;
-    } else { /* coincident: the saturated force along the pair's seeded direction */
-      const double lambda = l / l0, F = l0 * (k0 * ((1.25 * lambda - 2.375) * lambda * lambda + 1.125));
-      double dir[3];
-      pair_direction(s->seed, i, j, dir);
-      fx += F * dir[0], fy += F * dir[1], fz += F * dir[2];
-    }
-  }
-  f[0] = fx, f[1] = fy, f[2] = fz;
-  if (extras) *pot = u, *deg = nd;
-}
-
 void bub_force_on(const bub_state *s, const double *pos4, int32_t i, double f[3], double *pot,
                   int32_t *deg) {
-  if (pot || deg) {
-    double u;
-    int32_t nd;
-    force_sum(s, pos4, i, f, 1, &u, &nd);
-    if (pot) *pot = u;
-    if (deg) *deg = nd;
-  } else {
-    force_sum(s, pos4, i, f, 0, NULL, NULL);
-  }
+  bub_force_sum(s, pos4, i, bub_kernel_simd(), f, pot, deg);
 }
 
 /* ---- frames ------------------------------------------------------------------------------- */
@@ -362,6 +314,7 @@ typedef struct stage_ctx {
   const double *src; /* positions the forces are computed at */
   double *dst;       /* the next stage's positions (NULL: the step's end) */
   double *timers;    /* [3 * threads] */
+  int simd;          /* the force kernel (bub_kernel.c) */
 } stage_ctx;
 
 /* Confine the points par0 + M^-1 J dx of the chunk's curve and face bubbles (given in par, with the
@@ -426,9 +379,9 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
     double f[3];
     const int32_t q = i - lo;
     if (stg == 0)
-      force_sum(s, cx->src, i, f, 1, &s->pot[i], &s->deg[i]);
+      bub_force_sum(s, cx->src, i, cx->simd, f, &s->pot[i], &s->deg[i]);
     else
-      force_sum(s, cx->src, i, f, 0, NULL, NULL);
+      bub_force_sum(s, cx->src, i, cx->simd, f, NULL, NULL);
     if (plane[q]) {
       const double *nrm = &s->normal[3 * s->cell[i]];
       pm_v3_axpy(f, f, -pm_v3_dot(f, nrm), nrm);
@@ -518,7 +471,11 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
       double *P = &cx->dst[4 * i];
       P[0] = x[3 * q], P[1] = x[3 * q + 1], P[2] = x[3 * q + 2], P[3] = s->d[i];
       if (!plane[q]) memcpy(&s->ders[6 * i], &der[6 * q], sizeof(double) * 6);
-      bub_top2_add(&out->skin, bub_skin_excess(s, i, &x[3 * q], s->d[i]));
+      /* The skin test at the stage point, bounded from the step start's (the diameter is the
+       * step's): |x - x_build| <= |x0 - x_build| + |x - x0|. */
+      const double *x0 = &s->pos[0][4 * i];
+      const double ex = x[3 * q] - x0[0], ey = x[3 * q + 1] - x0[1], ez = x[3 * q + 2] - x0[2];
+      bub_top2_add(&out->skin, s->skin0[i] + sqrt(ex * ex + ey * ey + ez * ez));
     }
     double t3 = pm_seconds();
     tm[0] += t1 - t0, tm[1] += t2 - t1, tm[2] += t3 - t2;
@@ -601,20 +558,26 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
       P[0] = s->x[3 * i], P[1] = s->x[3 * i + 1], P[2] = s->x[3 * i + 2], P[3] = s->d[i];
       pm_v3_copy(&s->vs[3 * i], &s->v[3 * i]);
       pm_v3_zero(&s->sumv[3 * i]), pm_v3_zero(&s->suma[3 * i]);
-      if (s->lists_valid) bub_top2_add(&t, bub_skin_excess(s, i, P, P[3]));
+      if (s->lists_valid) {
+        s->skin0[i] = bub_skin_excess(s, i, P, P[3]);
+        bub_top2_add(&t, s->skin0[i]);
+      }
     }
     s->chunks[c].skin = t;
   }
   s->t.integrate += pm_seconds() - t0;
   if (s->lists_valid && skin_failed(s, nchunk)) s->lists_stale = 1;
-  if ((st = bub_neighbors_update(s, s->pos[0], err))) return st;
+  if (s->lists_stale || !s->lists_valid) {
+    if ((st = bub_neighbors_update(s, s->pos[0], err))) return st;
+    for (int32_t i = a; i < b; ++i) s->skin0[i] = bub_skin_excess(s, i, &s->pos[0][4 * i], s->d[i]);
+  }
 
   const double sq = sqrt(s->p.mass * s->p.k0);
   static const double w4[4] = {1.0 / 6, 1.0 / 3, 1.0 / 3, 1.0 / 6}, off4[4] = {0, 0.5, 0.5, 1};
   static const double w2[2] = {0.5, 0.5}, off2[2] = {0, 1};
   const int rk4 = s->p.integrator == BUB_RK4;
   stage_ctx cx = {s->p.mass, bub_time_step(&s->p), 2 * bub_zeta_now(s) * sq, 2 * s->p.zeta_odd * sq,
-                  rk4 ? w4 : w2, rk4 ? off4 : off2, 0, rk4 ? 4 : 2, NULL, NULL, timers};
+                  rk4 ? w4 : w2, rk4 ? off4 : off2, 0, rk4 ? 4 : 2, NULL, NULL, timers, bub_kernel_simd()};
   for (int stg = 0; stg < cx.nstage; ++stg) {
     cx.stg = stg;
     cx.src = stg == 0 ? s->pos[0] : s->pos[1 + ((stg - 1) & 1)];
@@ -637,6 +600,8 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
     if (cx.dst && skin_failed(s, nchunk)) {
       s->lists_stale = 1;
       if ((st = bub_neighbors_update(s, cx.dst, err))) return st;
+      /* The step start against the new build, for the next stages' bounds. */
+      for (int32_t i = a; i < b; ++i) s->skin0[i] = bub_skin_excess(s, i, &s->pos[0][4 * i], s->d[i]);
     }
     int64_t nface = 0;
     for (int64_t c = 0; c < nchunk; ++c) {

@@ -153,6 +153,7 @@ typedef struct bub_state {
   double *pot;           /* [n] potential per bubble (half of each pair it feels) */
   double *disp;          /* [n] displacement of the last step, relative to d */
   int32_t *deg;          /* [n] neighbours within 1.3 l0 at the step start (eps_t) */
+  double *skin0;         /* [n] the skin test's excess of the step's start point */
   struct bub_chunk *chunks; /* [n / BUB_CHUNK + 1] per-chunk partial sums (fixed order) */
   int scratch_cap;
 
@@ -320,6 +321,19 @@ typedef struct bub_chunk {
   int bad_size;  /* the size field was not finite and > 0 at a new position */
   bub_top2 skin; /* the skin test of the chunk's bubbles */
 } bub_chunk;
+
+/* The force sum of bubble i's list at the packed positions pos4 (bub_kernel.c): f, and when pot
+ * or deg is not NULL half the potential of its pairs and its pairs within 1.3 l0. simd selects
+ * the AVX2 implementation (bub_kernel_simd()), which gives the same bits as the plain one. */
+void bub_force_sum(const bub_state *s, const double *pos4, int32_t i, int simd, double f[3],
+                   double *pot, int32_t *deg);
+
+/* 1 when the AVX2 force kernel is in use (the processor has AVX2 and the environment variable
+ * PM_BUB_KERNEL is not "c"). */
+int bub_kernel_simd(void);
+
+/* A unit direction for a coincident pair, from (seed, pair), pointing from j to i. */
+void bub_pair_direction(uint64_t seed, int32_t i, int32_t j, double u[3]);
 
 /* The force on moving bubble i (object space, before the projection onto its cell) from the
  * bubbles of its neighbour list at the packed positions pos4 ((x, y, z, d) per bubble); pot and

@@ -226,6 +226,48 @@ static void lists_reuse_and_skin(void **state) {
   pm_model_destroy(m);
 }
 
+/* The force kernel's two implementations (bub_kernel.c, plain and AVX2) give the same bits: on
+ * a disordered patch with a graded size field and a coincident pair, every bubble's force,
+ * potential and degree. (Where the processor has no AVX2 both calls use the plain one.) */
+static void kernel_implementations_agree(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 10);
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_expression("0.2 + 0.05 * x", &size, &e), e);
+  bub_params p = bt_params();
+  bub_state *s = bt_state(m, size, &p, 1);
+  pm_rng r;
+  pm_rng_init(&r, 8, 0);
+  for (int k = 0; k < 3000; ++k) bt_face_bubble(s, pm_rng_range(&r, 1, 9), pm_rng_range(&r, 1, 9));
+  bt_face_bubble(s, 5, 5);
+  bt_face_bubble(s, 5, 5); /* coincident */
+  PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  bt_steps(s, 2);
+  double *pos = malloc(sizeof(double) * 4 * (size_t)s->n);
+  for (int32_t i = 0; i < s->n; ++i) memcpy(&pos[4 * i], &s->x[3 * i], 24), pos[4 * i + 3] = s->d[i];
+  int32_t listed = 0;
+  for (int32_t i = s->nc; i < s->nf; ++i) {
+    double f0[3], f1[3], u0, u1;
+    int32_t d0, d1;
+    bub_force_sum(s, pos, i, 0, f0, &u0, &d0);
+    bub_force_sum(s, pos, i, bub_kernel_simd(), f1, &u1, &d1);
+    assert_memory_equal(f0, f1, sizeof f0);
+    assert_memory_equal(&u0, &u1, sizeof u0);
+    assert_int_equal(d0, d1);
+    double g0[3];
+    bub_force_sum(s, pos, i, bub_kernel_simd(), g0, NULL, NULL); /* without the extras */
+    assert_memory_equal(f0, g0, sizeof f0);
+    listed += s->nb_cnt[i];
+  }
+  assert_true(listed > 10 * (s->nf - s->nc));
+  print_message("force kernel: %s\n", bub_kernel_simd() ? "AVX2 against plain C" : "plain C only");
+  free(pos);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
 /* Two bubbles on top of each other (distance 0) separate along a seeded direction. */
 static void coincident_pair(void **state) {
   (void)state;
@@ -318,7 +360,7 @@ int main(void) {
       cmocka_unit_test(two_bubbles_rk4),  cmocka_unit_test(two_bubbles_rk2),
       cmocka_unit_test(chain_uniform),    cmocka_unit_test(k0_invariance),
       cmocka_unit_test(thread_independence), cmocka_unit_test(lists_reuse_and_skin),
-      cmocka_unit_test(coincident_pair),
+      cmocka_unit_test(kernel_implementations_agree), cmocka_unit_test(coincident_pair),
       cmocka_unit_test(stays_in_face),    cmocka_unit_test(bad_parameters),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
