@@ -34,6 +34,9 @@ typedef struct result {
   char err[512];
   int32_t nodes, tris;
   double rr_mean, rr_min, amin, eps_t, eps_g, share30, size_mean;
+  double ar_median;        /* median R / l_min */
+  int32_t site_n[3];       /* triangles by site: boundary, irregular (at defects), regular */
+  double site_median[3];   /* their median R / l_min */
   int64_t steps;
   double time, cpu;
   int valid;
@@ -50,6 +53,7 @@ static double cpu_seconds(void) {
 /* Diagnostics (command-line flags): triangles for gnuplot, the worst triangles, the run's extra
  * statistics, the trace. */
 static const char *opt_dump, *opt_trace;
+static uint64_t opt_seed = 1;
 static double opt_worst = -1;
 static const char *opt_bspline = "t20_component8.step"; /* a CAD model of B-spline faces */
 static int opt_extra;
@@ -58,7 +62,7 @@ static result run_method(const pm_method *meth, const void *params, const pm_mod
                          const pm_sizing *size, int threads) {
   result r;
   memset(&r, 0, sizeof r);
-  pm_run_input in = {m, size, 1, threads, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_input in = {m, size, opt_seed, threads, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
   pm_trace *tr = NULL;
   if (opt_trace) pm_trace_create(&tr, NULL);
   in.trace = tr;
@@ -125,6 +129,8 @@ static result run_method(const pm_method *meth, const void *params, const pm_mod
   int64_t over30 = q.tri_min_angle_bins[3] + q.tri_min_angle_bins[4] + q.tri_min_angle_bins[5];
   r.share30 = q.tri.n ? (double)over30 / q.tri.n : 0;
   r.size_mean = q.tri.has_size ? q.tri.size_ratio.mean : 0;
+  r.ar_median = q.tri.s_aspect_ratio.median;
+  for (int k = 0; k < 3; ++k) r.site_n[k] = (int32_t)q.tri_site_aspect[k].n, r.site_median[k] = q.tri_site_aspect[k].median;
   r.steps = out.iterations;
   if (opt_extra) {
     pm_stats_flat fl;
@@ -497,6 +503,14 @@ static rate step_rate(const pm_model *m, int64_t n, int threads, const bub_param
 /* The throughput figures of the targets (bubble-steps per second per core: planar at 10^5 and 10^6
  * bubbles >= 2.5e6, BSpline faces >= 1e6, two threads >= 1.8 x one), beside the bare-arithmetic
  * limit measured in the same run. */
+/* Figures of the targets, filled by the sections that measure them (printed by `done`). */
+static struct {
+  double plane1e5, plane1e6, bspline, scale2, bare1e5, bare1e6; /* bubble-steps / core-second */
+  double big_bub, big_gmsh;   /* qi1 --size 0.00314: seconds (bubble on 2 threads, gmsh) */
+  int32_t big_bub_n, big_gmsh_n;
+  int have_tp, have_big;
+} fig;
+
 static void section_throughput(const bub_params *p, const char *cad) {
   printf("\nthroughput: RK4 bubble-steps per second (a bubble-step: one bubble, one RK4 step)\n");
   pm_model *sq = NULL, *torus = NULL, *bs = NULL;
@@ -508,6 +522,7 @@ static void section_throughput(const bub_params *p, const char *cad) {
   for (int k = 0; k < 2; ++k) {
     int64_t n = k ? 1000000 : 100000;
     rate b1 = bare_kernel(n, 1, 0, p->list_skin), b2 = bare_kernel(n, 2, 0, p->list_skin);
+    *(k ? &fig.bare1e6 : &fig.bare1e5) = b1.cpu;
     rate bs1 = bare_kernel(n, 1, 1, p->list_skin);
     snprintf(note, sizeof note, "(separate x, y, z, d arrays: %.3g /s per core-second)", bs1.cpu);
     print_rate(k ? "bare arithmetic, plane, 1e6" : "bare arithmetic, plane, 1e5", 1, &b1, note);
@@ -518,6 +533,8 @@ static void section_throughput(const bub_params *p, const char *cad) {
     for (int k = 0; k < 2; ++k) {
       int64_t n = k ? 1000000 : 100000;
       rate r1 = step_rate(sq, n, 1, p), r2 = step_rate(sq, n, 2, p);
+      *(k ? &fig.plane1e6 : &fig.plane1e5) = r1.cpu;
+      if (!k) fig.scale2 = r2.wall / r1.wall;
       snprintf(note, sizeof note, "target >= 2.5e6 per core: %s (list builds %lld)",
                r1.cpu >= 2.5e6 ? "met" : "MISSED", (long long)r1.builds);
       print_rate(k ? "bubble step, plane, 1e6" : "bubble step, plane, 1e5", 1, &r1, note);
@@ -534,6 +551,7 @@ static void section_throughput(const bub_params *p, const char *cad) {
   snprintf(path, sizeof path, "%s/%s", PM_CAD_DIR, cad);
   if (pm_cad_load(path, &bs, &e) == PM_OK) {
     rate r1 = step_rate(bs, 100000, 1, p), r2 = step_rate(bs, 100000, 2, p);
+    fig.bspline = r1.cpu;
     char lab[96];
     snprintf(lab, sizeof lab, "bubble step, %.20s faces, 1e5", cad);
     snprintf(note, sizeof note, "target >= 1e6 per core: %s", r1.cpu >= 1e6 ? "met" : "MISSED");
@@ -546,18 +564,209 @@ static void section_throughput(const bub_params *p, const char *cad) {
   pm_model_destroy(sq);
   pm_model_destroy(torus);
   pm_model_destroy(bs);
+  fig.have_tp = 1;
+}
+
+/* ---- bubble beside gmsh-frontal at matched node counts -------------------------------------- */
+
+/* The inputs of the quality targets: the planar cases, the built-in sphere and torus, and three
+ * shared CAD models (a torus, B-spline parts); each with its own size field (the CAD models: the
+ * bubble method's default rule, bub_default_size), given to both methods. big: the node count of
+ * the timing run (0: none; qi1's is its --size 0.0063 of about 2e5 nodes). */
+typedef struct input_spec {
+  const char *name, *input;
+  double big;
+} input_spec;
+
+static const input_spec compare_inputs[] = {
+    {"qi1", "case:qi1", 2e5},        {"qi2", "case:qi2", 0},         {"qi3", "case:qi3", 0},
+    {"qi4", "case:qi4", 0},          {"shimada", "case:shimada", 0}, {"sphere", "case:sphere", 0},
+    {"torus", "case:torus", 0},      {"synth_torus", "synth_torus.brep", 1e5},
+    {"t20_component8", "t20_component8.step", 1e5},                   {"wrench", "wrench.stp", 1e5},
+};
+#define NCOMPARE ((int)(sizeof compare_inputs / sizeof compare_inputs[0]))
+
+/* One row of the comparison. */
+typedef struct pair_row {
+  int ok;
+  result b, g;      /* bubble, gmsh-frontal matched to bubble's node count */
+} pair_row;
+
+static pair_row quality_rows[NCOMPARE], timing_rows[NCOMPARE];
+
+static pm_status open_input(const input_spec *in, const bub_params *p, pm_model **m, pm_sizing **size,
+                            pm_error *e) {
+  char spec[1200];
+  if (strncmp(in->input, "case:", 5) == 0)
+    snprintf(spec, sizeof spec, "%s", in->input);
+  else
+    snprintf(spec, sizeof spec, "%s/%s", PM_CAD_DIR, in->input);
+  pm_status st = pm_input_open(spec, m, size, e);
+  if (!st && !*size) st = bub_default_size(*m, p, 1, 1, size, e);
+  return st;
+}
+
+/* gmsh-frontal on `size` scaled until its node count is within tol of `nodes`. */
+static result gmsh_matched(const pm_model *m, const pm_sizing *size, int32_t nodes, double tol) {
+  char gp[256];
+  peer_gmsh_params_init(gp);
+  pm_error e = {0};
+  double f = 1;
+  result g = run_method(&peer_gmsh_frontal, gp, m, size, 1);
+  for (int it = 0; it < 6 && g.ok && fabs((double)g.nodes / nodes - 1) > tol; ++it) {
+    f *= sqrt((double)g.nodes / nodes);
+    pm_sizing *sc = NULL;
+    if (pm_sizing_scaled(size, f, &sc, &e)) break;
+    g = run_method(&peer_gmsh_frontal, gp, m, sc, 1);
+    pm_sizing_destroy(sc);
+  }
+  return g;
+}
+
+static void print_pair(const char *name, const pair_row *r) {
+  const result *b = &r->b, *g = &r->g;
+  int better = b->rr_mean >= g->rr_mean && b->ar_median <= g->ar_median;
+  printf("%-15s %8d %7.4f %7.4f %6d %8.2f | %8d %7.4f %7.4f %6d %8.2f | %s\n", name, b->nodes,
+         b->rr_mean, b->ar_median, b->site_n[1], b->time, g->nodes, g->rr_mean, g->ar_median,
+         g->site_n[1], g->time, better ? "bubble as good or better" : "gmsh better");
+}
+
+static void pair_header(const char *what) {
+  printf("\n%s: bubble beside gmsh-frontal at matched node counts (gmsh's size field scaled to "
+         "bubble's count, within 1%%; one thread each)\n", what);
+  printf("%-15s %8s %7s %7s %6s %8s | %8s %7s %7s %6s %8s |\n", "input", "nodes", "rr_mean",
+         "R/lmin", "defect", "time_s", "nodes", "rr_mean", "R/lmin", "defect", "time_s");
+  printf("%-15s %-39s | %-39s |\n", "", "bubble (defect: triangles at lattice defects)", "gmsh-frontal");
+}
+
+static void section_compare(const bub_params *p, int big) {
+  pair_header("quality");
+  for (int k = 0; k < NCOMPARE; ++k) {
+    pm_model *m = NULL;
+    pm_sizing *size = NULL;
+    pm_error e = {0};
+    if (open_input(&compare_inputs[k], p, &m, &size, &e)) {
+      printf("%-15s failed to open: %s\n", compare_inputs[k].name, e.msg);
+      continue;
+    }
+    pair_row *r = &quality_rows[k];
+    r->b = run_one(m, size, p, 1);
+    if (r->b.ok) r->g = gmsh_matched(m, size, r->b.nodes, 0.01);
+    r->ok = r->b.ok && r->g.ok;
+    if (r->ok)
+      print_pair(compare_inputs[k].name, r);
+    else
+      printf("%-15s FAILED: %s%s\n", compare_inputs[k].name, r->b.err, r->g.err);
+    fflush(stdout);
+    pm_sizing_destroy(size);
+    pm_model_destroy(m);
+  }
+  if (!big) return;
+  pair_header("time at 2e5 (qi1 --size 0.0063) and 1e5 nodes (CAD)");
+  for (int k = 0; k < NCOMPARE; ++k) {
+    if (compare_inputs[k].big <= 0) continue;
+    pm_model *m = NULL;
+    pm_sizing *size = NULL, *sc = NULL;
+    pm_error e = {0};
+    if (open_input(&compare_inputs[k], p, &m, &size, &e)) {
+      printf("%-15s failed to open: %s\n", compare_inputs[k].name, e.msg);
+      continue;
+    }
+    /* The size for the node count: qi1's 0.0063 (about 2e5 nodes), else the default field
+     * scaled by sqrt(default count / wanted count) (nodes go as 1 / d^2). */
+    pair_row *r = &timing_rows[k];
+    if (strcmp(compare_inputs[k].name, "qi1") == 0) {
+      pm_sizing_constant(0.0063, &sc, &e);
+    } else {
+      double n0 = quality_rows[k].b.ok ? quality_rows[k].b.nodes : run_one(m, size, p, 1).nodes;
+      pm_sizing_scaled(size, sqrt(n0 / compare_inputs[k].big), &sc, &e);
+    }
+    r->b = run_one(m, sc, p, 1);
+    if (r->b.ok) r->g = gmsh_matched(m, sc, r->b.nodes, 0.01);
+    r->ok = r->b.ok && r->g.ok;
+    if (r->ok) {
+      print_pair(compare_inputs[k].name, r);
+      printf("%-15s time bubble / gmsh-frontal %.2f (target <= 2: %s)\n", "", r->b.time / r->g.time,
+             r->b.time <= 2 * r->g.time ? "met" : "MISSED");
+    } else {
+      printf("%-15s FAILED: %s%s\n", compare_inputs[k].name, r->b.err, r->g.err);
+    }
+    fflush(stdout);
+    pm_sizing_destroy(sc);
+    pm_sizing_destroy(size);
+    pm_model_destroy(m);
+  }
+}
+
+/* qi1 at --size 0.00314 (about 1e6 nodes): bubble on two threads beside gmsh-frontal. */
+static void section_million(const bub_params *p) {
+  printf("\nqi1 --size 0.00314 (about 1e6 nodes): bubble on 2 threads, gmsh-frontal (one thread)\n");
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  pm_error e = {0};
+  if (pm_case_open("qi1", &m, NULL, &e) || pm_sizing_constant(0.00314, &size, &e)) {
+    printf("  failed: %s\n", e.msg);
+    return;
+  }
+  result b = run_one(m, size, p, 2);
+  char gp[256];
+  peer_gmsh_params_init(gp);
+  result g = run_method(&peer_gmsh_frontal, gp, m, size, 1);
+  if (b.ok) printf("  bubble        %8d nodes  %7.2f s wall  %7.2f s cpu  rr_mean %.5f  R/lmin %.5f  steps %lld\n", b.nodes, b.time, b.cpu, b.rr_mean, b.ar_median, (long long)b.steps);
+  else printf("  bubble FAILED: %s\n", b.err);
+  if (g.ok) printf("  gmsh-frontal  %8d nodes  %7.2f s wall  %7.2f s cpu  rr_mean %.5f  R/lmin %.5f\n", g.nodes, g.time, g.cpu, g.rr_mean, g.ar_median);
+  else printf("  gmsh-frontal FAILED: %s\n", g.err);
+  fig.big_bub = b.ok ? b.time : NAN, fig.big_gmsh = g.ok ? g.time : NAN;
+  fig.big_bub_n = b.nodes, fig.big_gmsh_n = g.nodes, fig.have_big = 1;
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
+static const char *verdict(int ok) { return ok ? "met" : "MISSED"; }
+
+/* The targets, from the figures the sections above measured in this run. */
+static void section_done(void) {
+  printf("\nDone when: the targets and this run's figures\n");
+  if (fig.have_tp) {
+    printf("  %-62s %10.3g  >= 2.5e6   %s  (bare arithmetic %.3g)\n", "RK4 bubble-steps / core-second, plane, 1e5 bubbles", fig.plane1e5, verdict(fig.plane1e5 >= 2.5e6), fig.bare1e5);
+    printf("  %-62s %10.3g  >= 2.5e6   %s  (bare arithmetic %.3g)\n", "RK4 bubble-steps / core-second, plane, 1e6 bubbles", fig.plane1e6, verdict(fig.plane1e6 >= 2.5e6), fig.bare1e6);
+    printf("  %-62s %10.3g  >= 1e6     %s\n", "RK4 bubble-steps / core-second, B-spline faces (t20_component8)", fig.bspline, verdict(fig.bspline >= 1e6));
+    printf("  %-62s %10.2f  >= 1.8     %s\n", "two threads / one thread (plane, 1e5, wall clock)", fig.scale2, verdict(fig.scale2 >= 1.8));
+  }
+  if (fig.have_big)
+    printf("  %-62s %10.2f  <= 60      %s  (gmsh-frontal %.2f s; %d and %d nodes)\n", "qi1 --size 0.00314 on 2 threads, seconds", fig.big_bub, verdict(fig.big_bub <= 60), fig.big_gmsh, fig.big_bub_n, fig.big_gmsh_n);
+  for (int k = 0; k < NCOMPARE; ++k) {
+    const pair_row *r = &quality_rows[k];
+    if (!r->ok) continue;
+    char lab[96];
+    snprintf(lab, sizeof lab, "%s: rr_mean / median R/lmin, bubble (gmsh-frontal)", compare_inputs[k].name);
+    printf("  %-62s %.4f / %.4f  (%.4f / %.4f)  %s\n", lab, r->b.rr_mean, r->b.ar_median, r->g.rr_mean, r->g.ar_median,
+           verdict(r->b.rr_mean >= r->g.rr_mean && r->b.ar_median <= r->g.ar_median));
+  }
+  for (int k = 0; k < NCOMPARE; ++k) {
+    const pair_row *r = &timing_rows[k];
+    if (!r->ok) continue;
+    char lab[96];
+    snprintf(lab, sizeof lab, "%s at %d nodes: seconds, bubble (gmsh-frontal)", compare_inputs[k].name, r->b.nodes);
+    printf("  %-62s %10.2f  (%.2f)  <= 2x   %s\n", lab, r->b.time, r->g.time, verdict(r->b.time <= 2 * r->g.time));
+  }
 }
 
 int main(int argc, char **argv) {
   bub_params p;
   bub_params_init(&p);
-  int threads = 1, want_planar = 0, want_cad = 0, want_tp = 0;
+  int threads = 1, want_planar = 0, want_cad = 0, want_tp = 0, want_cmp = 0, want_big = 0,
+      want_million = 0, want_done = 0;
   const char *only_case = NULL, *only_cad = NULL;
   for (int i = 1; i < argc; ++i) {
     pm_error e = {0};
     if (strcmp(argv[i], "planar") == 0) want_planar = 1;
     else if (strcmp(argv[i], "cad") == 0) want_cad = 1;
     else if (strcmp(argv[i], "throughput") == 0) want_tp = 1;
+    else if (strcmp(argv[i], "compare") == 0) want_cmp = 1;
+    else if (strcmp(argv[i], "timing") == 0) want_cmp = want_big = 1;
+    else if (strcmp(argv[i], "million") == 0) want_million = 1;
+    else if (strcmp(argv[i], "done") == 0) want_done = 1;
     else if (strcmp(argv[i], "--threads") == 0 && i + 1 < argc) threads = atoi(argv[++i]);
     else if (strcmp(argv[i], "--case") == 0 && i + 1 < argc) only_case = argv[++i];
     else if (strcmp(argv[i], "--cad") == 0 && i + 1 < argc) only_cad = argv[++i];
@@ -565,19 +774,26 @@ int main(int argc, char **argv) {
     else if (strcmp(argv[i], "--trace") == 0 && i + 1 < argc) opt_trace = argv[++i];
     else if (strcmp(argv[i], "--worst") == 0 && i + 1 < argc) opt_worst = atof(argv[++i]);
     else if (strcmp(argv[i], "--extra") == 0) opt_extra = 1;
+    else if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc) opt_seed = (uint64_t)atoll(argv[++i]);
     else if (strcmp(argv[i], "--set") == 0 && i + 1 < argc) {
       if (pm_params_set_pair(&bub_params_table, &p, argv[++i], &e)) return fprintf(stderr, "%s\n", e.msg), 2;
     } else {
-      fprintf(stderr, "usage: bench_bubble [planar] [cad] [throughput] [--set KEY=VALUE] "
+      fprintf(stderr, "usage: bench_bubble [planar] [cad] [throughput] [compare] [timing] [million] "
+                      "[done] [--set KEY=VALUE] "
                       "[--threads N] [--case NAME] [--cad FILE] [--dump F] [--worst RR] "
-                      "[--extra] [--trace F]\n");
+                      "[--extra] [--trace F] [--seed N]\n");
       return 2;
     }
   }
-  if (!want_planar && !want_cad && !want_tp) want_planar = want_cad = want_tp = 1;
+  if (want_done) want_planar = want_tp = want_cmp = want_big = want_million = 1;
+  if (!want_planar && !want_cad && !want_tp && !want_cmp && !want_million)
+    want_planar = want_cad = want_tp = 1;
   printf("bench_bubble: packmesh %s\n", pm_version());
   if (want_planar) section_planar(&p, threads, only_case);
   if (want_tp) section_throughput(&p, opt_bspline);
+  if (want_cmp) section_compare(&p, want_big);
+  if (want_million) section_million(&p);
   if (want_cad) section_cad(&p, threads, only_cad);
+  if (want_done || want_cmp || want_tp || want_million) section_done();
   return 0;
 }

@@ -145,6 +145,11 @@ static pm_status scratch(bub_state *s, pm_error *err) {
   R(deg, 1);
   R(skin0, 1);
 #undef R
+  if (!s->hist) {
+    s->hist = calloc((size_t)BUB_HBINS * (size_t)s->threads, sizeof(int32_t));
+    s->timers = calloc(3 * (size_t)s->threads, sizeof(double));
+    if (!s->hist || !s->timers) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
   bub_chunk *ch = realloc(s->chunks, sizeof(bub_chunk) * ((size_t)nc / BUB_CHUNK + 2));
   if (!ch) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   s->chunks = ch;
@@ -357,6 +362,22 @@ static int32_t confine(bub_state *s, int32_t lo, int32_t hi, const uint8_t *need
   return nexact;
 }
 
+/* The histogram bin of a relative displacement (BUB_HBINS). */
+static inline int hist_bin(double rel) {
+  if (!(rel > 0x1p-60)) return 0;
+  if (!(rel < 0x1p4)) return BUB_HBINS - 1;
+  int e;
+  double m = frexp(rel, &e); /* rel = m 2^e, m in [0.5, 1) */
+  int b = (e + 60) * 8 + (int)((m - 0.5) * 16);
+  return b < 1 ? 1 : (b > BUB_HBINS - 2 ? BUB_HBINS - 2 : b);
+}
+
+/* The upper end of bin b. */
+static double hist_top(int b) {
+  if (b <= 0) return 0x1p-60;
+  return ldexp(0.5 + (b % 8 + 1) / 16.0, b / 8 - 60);
+}
+
 /* 1 when bubble i lives on a plane and frames are on: its position follows from the step start
  * x0 + S_u du + S_v dv exactly, its tangents never change, and its normal is the face's. */
 static inline int on_plane(const bub_state *s, int32_t i) {
@@ -366,7 +387,7 @@ static inline int on_plane(const bub_state *s, int32_t i) {
 /* Stage `stg` for bubbles [lo, hi): forces at ctx->src, the RK sums, the next stage's points (or
  * the step's end). */
 static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t hi, bub_chunk *out,
-                        double *tm) {
+                        double *tm, int32_t *hist) {
   double acc[3 * BUB_CHUNK], dxc[3 * BUB_CHUNK], par[2 * BUB_CHUNK], x[3 * BUB_CHUNK], der[6 * BUB_CHUNK];
   int8_t rc[BUB_CHUNK];
   uint8_t need[BUB_CHUNK], plane[BUB_CHUNK];
@@ -514,6 +535,7 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
     if (s->disp[i] > out->max_disp) out->max_disp = s->disp[i];
     double rel = s->disp[i] / s->d[i];
     if (rel > out->max_rel) out->max_rel = rel;
+    hist[hist_bin(rel)]++;
   }
   double t4 = pm_seconds();
   tm[0] += t1 - t0, tm[1] += (t2 - t1) + (t4 - t3), tm[2] += t3 - t2;
@@ -534,13 +556,14 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   int32_t a, b;
   bub_moving(s, &a, &b);
   const int T = bub_threads_for(s, b - a);
-  double timers[3 * 64] = {0};
-  const int TT = T < 64 ? T : 64;
+  double *timers = s->timers;
+  for (int k = 0; k < 3 * T; ++k) timers[k] = 0;
   double t0 = pm_seconds();
   /* The step start, packed; the fixed bubbles' entries of the stage buffers with it when the set
    * of bubbles changed. */
   const int refill = !s->lists_valid;
   const int64_t nchunk = ((int64_t)(b - a) + BUB_CHUNK - 1) / BUB_CHUNK;
+  memset(s->hist, 0, sizeof(int32_t) * BUB_HBINS * (size_t)s->threads);
   for (int32_t i = 0; i < n; i = (i + 1 == a) ? b : i + 1) { /* the fixed bubbles */
     if (i >= a && i < b) continue; /* only when a == 0 */
     double *P = &s->pos[0][4 * i];
@@ -589,12 +612,12 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
 #pragma omp parallel for num_threads(T) schedule(dynamic, 1) if (T > 1)
     for (int64_t c = 0; c < nchunk; ++c) {
 #ifdef _OPENMP
-      const int t = omp_get_thread_num() < TT ? omp_get_thread_num() : TT - 1;
+      const int t = omp_get_thread_num();
 #else
       const int t = 0;
 #endif
       const int32_t lo = a + (int32_t)(c * BUB_CHUNK), hi = lo + BUB_CHUNK < b ? lo + BUB_CHUNK : b;
-      stage_chunk(s, &cx, lo, hi, &s->chunks[c], &timers[3 * t]);
+      stage_chunk(s, &cx, lo, hi, &s->chunks[c], &timers[3 * t], &s->hist[(size_t)BUB_HBINS * t]);
     }
     /* The next stage's points must pass the skin test before their forces are summed. */
     if (cx.dst && skin_failed(s, nchunk)) {
@@ -612,10 +635,10 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
     }
     if (stg == 0) info->eps_t = nface > 0 ? info->eps_t / (double)nface : 0;
   }
-  for (int t = 0; t < TT; ++t) {
-    s->t.force += timers[3 * t] / TT;
-    s->t.integrate += timers[3 * t + 1] / TT;
-    s->t.project += timers[3 * t + 2] / TT;
+  for (int t = 0; t < T; ++t) {
+    s->t.force += timers[3 * t] / T;
+    s->t.integrate += timers[3 * t + 1] / T;
+    s->t.project += timers[3 * t + 2] / T;
   }
   /* The step's end: sums in chunk order, the skin test for the next step. */
   double sum = 0, mx = 0, mrel = 0;
@@ -633,6 +656,19 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   info->mean_disp = b > a ? sum / (b - a) : 0;
   info->max_disp = mx;
   info->max_rel_disp = mrel;
+  /* The quantile from the threads' histograms (integer counts: the same sums in any order). */
+  info->q_rel_disp = mrel;
+  if (s->p.disp_quantile < 1 && b > a) {
+    const int64_t want = (int64_t)ceil(s->p.disp_quantile * (double)(b - a));
+    int64_t cum = 0;
+    for (int k = 0; k < BUB_HBINS; ++k) {
+      for (int t = 0; t < s->threads; ++t) cum += s->hist[(size_t)BUB_HBINS * t + k];
+      if (cum >= want) {
+        info->q_rel_disp = fmin(hist_top(k), mrel);
+        break;
+      }
+    }
+  }
   s->step++;
   s->steps_in_round++;
   s->bubble_steps += b - a;

@@ -528,7 +528,7 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
     /* Faces: a candidate that is excess already would be removed at once. Curves: the chain
      * test above decided; a snapshot of a chain before it relaxes overstates the ratio of a
      * bubble put into a gap (1.5 l0 split in two reads 3, relaxed it is about 2). */
-    if (!best.ok || (kind != BUB_KCURVE && best.alpha > excess)) {
+    if (!best.ok || (kind != BUB_KCURVE && best.alpha > fmax(excess, kind == BUB_KFACE ? s->p.insert_excess : 0))) {
       c->info->failed++;
       continue;
     }

@@ -156,6 +156,8 @@ typedef struct bub_state {
   double *skin0;         /* [n] the skin test's excess of the step's start point */
   struct bub_chunk *chunks; /* [n / BUB_CHUNK + 1] per-chunk partial sums (fixed order) */
   int scratch_cap;
+  int32_t *hist;         /* [BUB_HBINS threads] per-thread displacement histograms */
+  double *timers;        /* [3 threads] per-thread stage timers of a step */
 
   /* Wall-clock seconds per stage of the relaxation (bub_run.c writes them as time_s.bubble.*):
    * the thread-seconds spent in a stage, summed over threads and divided by their number. */
@@ -188,9 +190,11 @@ static inline void bub_moving(const bub_state *s, int32_t *a, int32_t *b) {
 }
 
 /* Threads for a loop over n items: the run's threads, or 1 below BUB_PARALLEL_MIN items (a
- * parallel region costs a few microseconds, more than a small loop, and much more on a loaded
- * machine). Results never depend on it. */
-#define BUB_PARALLEL_MIN 2048
+ * parallel region costs a few microseconds, more than a small loop, and on a machine with more
+ * busy threads than cores a time slice when a thread has been descheduled: qi1 at d = 0.05, 3816
+ * bubbles, spent 3.6 of its 5.2 s waiting with two threads on a shared two-core machine). Results
+ * never depend on it. */
+#define BUB_PARALLEL_MIN 8192
 static inline int bub_threads_for(const bub_state *s, int64_t n) {
   return n >= BUB_PARALLEL_MIN ? s->threads : 1;
 }
@@ -313,6 +317,11 @@ static inline void bub_top2_add(bub_top2 *t, double e) {
  * order and chunks are combined in chunk order, so no sum depends on the thread count. */
 #define BUB_CHUNK 256
 
+/* The histogram of the steps' relative displacements (for the quantile of bub_step_info): bins
+ * of an eighth of an octave from 2^-60 to 2^4 (a displacement of 0 in the first, one beyond in
+ * the last). */
+#define BUB_HBINS 512
+
 /* Per-chunk partial results of a step. */
 typedef struct bub_chunk {
   double kinetic, potential, edev, sum_disp, max_disp, max_rel;
@@ -355,6 +364,8 @@ typedef struct bub_step_info {
   double kinetic, potential;  /* at the start of the step */
   double mean_disp, max_disp; /* object-space displacement of the step */
   double max_rel_disp;        /* max displacement / d */
+  double q_rel_disp;          /* the disp_quantile-quantile of displacement / d (the max when
+                                 disp_quantile = 1): what the calm and stopping tests read */
   double eps_t;               /* mean |neighbours within 1.3 l0 - 6| over face bubbles (- 12
                                  over volume bubbles in the volume phase) */
 } bub_step_info;

@@ -76,7 +76,7 @@
 static const char *const trace_cols[] = {"step",     "bubbles",  "kinetic",   "potential",
                                          "mean_disp", "max_disp", "insertions", "deletions",
                                          "eps_t",    "zeta",     "max_rel_disp", "round",
-                                         "phase"};
+                                         "phase",    "q_rel_disp"};
 #define NCOL ((int)(sizeof trace_cols / sizeof trace_cols[0]))
 
 static pm_status snapshot(bub_state *s, pm_frames *fr, pm_error *err) {
@@ -139,7 +139,7 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
     bub_control_info ci = {0};
     int controlled = 0;
     if (p->population && !final_phase && s->steps_in_round >= p->control_steps &&
-        (info.max_rel_disp <= p->calm || s->steps_in_round >= 4 * p->control_steps)) {
+        (info.q_rel_disp <= p->calm || s->steps_in_round >= 4 * p->control_steps)) {
       st = bub_population_control(s, cap, &ci, err);
       if (st) break;
       controlled = 1;
@@ -172,15 +172,15 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
       double row[NCOL] = {(double)s->step, (double)(s->volume_phase ? s->nw - s->nf : s->nf - s->nv),
                           info.kinetic, info.potential, info.mean_disp, info.max_disp, ci.inserted,
                           ci.removed, info.eps_t, bub_zeta_now(s), info.max_rel_disp,
-                          (double)s->round, s->volume_phase ? 3 : 2};
+                          (double)s->round, s->volume_phase ? 3 : 2, info.q_rel_disp};
       st = pm_trace_add(in->trace, row, err);
       if (st) break;
     }
     if (in->frames && s->step % p->frame_every == 0 && (st = snapshot(s, in->frames, err))) break;
     if (final_phase) {
-      if (p->final_steps == 0 || --final_left <= 0 || (info.max_rel_disp <= p->disp_tol && !controlled))
+      if (p->final_steps == 0 || --final_left <= 0 || (info.q_rel_disp <= p->disp_tol && !controlled))
         break;
-    } else if (info.max_rel_disp <= p->disp_tol &&
+    } else if (info.q_rel_disp <= p->disp_tol &&
                (!p->population || (controlled && last_change == 0))) {
       snprintf(reason, 128, "converged: no bubble moved more than %g of its diameter in a step",
                p->disp_tol);

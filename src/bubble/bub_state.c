@@ -284,7 +284,7 @@ void bub_state_destroy(bub_state *s) {
   free(s->seam);
   for (int k = 0; k < 3; ++k) free(s->pos[k]);
   free(s->vs), free(s->sumv), free(s->suma), free(s->ders), free(s->pot), free(s->disp), free(s->deg);
-  free(s->skin0);
+  free(s->skin0), free(s->hist), free(s->timers);
   free(s->chunks);
   bub_neighbors_free(s);
   free(s);

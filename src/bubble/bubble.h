@@ -91,10 +91,13 @@ typedef struct bub_params {
                        that removals thin: see bub_place.c) */
   /* ---- population control (003 eq. 16, 000 sections 4.1.2, 4.2) ---- */
   int population;   /* adaptive population control on/off; default on (003 section 3.5) */
-  double face_open;   /* face bubble is open below this overlap ratio; (0, 12], < 6, default 5
-                         (000 section 4.1.2) */
-  double face_excess; /* face bubble is excess above this overlap ratio; (0, 30], > 6, default 8
-                         (000 section 4.1.2) */
+  double face_open;   /* face bubble is open below this overlap ratio; (0, 12], < 6, default 5.6
+                         (000 section 4.1.2: 5, for the quadtree's sparse start; our choice with
+                         the lattice start, which has the final density already: a narrower
+                         window turns a strained patch into a defect instead of spreading the
+                         strain over many triangles, bench_bubble compare) */
+  double face_excess; /* face bubble is excess above this overlap ratio; (0, 30], > 6, default 7
+                         (000 section 4.1.2: 8; the same choice) */
   double curve_open;  /* curve bubble open below; (0, 4], < 2, default 5/3 (our choice: the face
                          cut-offs scaled by 2/6, the same spacing window; bub_population.c) */
   double curve_excess; /* curve bubble excess above; (0, 10], > 2, default 8/3 (same rule) */
@@ -104,6 +107,10 @@ typedef struct bub_params {
   double volume_excess; /* volume bubble is excess above; (0, 60], > 12, default 13.5 (our
                            choice: below the 13.9 of a bubble pushed into the close packing's
                            roomiest hole, as the faces' 8 is at a pushed bubble's 7.6-7.95) */
+  double insert_excess; /* a face insertion place is not used when its overlap ratio is above
+                           max(face_excess, insert_excess) (a new bubble is not removed in the
+                           control that inserted it, 000 section 4.2.4, and relaxes before the
+                           next); [0, 30], default 8 (the papers' face_excess) */
   double insert_k;  /* insertion distance factor k (a new face bubble at k r); [0.5, 4],
                        default 1.8 (000 section 4.2.4) */
   int control_steps; /* relaxation steps between two population controls; [1, 100000],
@@ -120,8 +127,13 @@ typedef struct bub_params {
   int stop_rounds;  /* settled rounds in a row; [1, 1000], default 2 (004: twice) */
   double disp_tol;  /* stop when no bubble moves more than disp_tol x its diameter in a step and
                        the last control changed nothing (003 section 3.4); [0, 1], default 1e-3 */
-  int final_steps;  /* relaxation steps after the population has settled; [0, 1e6], default 60
-                       (our choice) */
+  double disp_quantile; /* the tests on a step's displacements (calm, disp_tol) read this quantile
+                           of the bubbles' displacement / d instead of the largest (our choice: the
+                           largest of n values grows with n, and so would the step count);
+                           (0, 1], 1 = the largest (003 sections 3.4-3.5), default 0.99 */
+  int final_steps;  /* relaxation steps after the population has settled, at most (the
+                       displacement test may end them sooner); [0, 1e6], default 100 (our
+                       choice) */
   int max_steps;    /* cap on steps; [0, 1e8], default 3000 */
   double max_bubbles; /* cap on bubbles: reached by insertions it ends the run (the run's own
                          node budget, pm_run_input.max_nodes, is an error instead); [1, 2e9],
