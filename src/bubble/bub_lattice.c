@@ -166,11 +166,12 @@ static pm_status add(grow_ctx *g, const double par[2], int32_t i, int32_t j, con
   return st;
 }
 
-/* Grow the current grain breadth first from the queue's items. */
-static pm_status grow(grow_ctx *g, int64_t head) {
+/* Grow the current grain breadth first from the queue's items [head, end) (end < 0: and from
+ * every item added meanwhile). */
+static pm_status grow_range(grow_ctx *g, int64_t head, int64_t end) {
   bub_state *s = g->s;
   pm_status st = PM_OK;
-  for (; head < g->qn && !st; ++head) {
+  for (; head < (end < 0 ? g->qn : end) && !st; ++head) {
     const grow_item it = g->q[head];
     const int32_t o = it.id;
     double n[3], e2[3];
@@ -206,6 +207,11 @@ static pm_status grow(grow_ctx *g, int64_t head) {
   }
   return st;
 }
+
+static pm_status grow(grow_ctx *g, int64_t head) { return grow_range(g, head, -1); }
+
+/* The six directions of one item, without growing from what they add. */
+static pm_status grow_once(grow_ctx *g, int64_t head) { return grow_range(g, head, head + 1); }
 
 typedef struct chord_list {
   bub_chord *c;
@@ -380,6 +386,25 @@ pm_status bub_place_lattice(bub_state *s, int64_t cap, pm_error *err) {
         if (!st) st = grow(&g, 0);
       }
     }
+    /* Curved faces: where the face bent the lattice so that a site was found crowded while a
+     * place next to it is free, every bubble of the face tries its six directions again,
+     * whatever the sites' numbers say (a grain of its own each), until no place is added.
+     * (Planes keep their grains: a gap between two is a grain boundary population control
+     * fills as well.) */
+    for (int pass = 0; pass < 4 && !st && !s->affine[f]; ++pass) {
+      int64_t before = g.qn;
+      for (int64_t k = 0; k < before && !st; ++k) {
+        grow_item it = g.q[k];
+        it.i = it.j = 0;
+        ++g.grain;
+        int64_t head = g.qn;
+        st = push(&g, it.id, 0, 0, it.e1);
+        if (!st) st = mark(&g, site_key(g.grain, 0, 0), it.id);
+        if (!st) st = grow_once(&g, head);
+      }
+      if (g.qn == before) break;
+    }
+
   }
   free(g.q);
   pm_keyindex_free(&g.sites);
