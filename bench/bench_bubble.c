@@ -443,7 +443,7 @@ static int32_t lattice(bub_state *s, const pm_cell *f, double h, double jitter) 
 
 /* bub_dynamics_step on face bubbles only (lattice() on every face of m, jitter 0.1 so that the
  * bubbles move and the lists get rebuilt as in a run), n bubbles within 5%: steps for about 3 s
- * (at least 3) after one warm-up step. */
+ * (at least 20) after five warm-up steps. */
 static rate step_rate(const pm_model *m, int64_t n, int threads, const bub_params *base) {
   bub_params p = *base;
   pm_sizing *size = NULL;
@@ -481,7 +481,7 @@ static rate step_rate(const pm_model *m, int64_t n, int threads, const bub_param
   for (int32_t f = 0; f < m->count[PM_FACE]; ++f) lattice(s, pm_model_cell(m, PM_FACE, f), h, 0.1);
   bub_state_order(s, &e);
   bub_step_info info;
-  bub_dynamics_step(s, &info, &e); /* warm-up: lists, frames */
+  for (int k = 0; k < 5; ++k) bub_dynamics_step(s, &info, &e); /* warm-up: lists, frames */
   int64_t steps = 0, b0 = s->list_builds;
   clocks t0 = clocks_now(), t1 = t0;
   do {
@@ -491,7 +491,7 @@ static rate step_rate(const pm_model *m, int64_t n, int threads, const bub_param
     }
     ++steps;
     t1 = clocks_now();
-  } while ((t1.wall - t0.wall < 3.0 || steps < 3) && steps < 400);
+  } while ((t1.wall - t0.wall < 3.0 || steps < 20) && steps < 400);
   int64_t moving = s->nf - s->nv;
   rate out = {(double)moving * steps / (t1.wall - t0.wall), (double)moving * steps / (t1.cpu - t0.cpu),
               moving, steps, s->list_builds - b0};
@@ -722,6 +722,49 @@ static void section_million(const bub_params *p) {
   pm_model_destroy(m);
 }
 
+/* What Qi et al.'s accelerations (papers/004 section 2) buy, and the step counts of the default
+ * pipeline, at about 1e4, 1e5 and 1e6 bubbles (qi1 at d = 0.0304, 0.0096, 0.00304). "papers": the
+ * rhombic quadtree start with w2 = 0.5, the thesis's cut-offs 5 and 8, the largest displacement in
+ * the tests, at most 60 final steps, with all of 004's accelerations (saw-tooth viscosity, odd-
+ * bubble damping, the self-adaptive stop); then each one off in turn (at 1e6 only the papers'
+ * pipeline and the default, for time), and the default (lattice start, bubble.h's defaults). */
+static void section_accel(const bub_params *base, int threads, int upto) {
+  static const double sizes[3] = {0.0304, 0.0096, 0.00304};
+  static const char *const names[3] = {"1e4", "1e5", "1e6"};
+  printf("\naccelerations of papers/004 on qi1 (threads %d): nodes, steps, wall seconds, rr_mean, median R/l_min\n", threads);
+  printf("%-5s %-34s %8s %6s %8s %7s %7s\n", "n", "pipeline", "nodes", "steps", "wall_s", "rr_mean", "R/lmin");
+  for (int k = 0; k < 3 && k < upto; ++k) {
+    pm_model *m = NULL;
+    pm_sizing *size = NULL;
+    pm_error e = {0};
+    if (pm_case_open("qi1", &m, NULL, &e) || pm_sizing_constant(sizes[k], &size, &e)) continue;
+    for (int v = 0; v < 7; ++v) {
+      if (k == 2 && v >= 1 && v <= 5) continue;
+      bub_params p = *base;
+      const char *label = "default (lattice start)";
+      if (v < 6) {
+        p.place = BUB_PLACE_QUADTREE, p.w2 = 0.5, p.face_open = 5, p.face_excess = 8;
+        p.disp_quantile = 1, p.final_steps = 60;
+        label = "papers: quadtree, 004's accelerations";
+      }
+      if (v == 1) p.viscosity = BUB_VISC_CONSTANT, label = "papers, no saw-tooth viscosity";
+      if (v == 2) p.odd_from = 0, label = "papers, no odd-bubble damping";
+      if (v == 3) p.adaptive_stop = 0, label = "papers, no self-adaptive stop";
+      if (v == 4) p.w2 = 0.8, label = "papers, w2 = 0.8";
+      if (v == 5) p.integrator = BUB_RK2, label = "papers, RK2 instead of RK4";
+      result r = run_one(m, size, &p, threads);
+      if (r.ok)
+        printf("%-5s %-34s %8d %6lld %8.2f %7.5f %7.5f%s\n", names[k], label, r.nodes, (long long)r.steps,
+               r.time, r.rr_mean, r.ar_median, strncmp(r.stop, "max steps", 9) == 0 ? "  (max_steps)" : "");
+      else
+        printf("%-5s %-34s FAILED: %s\n", names[k], label, r.err);
+      fflush(stdout);
+    }
+    pm_sizing_destroy(size);
+    pm_model_destroy(m);
+  }
+}
+
 static const char *verdict(int ok) { return ok ? "met" : "MISSED"; }
 
 /* The targets, from the figures the sections above measured in this run. */
@@ -756,7 +799,7 @@ int main(int argc, char **argv) {
   bub_params p;
   bub_params_init(&p);
   int threads = 1, want_planar = 0, want_cad = 0, want_tp = 0, want_cmp = 0, want_big = 0,
-      want_million = 0, want_done = 0;
+      want_million = 0, want_done = 0, want_accel = 0;
   const char *only_case = NULL, *only_cad = NULL;
   for (int i = 1; i < argc; ++i) {
     pm_error e = {0};
@@ -767,6 +810,8 @@ int main(int argc, char **argv) {
     else if (strcmp(argv[i], "timing") == 0) want_cmp = want_big = 1;
     else if (strcmp(argv[i], "million") == 0) want_million = 1;
     else if (strcmp(argv[i], "done") == 0) want_done = 1;
+    else if (strcmp(argv[i], "accel") == 0) want_accel = 3;
+    else if (strcmp(argv[i], "accel-small") == 0) want_accel = 2;
     else if (strcmp(argv[i], "--threads") == 0 && i + 1 < argc) threads = atoi(argv[++i]);
     else if (strcmp(argv[i], "--case") == 0 && i + 1 < argc) only_case = argv[++i];
     else if (strcmp(argv[i], "--cad") == 0 && i + 1 < argc) only_cad = argv[++i];
@@ -779,20 +824,21 @@ int main(int argc, char **argv) {
       if (pm_params_set_pair(&bub_params_table, &p, argv[++i], &e)) return fprintf(stderr, "%s\n", e.msg), 2;
     } else {
       fprintf(stderr, "usage: bench_bubble [planar] [cad] [throughput] [compare] [timing] [million] "
-                      "[done] [--set KEY=VALUE] "
+                      "[accel] [accel-small] [done] [--set KEY=VALUE] "
                       "[--threads N] [--case NAME] [--cad FILE] [--dump F] [--worst RR] "
                       "[--extra] [--trace F] [--seed N]\n");
       return 2;
     }
   }
   if (want_done) want_planar = want_tp = want_cmp = want_big = want_million = 1;
-  if (!want_planar && !want_cad && !want_tp && !want_cmp && !want_million)
+  if (!want_planar && !want_cad && !want_tp && !want_cmp && !want_million && !want_accel)
     want_planar = want_cad = want_tp = 1;
   printf("bench_bubble: packmesh %s\n", pm_version());
   if (want_planar) section_planar(&p, threads, only_case);
   if (want_tp) section_throughput(&p, opt_bspline);
   if (want_cmp) section_compare(&p, want_big);
   if (want_million) section_million(&p);
+  if (want_accel) section_accel(&p, threads, want_accel);
   if (want_cad) section_cad(&p, threads, only_cad);
   if (want_done || want_cmp || want_tp || want_million) section_done();
   return 0;

@@ -477,10 +477,9 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
     } else {
       rc[q] = (int8_t)pm_cell_move(c, par0, dpar, &par[2 * q]);
     }
-    if (plane[q]) {
+    if (plane[q]) { /* (the tangents never change: der[] is not read for planes) */
       const double du = par[2 * q] - par0[0], dv = par[2 * q + 1] - par0[1];
       for (int k = 0; k < 3; ++k) x[3 * q + k] = x0[k] + der0[k] * du + der0[3 + k] * dv;
-      memcpy(&der[6 * q], der0, sizeof(double) * 6);
     } else {
       need[q] = 1;
     }

@@ -1,7 +1,8 @@
 /* Adaptive population control (papers/003 section 3.5, papers/000 sections 4.1.2 and 4.2.1-4.2.5).
  *
  * A bubble is excess when its overlap ratio is above the cut-off of its kind, open when below
- * (000 section 4.1.2: 8.0 and 5.0 on faces). The control runs in the thesis's order (000 section
+ * (000 section 4.1.2: 8.0 and 5.0 on faces, for its sparse quadtree start; 7 and 5.6 by default
+ * with the lattice start, bubble.h). The control runs in the thesis's order (000 section
  * 4.2.5): remove excess curve bubbles, remove excess face bubbles, insert around open curve
  * bubbles, insert around open face bubbles, remove excess curve bubbles, remove excess face
  * bubbles. Vertex bubbles are never removed.
@@ -189,7 +190,7 @@ static pm_status update_around(ctl *c, const double x[3], double d, int kind, in
  * overlap ratio alpha(s) = sum_k 4 max(0, 1.5 - k s) at spacing s l0 (2 for s = 1). The cut-offs
  * therefore mean spacings: open above s_open = alpha^-1(curve_open) (1.083 for 5/3), excess
  * below s_excess = alpha^-1(curve_excess) (0.833 for 8/3), the same window as a uniformly strained
- * hexagonal patch has under the face cut-offs 5 and 8 (which is why 5/3 and 8/3 are the
+ * hexagonal patch has under the thesis's face cut-offs 5 and 8 (which is why 5/3 and 8/3 are the
  * defaults). A control looks at bubbles before the chain has relaxed, and a bubble can be open
  * beside a gap that relaxation would close; so, our addition, a curve bubble is removed only if
  * the relaxed chain with one bubble less would not be open, and a bubble is inserted only if the

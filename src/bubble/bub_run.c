@@ -5,7 +5,9 @@
  * Rounds. A population control (bub_population.c) follows at least control_steps relaxation
  * steps (000 section 4.2.6: 20), and only when the system is relatively calm (003 section 3.5:
  * "only when the maximum velocity of all bubbles is within a small value"): when no bubble
- * moved more than `calm` of its diameter in the last step. A system that does not calm down
+ * moved more than `calm` of its diameter in the last step -- or, by default, 99% of them
+ * (disp_quantile: the largest of n displacements grows with n, and with it the steps a test on
+ * it waits; a quantile does not). A system that does not calm down
  * within 4 x control_steps steps is controlled anyway (our choice: oscillations that never settle
  * below `calm` must not stop the population from adapting). The steps between two controls are
  * a round (004's "round of simulation").
@@ -15,9 +17,9 @@
  *     most stop_change of itself in stop_rounds consecutive controls; then population control
  *     ends and up to final_steps relaxation steps follow (until the displacement tolerance);
  *   - the displacement tolerance (003 section 3.4: "the distance moved by the bubbles during one
- *     time-step in any d.o.f becomes less than a given small value"): no bubble moved more than
- *     disp_tol of its diameter in a step, and the last control changed nothing (or population
- *     control is off);
+ *     time-step in any d.o.f becomes less than a given small value"): no bubble (the
+ *     disp_quantile of them) moved more than disp_tol of its diameter in a step, and the last
+ *     control changed nothing (or population control is off);
  *   - max_steps;
  *   - the bubble cap max_bubbles: reached by insertions, it ends population control like the
  *     adaptive stop (the run reports it). The run's node budget (in->max_nodes, --max-nodes) is
@@ -416,7 +418,7 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   if (!st) st = bub_place(s, err);
   if (st == PM_ERR_LIMIT && budget && err) { /* name the budget the caller set */
     char msg[sizeof err->msg];
-    snprintf(msg, sizeof msg, "%s", err->msg);
+    snprintf(msg, sizeof msg, "%s", strncmp(err->msg, "bubble: ", 8) == 0 ? err->msg + 8 : err->msg);
     st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the node budget of %lld would be exceeded (%.400s)",
                        (long long)cap, msg);
   }

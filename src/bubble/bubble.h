@@ -99,7 +99,8 @@ typedef struct bub_params {
   double face_excess; /* face bubble is excess above this overlap ratio; (0, 30], > 6, default 7
                          (000 section 4.1.2: 8; the same choice) */
   double curve_open;  /* curve bubble open below; (0, 4], < 2, default 5/3 (our choice: the face
-                         cut-offs scaled by 2/6, the same spacing window; bub_population.c) */
+                         cut-offs of 000, 5 and 8, scaled by 2/6, the same spacing window;
+                         bub_population.c) */
   double curve_excess; /* curve bubble excess above; (0, 10], > 2, default 8/3 (same rule) */
   double volume_open;   /* volume bubble is open below this overlap ratio; (0, 40], < 12, default
                            10 (our choice: two of 12 neighbours missing, the faces' one of 6;

@@ -284,7 +284,24 @@ static void caps_and_errors(void **state) {
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
   assert_non_null(strstr(e.msg, "node budget of 300"));
   assert_null(out.mesh);
+  /* A size far too fine for the cap fails before any bubble is placed, naming the cap. */
   in.max_nodes = PM_DEFAULT_MAX_NODES;
+  bub_params_init(&p);
+  pm_sizing *tiny = NULL;
+  PM_ASSERT_OK(pm_sizing_constant(1e-5, &tiny, &e), e); /* about 1.2e10 bubbles */
+  in.size = tiny;
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
+  assert_non_null(strstr(e.msg, "cap of 10000000"));
+  assert_null(out.mesh);
+  { /* the placement itself: nothing placed, the check comes first */
+    bub_state *s = bt_state(m, tiny, &p, 1);
+    assert_int_equal(bub_place(s, &e), PM_ERR_LIMIT);
+    assert_int_equal(s->n, 0);
+    assert_non_null(strstr(e.msg, "cap of 10000000"));
+    bub_state_destroy(s);
+  }
+  in.size = size;
+  pm_sizing_destroy(tiny);
   p.k0 = 0;
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "k0"));
