@@ -166,52 +166,58 @@ static pm_status add(grow_ctx *g, const double par[2], int32_t i, int32_t j, con
   return st;
 }
 
-/* Grow the current grain breadth first from the queue's items [head, end) (end < 0: and from
- * every item added meanwhile). */
-static pm_status grow_range(grow_ctx *g, int64_t head, int64_t end) {
+/* The six lattice directions of item it: a bubble at each free place. With sites, a place is tried
+ * only when its site (it's grain, axial coordinates) has not been tried before, and is marked. */
+static pm_status try_six(grow_ctx *g, const grow_item *it, int sites) {
   bub_state *s = g->s;
   pm_status st = PM_OK;
-  for (; head < (end < 0 ? g->qn : end) && !st; ++head) {
-    const grow_item it = g->q[head];
-    const int32_t o = it.id;
-    double n[3], e2[3];
-    if (!normal_at(s, o, n)) continue;
-    pm_v3_cross(e2, n, it.e1);
-    for (int k = 0; k < 6 && !st; ++k) {
-      const int32_t i = it.i + DI[k], j = it.j + DJ[k];
-      const uint64_t key = site_key(g->grain, i, j);
-      if (pm_keyindex_get(&g->sites, key) != -1 || g->sites.n >= INT32_MAX / 2) continue;
-      const double ang = k * (M_PI / 3), c = cos(ang), sn = sin(ang);
-      double dir[3], dx[3], par[2], x[3], dc;
-      for (int q = 0; q < 3; ++q) dir[q] = c * it.e1[q] + sn * e2[q];
-      /* The stable distance to the place: d there from a first step of d(parent). */
-      pm_v3_scale(dx, dir, s->d[o]);
-      int ok = step_from(g->f, &s->par[2 * o], &s->der[6 * o], dx, par);
-      if (ok) {
-        pm_cell_point(g->f, par, x);
-        dc = pm_sizing_eval(s->size, x);
-        ok = dc > 0 && isfinite(dc);
-        if (ok && fabs(dc - s->d[o]) > 1e-3 * s->d[o]) {
-          pm_v3_scale(dx, dir, 0.5 * (s->d[o] + dc));
-          ok = step_from(g->f, &s->par[2 * o], &s->der[6 * o], dx, par);
-          if (ok) {
-            pm_cell_point(g->f, par, x);
-            dc = pm_sizing_eval(s->size, x);
-            ok = dc > 0 && isfinite(dc);
-          }
+  const int32_t o = it->id;
+  double n[3], e2[3];
+  if (!normal_at(s, o, n)) return PM_OK;
+  pm_v3_cross(e2, n, it->e1);
+  for (int k = 0; k < 6 && !st; ++k) {
+    const int32_t i = it->i + DI[k], j = it->j + DJ[k];
+    const uint64_t key = site_key(g->grain, i, j);
+    if (sites && (pm_keyindex_get(&g->sites, key) != -1 || g->sites.n >= INT32_MAX / 2)) continue;
+    const double ang = k * (M_PI / 3), c = cos(ang), sn = sin(ang);
+    double dir[3], dx[3], par[2], x[3], dc;
+    for (int q = 0; q < 3; ++q) dir[q] = c * it->e1[q] + sn * e2[q];
+    /* The stable distance to the place: d there from a first step of d(parent). */
+    pm_v3_scale(dx, dir, s->d[o]);
+    int ok = step_from(g->f, &s->par[2 * o], &s->der[6 * o], dx, par);
+    if (ok) {
+      pm_cell_point(g->f, par, x);
+      dc = pm_sizing_eval(s->size, x);
+      ok = dc > 0 && isfinite(dc);
+      if (ok && fabs(dc - s->d[o]) > 1e-3 * s->d[o]) {
+        pm_v3_scale(dx, dir, 0.5 * (s->d[o] + dc));
+        ok = step_from(g->f, &s->par[2 * o], &s->der[6 * o], dx, par);
+        if (ok) {
+          pm_cell_point(g->f, par, x);
+          dc = pm_sizing_eval(s->size, x);
+          ok = dc > 0 && isfinite(dc);
         }
       }
-      if (ok) ok = pm_face_inside(g->f, par) && !crowded(s, g->face, x, dc);
-      st = ok ? add(g, par, i, j, it.e1) : mark(g, key, UNUSABLE);
     }
+    if (ok) ok = pm_face_inside(g->f, par) && !crowded(s, g->face, x, dc);
+    if (ok)
+      st = add(g, par, i, j, it->e1);
+    else if (sites)
+      st = mark(g, key, UNUSABLE);
   }
   return st;
 }
 
-static pm_status grow(grow_ctx *g, int64_t head) { return grow_range(g, head, -1); }
-
-/* The six directions of one item, without growing from what they add. */
-static pm_status grow_once(grow_ctx *g, int64_t head) { return grow_range(g, head, head + 1); }
+/* Grow the current grain breadth first from the queue's items from head on (and from every item
+ * added meanwhile). */
+static pm_status grow(grow_ctx *g, int64_t head) {
+  pm_status st = PM_OK;
+  for (; head < g->qn && !st; ++head) {
+    const grow_item it = g->q[head];
+    st = try_six(g, &it, 1);
+  }
+  return st;
+}
 
 typedef struct chord_list {
   bub_chord *c;
@@ -388,23 +394,19 @@ pm_status bub_place_lattice(bub_state *s, int64_t cap, pm_error *err) {
     }
     /* Curved faces: where the face bent the lattice so that a site was found crowded while a
      * place next to it is free, every bubble of the face tries its six directions again,
-     * whatever the sites' numbers say (a grain of its own each), until no place is added.
-     * (Planes keep their grains: a gap between two is a grain boundary population control
-     * fills as well.) */
-    for (int pass = 0; pass < 4 && !st && !s->affine[f]; ++pass) {
-      int64_t before = g.qn;
-      for (int64_t k = 0; k < before && !st; ++k) {
+     * whatever the sites' numbers say (a grain of its own each, so no site is looked up), then
+     * every bubble so added, up to 4 passes. (A bubble tried once need not be tried again:
+     * bubbles added since only crowd its places more. Planes keep their grains: a gap between
+     * two is a grain boundary population control fills as well.) */
+    for (int64_t from = 0, to = g.qn, pass = 0; pass < 4 && from < to && !st && !s->affine[f]; ++pass) {
+      for (int64_t k = from; k < to && !st; ++k) {
         grow_item it = g.q[k];
         it.i = it.j = 0;
         ++g.grain;
-        int64_t head = g.qn;
-        st = push(&g, it.id, 0, 0, it.e1);
-        if (!st) st = mark(&g, site_key(g.grain, 0, 0), it.id);
-        if (!st) st = grow_once(&g, head);
+        st = try_six(&g, &it, 0);
       }
-      if (g.qn == before) break;
+      from = to, to = g.qn;
     }
-
   }
   free(g.q);
   pm_keyindex_free(&g.sites);
