@@ -144,6 +144,7 @@ static pm_status scratch(bub_state *s, pm_error *err) {
   R(disp, 1);
   R(deg, 1);
   R(skin0, 1);
+  R(room, 1);
 #undef R
   if (!s->hist) {
     s->hist = calloc((size_t)BUB_HBINS * (size_t)s->threads, sizeof(int32_t));
@@ -384,6 +385,15 @@ static inline int on_plane(const bub_state *s, int32_t i) {
   return s->kind[i] == BUB_KFACE && s->affine[s->cell[i]] && s->p.frame_tol > 0;
 }
 
+/* The room of plane bubble i at its parameters: the clearance disk (u, v, r) leaves r - |par - (u, v)|
+ * in parameter space, at least that over pgain in object space (0 outside the disk). */
+static inline double plane_room(const bub_state *s, int32_t i) {
+  const double *cl = &s->clear[3 * i], *par = &s->par[2 * i];
+  const double du = par[0] - cl[0], dv = par[1] - cl[1];
+  const double left = cl[2] - sqrt(du * du + dv * dv);
+  return left > 0 ? left / s->pgain[s->cell[i]] : 0;
+}
+
 /* Stage `stg` for bubbles [lo, hi): forces at ctx->src, the RK sums, the next stage's points (or
  * the step's end). */
 static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t hi, bub_chunk *out,
@@ -410,7 +420,7 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
       tangent_project(s->kind[i], stg == 0 ? &s->der[6 * i] : &s->ders[6 * i], f);
     }
     const double c = (s->flags[i] & BUB_FODD) ? cx->c_odd : cx->c_norm;
-    const double *vs = &s->vs[3 * i];
+    const double *vs = stg == 0 ? &s->v[3 * i] : &s->vs[3 * i]; /* (stage 0's velocity is v) */
     for (int k = 0; k < 3; ++k) acc[3 * q + k] = (f[k] - c * vs[k]) * inv_m;
   }
   double t1 = pm_seconds();
@@ -419,19 +429,21 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
     const int32_t q = i - lo;
     double *sv = &s->sumv[3 * i], *sa = &s->suma[3 * i], *vs = &s->vs[3 * i];
     const double *v = &s->v[3 * i];
+    const double *vst = stg == 0 ? v : vs; /* the stage's velocity */
     if (stg == 0) {
       out->kinetic += 0.5 * m * pm_v3_dot(v, v);
       out->potential += s->pot[i];
       if (s->kind[i] == BUB_KFACE) out->edev += fabs(s->deg[i] - 6.0), ++out->nface;
       if (s->kind[i] == BUB_KVOLUME) out->edev += fabs(s->deg[i] - 12.0), ++out->nface;
     }
-    for (int k = 0; k < 3; ++k) {
-      sv[k] += cx->w[stg] * vs[k];
-      sa[k] += cx->w[stg] * acc[3 * q + k];
+    if (stg == 0) { /* the sums start here (nothing to clear at the step's start) */
+      for (int k = 0; k < 3; ++k) sv[k] = cx->w[0] * v[k], sa[k] = cx->w[0] * acc[3 * q + k];
+    } else {
+      for (int k = 0; k < 3; ++k) sv[k] += cx->w[stg] * vs[k], sa[k] += cx->w[stg] * acc[3 * q + k];
     }
     if (!last) {
       const double hc = cx->off[stg + 1] * h;
-      for (int k = 0; k < 3; ++k) dxc[3 * q + k] = hc * vs[k], vs[k] = v[k] + hc * acc[3 * q + k];
+      for (int k = 0; k < 3; ++k) dxc[3 * q + k] = hc * vst[k], vs[k] = v[k] + hc * acc[3 * q + k];
     } else {
       for (int k = 0; k < 3; ++k) dxc[3 * q + k] = h * sv[k];
     }
@@ -452,6 +464,21 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
       for (int k = 0; k < 6; ++k) der[6 * q + k] = 0;
       par[2 * q] = par[2 * q + 1] = 0;
       continue;
+    }
+    if (plane[q]) {
+      /* Within the room (the step start's clearance as an object-space ball): the point is
+       * x0 + dx (dx is tangent) and inside; the parameters only at the step's end. */
+      const double *dx = &dxc[3 * q], room = s->room[i];
+      if (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2] < room * room) {
+        for (int k = 0; k < 3; ++k) x[3 * q + k] = x0[k] + dx[k];
+        if (last) {
+          const double *P = &s->pinv[6 * s->cell[i]], *par0 = &s->par[2 * i];
+          par[2 * q] = par0[0] + (P[0] * dx[0] + P[1] * dx[1] + P[2] * dx[2]);
+          par[2 * q + 1] = par0[1] + (P[3] * dx[0] + P[4] * dx[1] + P[5] * dx[2]);
+        }
+        rc[q] = PM_MOVE_FREE;
+        continue;
+      }
     }
     const pm_cell *c = pm_model_cell(s->model, s->kind[i], s->cell[i]);
     const double *par0 = &s->par[2 * i], *der0 = &s->der[6 * i];
@@ -578,8 +605,7 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
     for (int32_t i = lo; i < hi; ++i) {
       double *P = &s->pos[0][4 * i];
       P[0] = s->x[3 * i], P[1] = s->x[3 * i + 1], P[2] = s->x[3 * i + 2], P[3] = s->d[i];
-      pm_v3_copy(&s->vs[3 * i], &s->v[3 * i]);
-      pm_v3_zero(&s->sumv[3 * i]), pm_v3_zero(&s->suma[3 * i]);
+      s->room[i] = on_plane(s, i) ? plane_room(s, i) : 0;
       if (s->lists_valid) {
         s->skin0[i] = bub_skin_excess(s, i, P, P[3]);
         bub_top2_add(&t, s->skin0[i]);

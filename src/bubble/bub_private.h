@@ -143,6 +143,8 @@ typedef struct bub_state {
   double *normal;        /* [3 count[PM_FACE]] the unit normal of the affine faces */
   double *pinv;          /* [6 count[PM_FACE]] affine faces: M^-1 J, the parameter step of an
                             object-space step (geom.h, pm_cell_param_delta), rows du, dv */
+  double *pgain;         /* [count[PM_FACE]] affine faces: an upper bound on |M^-1 J dx| / |dx|
+                            (1 / sqrt of the smallest eigenvalue of M), for bub_dynamics.c's room */
   int64_t evals;         /* exact cell evaluations made by the dynamics (statistics) */
   int64_t bubble_steps;  /* moving bubbles summed over the steps taken (statistics) */
 
@@ -154,6 +156,9 @@ typedef struct bub_state {
   double *disp;          /* [n] displacement of the last step, relative to d */
   int32_t *deg;          /* [n] neighbours within 1.3 l0 at the step start (eps_t) */
   double *skin0;         /* [n] the skin test's excess of the step's start point */
+  double *room;          /* [n] plane bubbles: an object-space radius around the step's start point
+                            within which the face is inside its trimming loops (from the clearance,
+                            at the step's start; 0 otherwise) */
   struct bub_chunk *chunks; /* [n / BUB_CHUNK + 1] per-chunk partial sums (fixed order) */
   int scratch_cap;
   int32_t *hist;         /* [BUB_HBINS threads] per-thread displacement histograms */

@@ -222,7 +222,8 @@ static pm_status find_affine(bub_state *s, pm_error *err) {
   double scale = m->diagonal > 0 ? m->diagonal : 1;
   s->normal = calloc(3 * (size_t)nf + 1, sizeof(double));
   s->pinv = calloc(6 * (size_t)nf + 1, sizeof(double));
-  if (!s->normal || !s->pinv) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  s->pgain = calloc((size_t)nf + 1, sizeof(double));
+  if (!s->normal || !s->pinv || !s->pgain) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   for (int32_t f = 0; f < nf; ++f) {
     const pm_cell *c = pm_model_cell(m, PM_FACE, f);
     s->affine[f] = (uint8_t)cell_affine(c, scale);
@@ -240,6 +241,12 @@ static pm_status find_affine(bub_state *s, pm_error *err) {
       pm_cell_param_delta(c, uv, der, e, dp);
       s->pinv[6 * f + k] = dp[0], s->pinv[6 * f + 3 + k] = dp[1];
     }
+    /* |M^-1 J dx|^2 = dx^T J^T M^-2 J dx <= |dx|^2 / lambda_min(M) (J J^T = M), with a margin for
+     * rounding. */
+    const double a = pm_v3_dot(fp.su, fp.su), b = pm_v3_dot(fp.su, fp.sv), cc = pm_v3_dot(fp.sv, fp.sv);
+    const double lmin = 0.5 * (a + cc) - sqrt(0.25 * (a - cc) * (a - cc) + b * b);
+    s->pgain[f] = lmin > 0 ? (1 + 1e-9) / sqrt(lmin) : 0;
+    if (!(s->pgain[f] > 0) || !isfinite(s->pgain[f])) s->affine[f] = 0;
   }
   for (int32_t c = 0; c < nc; ++c)
     s->affine[nf + c] = (uint8_t)cell_affine(pm_model_cell(m, PM_CURVE, c), scale);
@@ -272,7 +279,7 @@ void bub_state_destroy(bub_state *s) {
   if (!s) return;
   free(s->x), free(s->v), free(s->par), free(s->der), free(s->d), free(s->dmoved), free(s->alpha);
   free(s->kind), free(s->cell), free(s->flags), free(s->wall), free(s->frame), free(s->frame_r);
-  free(s->clear), free(s->normal), free(s->pinv);
+  free(s->clear), free(s->normal), free(s->pinv), free(s->pgain);
   free(s->affine);
   if (s->shell)
     for (int32_t v = 0; v < s->model->count[PM_VOLUME]; ++v) pm_volume_shell_destroy(s->shell[v]);
@@ -284,7 +291,7 @@ void bub_state_destroy(bub_state *s) {
   free(s->seam);
   for (int k = 0; k < 3; ++k) free(s->pos[k]);
   free(s->vs), free(s->sumv), free(s->suma), free(s->ders), free(s->pot), free(s->disp), free(s->deg);
-  free(s->skin0), free(s->hist), free(s->timers);
+  free(s->skin0), free(s->room), free(s->hist), free(s->timers);
   free(s->chunks);
   bub_neighbors_free(s);
   free(s);
