@@ -567,6 +567,19 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
   tm[0] += t1 - t0, tm[1] += (t2 - t1) + (t4 - t3), tm[2] += t3 - t2;
 }
 
+/* The skin test's excess of the step's start points after a build: every bubble's after a full
+ * build, the bubbles whose build position changed after a partial one (bub_neighbors.c). */
+static void renew_skin0(bub_state *s, int32_t a, int32_t b) {
+  if (s->nb_nmoved < 0) {
+    for (int32_t i = a; i < b; ++i) s->skin0[i] = bub_skin_excess(s, i, &s->pos[0][4 * i], s->d[i]);
+  } else {
+    for (int32_t k = 0; k < s->nb_nmoved; ++k) {
+      const int32_t i = s->nb_moved[k];
+      s->skin0[i] = bub_skin_excess(s, i, &s->pos[0][4 * i], s->d[i]);
+    }
+  }
+}
+
 /* The skin test over the chunks (fixed order). */
 static int skin_failed(const bub_state *s, int64_t nchunk) {
   bub_top2 t = {-INFINITY, -INFINITY};
@@ -617,7 +630,7 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   if (s->lists_valid && skin_failed(s, nchunk)) s->lists_stale = 1;
   if (s->lists_stale || !s->lists_valid) {
     if ((st = bub_neighbors_update(s, s->pos[0], err))) return st;
-    for (int32_t i = a; i < b; ++i) s->skin0[i] = bub_skin_excess(s, i, &s->pos[0][4 * i], s->d[i]);
+    renew_skin0(s, a, b);
   }
 
   const double sq = sqrt(s->p.mass * s->p.k0);
@@ -648,8 +661,7 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
     if (cx.dst && skin_failed(s, nchunk)) {
       s->lists_stale = 1;
       if ((st = bub_neighbors_update(s, cx.dst, err))) return st;
-      /* The step start against the new build, for the next stages' bounds. */
-      for (int32_t i = a; i < b; ++i) s->skin0[i] = bub_skin_excess(s, i, &s->pos[0][4 * i], s->d[i]);
+      renew_skin0(s, a, b); /* the step start against the new build, for the next stages' bounds */
     }
     int64_t nface = 0;
     for (int64_t c = 0; c < nchunk; ++c) {

@@ -29,6 +29,24 @@
  * e'_i = |x_i - po_i| + 0.75 (1 + s) |d_i - do_i| - 0.75 (S - s) do_i sum to at most 0. When they
  * do not, the outer lists are built again from the grid first.
  *
+ * Partial builds (list_partial > 0). The argument above holds pair by pair with build positions
+ * that differ from bubble to bubble: a pair missing from the lists of i and j is safe while
+ * e_i + e_j <= 0, each e measured from that bubble's own build position, as long as the pair's
+ * membership was decided from those two positions, |xb_i - xb_j| < 0.75 (1 + s)(db_i + db_j). So
+ * when the test fails and only a few bubbles are responsible (a defect gliding through a packing
+ * at rest), only the bubbles H whose e is above half their skin (-0.375 s db) get a new build
+ * position; every other bubble keeps e <= -0.375 s db, so pairs of them stay safe, and pairs with a
+ * bubble of H too. The lists of H and of their outer neighbours are then filtered again from the
+ * (unchanged) build positions of everyone else. The outer lists the same way, one level up: the
+ * bubbles whose outer excess e' is above half the gap (from their new build position) get a new
+ * outer build position, the grid is moved there (it holds the outer build positions), their outer
+ * lists come from the grid, and each of their old and new outer neighbours has them removed from
+ * or inserted into its outer list (kept sorted; each region has room for BUB_OUTER_SLACK more
+ * entries). When H is more than list_partial of the moving bubbles, when a region is full or the
+ * grid was changed meanwhile, every list is built again instead. Which bubbles are rebuilt depends
+ * only on positions, never on threads, and the lists are sets kept in id order, so the forces do
+ * not depend on the thread count either.
+ *
  * Only the moving bubbles (bub_moving) have lists: curve and face bubbles, or volume bubbles in the
  * volume phase.
  *
@@ -55,6 +73,9 @@
 
 /* Bubbles per work item of a build. */
 #define NB_CHUNK 1024
+
+/* Room left in each outer list's region at a full build, for partial builds (header). */
+#define BUB_OUTER_SLACK 6
 
 /* A thread's buffers (kept in the state across builds). */
 typedef struct bub_nbscratch {
@@ -156,6 +177,7 @@ static pm_status build_outer(bub_state *s, const double *pos4, pm_error *err) {
   }
   const double reach = bub_outer_reach(&s->p);
   for (int32_t i = 0; i <= s->n; ++i) s->nb_off[i] = 0;
+  for (int32_t i = 0; i < s->n; ++i) s->nbo_cnt[i] = 0;
   const int T = bub_threads_for(s, b - a);
   for (int t = 0; t < T; ++t) s->nbs[t].n = 0, s->nbs[t].st = PM_OK;
 #pragma omp parallel for num_threads(T) schedule(dynamic, 1) if (T > 1)
@@ -183,6 +205,7 @@ static pm_status build_outer(bub_state *s, const double *pos4, pm_error *err) {
         ++cnt;
       }
       s->nb_off[i + 1] = cnt;
+      s->nbo_cnt[i] = cnt;
     }
   }
   for (int t = 0; t < T; ++t)
@@ -190,7 +213,9 @@ static pm_status build_outer(bub_state *s, const double *pos4, pm_error *err) {
   if (st)
     return st == PM_ERR_NOMEM ? pm_error_setf(err, PM_ERR_NOMEM, "out of memory")
                               : pm_error_setf(err, st, "neighbour query failed");
-  for (int32_t i = 0; i < s->n; ++i) s->nb_off[i + 1] += s->nb_off[i];
+  /* Regions: each moving bubble's outer list with room for BUB_OUTER_SLACK more. */
+  const int slack = s->p.list_partial > 0 ? BUB_OUTER_SLACK : 0;
+  for (int32_t i = 0; i < s->n; ++i) s->nb_off[i + 1] += s->nb_off[i] + (i >= a && i < b ? slack : 0);
   int64_t total = s->nb_off[s->n];
   if (total + 1 > s->nb_cap) {
     int64_t nc = total + total / 4 + 1024;
@@ -205,8 +230,11 @@ static pm_status build_outer(bub_state *s, const double *pos4, pm_error *err) {
    * bubble. */
   for (int64_t c = 0; c < nchunk; ++c) {
     const int32_t lo = a + (int32_t)(c * NB_CHUNK), hi = lo + NB_CHUNK < b ? lo + NB_CHUNK : b;
-    const int64_t len = s->nb_off[hi] - s->nb_off[lo];
-    if (len) memcpy(&s->nbo[s->nb_off[lo]], &s->nbs[piece[c].thread].v[piece[c].at], sizeof(int32_t) * (size_t)len);
+    const int32_t *from = &s->nbs[piece[c].thread].v[piece[c].at];
+    for (int32_t i = lo; i < hi; ++i) {
+      if (s->nbo_cnt[i]) memcpy(&s->nbo[s->nb_off[i]], from, sizeof(int32_t) * (size_t)s->nbo_cnt[i]);
+      from += s->nbo_cnt[i];
+    }
   }
   s->outer_builds++;
   return PM_OK;
@@ -228,6 +256,28 @@ static int outer_holds(const bub_state *s, const double *pos4) {
   return t.e1 + t.e2 <= 0;
 }
 
+/* The outer excess of bubble i at position x, diameter d (header, "The outer test"). */
+static inline double outer_excess(const bub_state *s, int32_t i, const double *x, double d) {
+  const double reach = bub_list_reach(&s->p), gap = 0.75 * (s->p.list_outer - s->p.list_skin);
+  const double *xo = &s->xo_build[3 * i];
+  double dx = x[0] - xo[0], dy = x[1] - xo[1], dz = x[2] - xo[2], dd = fabs(d - s->do_build[i]);
+  return sqrt(dx * dx + dy * dy + dz * dz) + reach * dd - gap * (1 - 1e-9) * s->do_build[i];
+}
+
+/* Bubble i's list filtered from its outer list at the build positions x_build, d_build. */
+static inline void filter_list(bub_state *s, int32_t i, double reach) {
+  const double *xi = &s->x_build[3 * i], di = s->d_build[i];
+  int32_t cnt = 0;
+  const int32_t o = s->nb_off[i];
+  for (int32_t k = o; k < o + s->nbo_cnt[i]; ++k) {
+    int32_t j = s->nbo[k];
+    const double *xj = &s->x_build[3 * j];
+    double dx = xi[0] - xj[0], dy = xi[1] - xj[1], dz = xi[2] - xj[2], r = reach * (di + s->d_build[j]);
+    if (dx * dx + dy * dy + dz * dz < r * r) s->nb[o + cnt++] = j;
+  }
+  s->nb_cnt[i] = cnt;
+}
+
 /* The lists at pos4 (or x, d), filtered from the outer lists. */
 static void build_lists(bub_state *s, const double *pos4) {
   int32_t a, b;
@@ -243,18 +293,137 @@ static void build_lists(bub_state *s, const double *pos4) {
   for (int32_t i = 0; i < a; ++i) s->nb_cnt[i] = 0;
   for (int32_t i = b; i < s->n; ++i) s->nb_cnt[i] = 0;
 #pragma omp parallel for num_threads(T) schedule(static) if (T > 1)
-  for (int32_t i = a; i < b; ++i) {
-    const double *xi = &s->x_build[3 * i], di = s->d_build[i];
-    int32_t cnt = 0, o = s->nb_off[i];
-    for (int32_t k = o; k < s->nb_off[i + 1]; ++k) {
-      int32_t j = s->nbo[k];
-      const double *xj = &s->x_build[3 * j];
-      double dx = xi[0] - xj[0], dy = xi[1] - xj[1], dz = xi[2] - xj[2], r = reach * (di + s->d_build[j]);
-      if (dx * dx + dy * dy + dz * dz < r * r) s->nb[o + cnt++] = j;
-    }
-    s->nb_cnt[i] = cnt;
-  }
+  for (int32_t i = a; i < b; ++i) filter_list(s, i, reach);
   s->list_builds++;
+  s->nb_nmoved = -1;
+}
+
+/* Remove id j from bubble i's outer list (sorted) if it is there. */
+static void outer_remove(bub_state *s, int32_t i, int32_t j) {
+  int32_t *L = &s->nbo[s->nb_off[i]], n = s->nbo_cnt[i], k = 0;
+  while (k < n && L[k] < j) ++k;
+  if (k == n || L[k] != j) return;
+  memmove(&L[k], &L[k + 1], sizeof(int32_t) * (size_t)(n - k - 1));
+  s->nbo_cnt[i] = n - 1;
+}
+
+/* Insert id j into bubble i's outer list (sorted) if it is not there; 0 when its region is full. */
+static int outer_insert(bub_state *s, int32_t i, int32_t j) {
+  int32_t *L = &s->nbo[s->nb_off[i]], n = s->nbo_cnt[i], k = 0;
+  while (k < n && L[k] < j) ++k;
+  if (k < n && L[k] == j) return 1;
+  if (s->nb_off[i] + n + 1 > s->nb_off[i + 1]) return 0;
+  memmove(&L[k + 1], &L[k], sizeof(int32_t) * (size_t)(n - k));
+  L[k] = j;
+  s->nbo_cnt[i] = n + 1;
+  return 1;
+}
+
+/* A partial build at pos4 (header, "Partial builds"): 1 when done, 0 when every list must be built
+ * again instead (nothing has been changed then but build positions the full build overwrites). */
+static int partial_build(bub_state *s, const double *pos4, pm_error *err, pm_status *st) {
+  int32_t a, b;
+  bub_moving(s, &a, &b);
+  const int32_t nmov = b - a;
+  const double limit = s->p.list_partial * nmov;
+  const double half = 0.5 * 0.75 * s->p.list_skin, ohalf = 0.5 * 0.75 * (s->p.list_outer - s->p.list_skin);
+  if (!(limit >= 1) || !s->grid_valid) return 0;
+  /* H: the bubbles past half their skin. */
+  int32_t nh = 0;
+  for (int32_t i = a; i < b; ++i) {
+    double d;
+    const double *x = at(s, pos4, i, &d);
+    if (bub_skin_excess(s, i, x, d) > -half * s->d_build[i]) {
+      if (nh + 1 > limit) return 0;
+      s->nb_moved[nh++] = i;
+    }
+  }
+  /* New build positions for H. */
+  for (int32_t k = 0; k < nh; ++k) {
+    const int32_t i = s->nb_moved[k];
+    double d;
+    const double *x = at(s, pos4, i, &d);
+    pm_v3_copy(&s->x_build[3 * i], x);
+    s->d_build[i] = d;
+  }
+  /* The outer test at the build positions, bubble by bubble: those past half the gap (H's, and
+   * any an earlier full filtering left there) get new outer lists at their build position; every
+   * other has e' <= -half the gap, so the outer lists stay complete for the pairs of them. The
+   * grid follows (it holds the outer build positions). Marks: 1 list to filter, 2 new outer list,
+   * 3 outer list changed. */
+  int32_t no = 0;
+  for (int32_t i = a; i < b; ++i) {
+    s->nb_mark[i] = 0;
+    if (outer_excess(s, i, &s->x_build[3 * i], s->d_build[i]) > -ohalf * s->do_build[i]) {
+      if (no + 1 > limit) return 0;
+      s->nb_mark[i] = 2, ++no;
+    }
+  }
+  for (int32_t k = 0; k < nh; ++k)
+    if (!s->nb_mark[s->nb_moved[k]]) s->nb_mark[s->nb_moved[k]] = 1;
+  for (int32_t i = a; i < b && no; ++i) {
+    if (s->nb_mark[i] != 2) continue;
+    pm_v3_copy(&s->xo_build[3 * i], &s->x_build[3 * i]);
+    s->do_build[i] = s->d_build[i];
+    if ((*st = pm_grid_move(s->grid, i, &s->xo_build[3 * i], s->grid_factor * s->do_build[i], err))) return 1;
+  }
+  if (no) {
+    /* Outer lists of the marked-2 bubbles from the grid (every grid point at its outer build
+     * position now), and each old or new outer neighbour updated. */
+    const double reach = bub_outer_reach(&s->p);
+    pm_idbuf *q = &s->nbs[0].q;
+    for (int32_t i = a; i < b; ++i) {
+      if (s->nb_mark[i] != 2) continue;
+      const double *xi = &s->xo_build[3 * i], di = s->do_build[i];
+      if ((*st = pm_grid_query_overlap(s->grid, xi, reach * di, q, err))) return 1;
+      int32_t *L = &s->nbo[s->nb_off[i]], n = s->nbo_cnt[i], cap = s->nb_off[i + 1] - s->nb_off[i];
+      /* The old list goes to the inner-list storage of i meanwhile (the region is i's alone). */
+      int32_t *old = &s->nb[s->nb_off[i]];
+      memcpy(old, L, sizeof(int32_t) * (size_t)n);
+      int32_t m = 0;
+      for (int32_t t = 0; t < q->n; ++t) {
+        int32_t j = q->ids[t];
+        if (!bub_related(s, i, j)) continue;
+        if (pm_v3_dist(xi, &s->xo_build[3 * j]) >= reach * (di + s->do_build[j])) continue;
+        if (m == cap) { /* no room: every list again */
+          s->lists_valid = 0;
+          return 0;
+        }
+        L[m++] = j;
+      }
+      s->nbo_cnt[i] = m;
+      /* Old and new lists are sorted: walk them together. */
+      int32_t u = 0, w = 0;
+      while (u < n || w < m) {
+        int32_t jo = u < n ? old[u] : INT32_MAX, jn = w < m ? L[w] : INT32_MAX;
+        int32_t j = jo < jn ? jo : jn;
+        int in_old = jo == j, in_new = jn == j;
+        u += in_old, w += in_new;
+        if (j < a || j >= b) continue; /* a fixed bubble: no list */
+        if (in_old && !in_new) outer_remove(s, j, i);
+        if (in_new && !in_old && !outer_insert(s, j, i)) {
+          s->lists_valid = 0;
+          return 0;
+        }
+        if (in_old != in_new && !s->nb_mark[j]) s->nb_mark[j] = 3;
+      }
+    }
+    s->partial_outer++;
+  }
+  /* The lists to filter again: H, the outer neighbours of H, the bubbles whose outer list changed. */
+  const double reach = bub_list_reach(&s->p);
+  for (int32_t k = 0; k < nh; ++k) {
+    const int32_t i = s->nb_moved[k];
+    for (int32_t t = s->nb_off[i]; t < s->nb_off[i] + s->nbo_cnt[i]; ++t) {
+      int32_t j = s->nbo[t];
+      if (j >= a && j < b && !s->nb_mark[j]) s->nb_mark[j] = 3;
+    }
+  }
+  for (int32_t i = a; i < b; ++i)
+    if (s->nb_mark[i]) filter_list(s, i, reach);
+  s->nb_nmoved = nh;
+  s->partial_builds++;
+  return 1;
 }
 
 pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) {
@@ -274,10 +443,19 @@ pm_status bub_neighbors_update(bub_state *s, const double *pos4, pm_error *err) 
     R(d_build, 1);
     R(xo_build, 3);
     R(do_build, 1);
+    R(nbo_cnt, 1);
+    R(nb_mark, 1);
+    R(nb_moved, 1);
 #undef R
     s->nb_build_cap = nc;
   }
   pm_status st = PM_OK;
+  if (s->lists_valid && s->p.list_partial > 0 && partial_build(s, pos4, err, &st)) {
+    if (!st) s->lists_stale = 0;
+    s->t.neighbors += pm_seconds() - t0;
+    return st;
+  }
+  if (st) return st;
   if (!s->lists_valid || !outer_holds(s, pos4)) st = build_outer(s, pos4, err);
   if (st) return st;
   build_lists(s, pos4);

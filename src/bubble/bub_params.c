@@ -57,6 +57,11 @@ static const pm_param_desc desc[] = {
      "outer neighbour lists: pairs within (1 + list_outer) 1.5 l0, from the grid once two bubbles "
      "may have crossed that skin (>= list_skin)",
      "our choice (bub_neighbors.c; bench_bubble)", NULL},
+    {"list_partial", PM_PARAM_DOUBLE, F(list_partial), 0.125, 0, 1, PM_RANGE_CLOSED, "",
+     "when the skin test fails, rebuild only the lists of the bubbles that used up half their "
+     "skin (and of their neighbours) while they are at most this fraction of the moving bubbles; "
+     "0 = every list every time",
+     "our choice (bub_neighbors.c; forces as exact either way)", NULL},
     {"frame_tol", PM_PARAM_DOUBLE, F(frame_tol), 0.05, 0, 0.5, PM_RANGE_CLOSED, "d",
      "a bubble within frame_tol d of its last exact evaluation uses its cell's second-order "
      "Taylor model there (0 = exact evaluation at every RK stage)",

@@ -116,6 +116,13 @@ typedef struct bub_state {
   int lists_stale;       /* the skin test of the last step asks for a rebuild */
   int64_t list_builds;   /* statistics: builds of the lists, */
   int64_t outer_builds;  /* and of the outer lists (grid queries) */
+  int32_t *nbo_cnt;      /* [n] length of each outer list (its region nb_off[i] .. nb_off[i+1] has
+                            room for BUB_OUTER_SLACK more, for partial builds) */
+  uint8_t *nb_mark;      /* [n] scratch of partial builds */
+  int32_t *nb_moved;     /* [n] the bubbles whose build position the last partial build set */
+  int32_t nb_nmoved;     /* their number; -1 after a full build (every bubble's) */
+  int64_t partial_builds; /* statistics: partial builds of the lists, */
+  int64_t partial_outer;  /* of which with partial outer lists from the grid */
   int32_t nb_build_cap;  /* allocated length of nb_off, x_build, d_build (minus one) */
   struct bub_nbscratch *nbs;  /* [threads] per-thread build buffers, kept across builds */
   struct bub_nbpiece *nb_piece; /* [nb_piece_cap] where each chunk of a build went */

@@ -483,6 +483,8 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
       pm_stats_add_number(S, "bubble.failed_insertions", (double)s->failed_insertions, &e);
       pm_stats_add_number(S, "bubble.list_builds", (double)s->list_builds, &e);
       pm_stats_add_number(S, "bubble.outer_builds", (double)s->outer_builds, &e);
+      pm_stats_add_number(S, "bubble.partial_builds", (double)s->partial_builds, &e);
+      pm_stats_add_number(S, "bubble.partial_outer", (double)s->partial_outer, &e);
       pm_stats_add_number(S, "bubble.evaluations", (double)s->evals, &e);
       pm_stats_add_number(S, "bubble.bubble_steps", (double)s->bubble_steps, &e);
       pm_stats_add_number(S, "bubble.border_dropped", border_dropped, &e);

@@ -285,7 +285,7 @@ void bub_state_destroy(bub_state *s) {
     for (int32_t v = 0; v < s->model->count[PM_VOLUME]; ++v) pm_volume_shell_destroy(s->shell[v]);
   free(s->shell);
   pm_grid_destroy(s->grid);
-  free(s->nb_off), free(s->nb), free(s->nbo), free(s->nb_cnt), free(s->x_build), free(s->d_build);
+  free(s->nb_off), free(s->nb), free(s->nbo), free(s->nb_cnt), free(s->nbo_cnt), free(s->nb_mark), free(s->nb_moved), free(s->x_build), free(s->d_build);
   free(s->xo_build), free(s->do_build);
   for (int k = 0; k < 4; ++k) free(s->clo_off[k]), free(s->clo[k]);
   free(s->seam);

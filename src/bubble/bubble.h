@@ -73,6 +73,13 @@ typedef struct bub_params {
   double list_outer; /* skin of the outer lists, from which the lists are rebuilt: pairs within
                         (1 + list_outer) x 1.5 l0, found through the grid once two bubbles may
                         have crossed it; [list_skin, 3], default 0.6 */
+  double list_partial; /* when the skin test fails, only the bubbles that used up half their skin
+                          get new lists (with their neighbours, and new outer lists from the grid
+                          where those are stale), while they are at most this fraction of the
+                          moving bubbles, else every list is built again; [0, 1], 0 = always
+                          every list, default 0.125 (our choice, bub_neighbors.c: a few bubbles
+                          gliding along a defect would otherwise rebuild every list every few
+                          steps) */
   double frame_tol; /* a bubble whose parameters moved less than frame_tol x d from where its
                        cell was last evaluated takes position and tangents from the cell's
                        second-order Taylor model there (exact on planes and lines, error below
