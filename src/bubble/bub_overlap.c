@@ -124,18 +124,9 @@ static int cmp_tid(const void *a, const void *b) {
   return (x->id > y->id) - (x->id < y->id);
 }
 
-/* A border chord of a face: consecutive boundary bubbles A, B along one of its loops (in loop
- * order, face on the left in (u, v)); e the unit chord direction, w the unit outward direction
- * in the face's tangent plane, len the chord length. */
-typedef struct chord {
-  int32_t face, A, B;
-  double e[3], w[3], len;
-} chord;
+typedef bub_chord chord;
 
-typedef pm_status (*chord_fn)(bub_state *s, const chord *c, void *user, pm_error *err);
-
-/* Call fn for every border chord of every face (seams and degenerate curves are not borders). */
-static pm_status for_each_chord(bub_state *s, chord_fn fn, void *user, pm_error *err) {
+pm_status bub_for_each_chord(bub_state *s, bub_chord_fn fn, void *user, pm_error *err) {
   const pm_model *m = s->model;
   pm_status st = PM_OK;
   /* Live curve bubbles per curve, sorted by t; the bubble of each vertex. */
@@ -198,11 +189,12 @@ static pm_status for_each_chord(bub_state *s, chord_fn fn, void *user, pm_error 
           }
         for (int32_t k = 0; k + 1 < len && !st; ++k) {
           chord c;
-          c.face = f, c.A = chain[k], c.B = chain[k + 1];
+          c.face = f, c.A = chain[k], c.B = chain[k + 1], c.curve = use->cell;
           double uva[2], uvb[2];
           pm_face_curve_uv(fc, use, chain_t[k], uva);
           pm_face_curve_uv(fc, use, chain_t[k + 1], uvb);
           double uvm[2] = {0.5 * (uva[0] + uvb[0]), 0.5 * (uva[1] + uvb[1])};
+          c.uv[0] = uvm[0], c.uv[1] = uvm[1];
           pm_face_point fp;
           pm_face_eval(fc, uvm, 1, &fp);
           /* Loops keep the face on their left in (u, v): outward is the right normal. */
@@ -233,7 +225,7 @@ static pm_status add_outside(bub_state *s, const chord *c, void *user, pm_error 
   pm_v3_axpy(apex, mid, 0.86602540378443865 * c->len, c->w);
   int32_t id;
   pm_status st = bub_state_add(s, BUB_KOUT, c->face, NULL, apex, 0.5 * (s->d[c->A] + s->d[c->B]), &id, err);
-  if (!st) st = pm_grid_insert(s->grid, id, apex, BUB_GRID_FACTOR * s->d[id], err);
+  if (!st) st = pm_grid_insert(s->grid, id, apex, s->grid_factor * s->d[id], err);
   return st;
 }
 
@@ -244,7 +236,7 @@ pm_status bub_outside_layer(bub_state *s, pm_error *err) {
       s->flags[i] |= BUB_FDEAD;
       st = pm_grid_remove(s->grid, i, err);
     }
-  if (!st) st = for_each_chord(s, add_outside, NULL, err);
+  if (!st) st = bub_for_each_chord(s, add_outside, NULL, err);
   s->grid_valid = !st; /* bub_state_add marks it invalid; the grid was updated alongside */
   return st;
 }
@@ -302,7 +294,7 @@ pm_status bub_border_cleanup(bub_state *s, int32_t *dropped, pm_error *err) {
   *dropped = 0;
   pm_status st = bub_state_grid_rebuild(s, err);
   border_ctx bc = {PM_IDBUF_INIT, 0};
-  if (!st) st = for_each_chord(s, drop_near_chord, &bc, err);
+  if (!st) st = bub_for_each_chord(s, drop_near_chord, &bc, err);
   if (!st) st = drop_near_boundary_bubbles(s, &bc, err);
   pm_idbuf_free(&bc.buf);
   *dropped = bc.dropped;

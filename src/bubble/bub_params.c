@@ -11,6 +11,7 @@
 static const char *const integrators[] = {"rk4", "rk2", NULL};
 static const char *const viscosities[] = {"constant", "sawtooth", NULL};
 static const char *const tet_sources[] = {"bubbles", "tetgen", NULL};
+static const char *const placements[] = {"quadtree", "lattice", NULL};
 
 #define F(field) offsetof(bub_params, field)
 
@@ -47,7 +48,29 @@ static const pm_param_desc desc[] = {
     {"odd_from", PM_PARAM_DOUBLE, F(odd_from), 0.0005, 0, 1, PM_RANGE_CLOSED, "",
      "odd-bubble damping starts once a control changes the count by at most this fraction",
      "004 sec. 2.2 (0.05%)", NULL},
+    /* speed */
+    {"list_skin", PM_PARAM_DOUBLE, F(list_skin), 0.15, 0.02, 2, PM_RANGE_CLOSED, "",
+     "neighbour lists: pairs within (1 + list_skin) 1.5 l0, rebuilt from the outer lists once two "
+     "bubbles may have crossed the skin",
+     "our choice (bub_neighbors.c; bench_bubble)", NULL},
+    {"list_outer", PM_PARAM_DOUBLE, F(list_outer), 0.6, 0.02, 3, PM_RANGE_CLOSED, "",
+     "outer neighbour lists: pairs within (1 + list_outer) 1.5 l0, from the grid once two bubbles "
+     "may have crossed that skin (>= list_skin)",
+     "our choice (bub_neighbors.c; bench_bubble)", NULL},
+    {"list_partial", PM_PARAM_DOUBLE, F(list_partial), 0.125, 0, 1, PM_RANGE_CLOSED, "",
+     "when the skin test fails, rebuild only the lists of the bubbles that used up half their "
+     "skin (and of their neighbours) while they are at most this fraction of the moving bubbles; "
+     "0 = every list every time",
+     "our choice (bub_neighbors.c; forces as exact either way)", NULL},
+    {"frame_tol", PM_PARAM_DOUBLE, F(frame_tol), 0.05, 0, 0.5, PM_RANGE_CLOSED, "d",
+     "a bubble within frame_tol d of its last exact evaluation uses its cell's second-order "
+     "Taylor model there (0 = exact evaluation at every RK stage)",
+     "our choice (bub_dynamics.c)", NULL},
     /* placement */
+    {"place", PM_PARAM_CHOICE, F(place), BUB_PLACE_LATTICE, 0, 0, 0, "",
+     "face bubbles from the rhombic quadtree (the papers) or a hexagonal lattice grown from the "
+     "border at the stable distance",
+     "003 sec. 3.2, 000 sec. 4.1.1; lattice: our addition (bub_lattice.c)", placements},
     {"w1", PM_PARAM_DOUBLE, F(w1), 1, 0, 4, PM_RANGE_LO_OPEN, "",
      "curve subdivision weight: split while w1 |P1P2| > r1 + r2", "004 sec. 2.3", NULL},
     {"w2", PM_PARAM_DOUBLE, F(w2), 0.5, 0, 1, PM_RANGE_LO_OPEN, "",
@@ -56,10 +79,12 @@ static const pm_param_desc desc[] = {
     /* population control */
     {"population", PM_PARAM_BOOL, F(population), 1, 0, 1, 0, "", "adaptive population control",
      "003 sec. 3.5", NULL},
-    {"face_open", PM_PARAM_DOUBLE, F(face_open), 5, 0, 12, PM_RANGE_LO_OPEN, "",
-     "a face bubble with overlap ratio below this is open", "000 sec. 4.1.2", NULL},
-    {"face_excess", PM_PARAM_DOUBLE, F(face_excess), 8, 0, 30, PM_RANGE_LO_OPEN, "",
-     "a face bubble with overlap ratio above this is excess", "000 sec. 4.1.2", NULL},
+    {"face_open", PM_PARAM_DOUBLE, F(face_open), 5.6, 0, 12, PM_RANGE_LO_OPEN, "",
+     "a face bubble with overlap ratio below this is open (000: 5)",
+     "000 sec. 4.1.2; 5.6: our choice with place=lattice (bench_bubble compare)", NULL},
+    {"face_excess", PM_PARAM_DOUBLE, F(face_excess), 7, 0, 30, PM_RANGE_LO_OPEN, "",
+     "a face bubble with overlap ratio above this is excess (000: 8)",
+     "000 sec. 4.1.2; 7: our choice with place=lattice (bench_bubble compare)", NULL},
     {"curve_open", PM_PARAM_DOUBLE, F(curve_open), 5.0 / 3.0, 0, 4, PM_RANGE_LO_OPEN, "",
      "a curve bubble with overlap ratio below this is open", "our choice: face cut-off x 2/6",
      NULL},
@@ -73,6 +98,9 @@ static const pm_param_desc desc[] = {
      "a volume bubble with overlap ratio above this is excess (below every interstitial site)",
      "our choice: a bubble pushed into the FCC packing reads 13.9-14.7 (bub_population.c)",
      NULL},
+    {"insert_excess", PM_PARAM_DOUBLE, F(insert_excess), 8, 0, 30, PM_RANGE_CLOSED, "",
+     "a face insertion place with an overlap ratio above max(face_excess, this) is not used",
+     "our choice: 000 sec. 4.1.2's excess cut-off 8 (bub_population.c)", NULL},
     {"insert_k", PM_PARAM_DOUBLE, F(insert_k), 1.8, 0.5, 4, PM_RANGE_CLOSED, "r",
      "a new face bubble is placed k bubble radii from the open one", "000 sec. 4.2.4", NULL},
     {"control_steps", PM_PARAM_INT, F(control_steps), 20, 1, 100000, PM_RANGE_CLOSED, "steps",
@@ -93,8 +121,12 @@ static const pm_param_desc desc[] = {
     {"disp_tol", PM_PARAM_DOUBLE, F(disp_tol), 1e-3, 0, 1, PM_RANGE_CLOSED, "d",
      "stop when no bubble moves more than this x its diameter in a step (population settled)",
      "003 sec. 3.4", NULL},
-    {"final_steps", PM_PARAM_INT, F(final_steps), 60, 0, 1000000, PM_RANGE_CLOSED, "steps",
-     "relaxation steps after the population has settled", "our choice", NULL},
+    {"disp_quantile", PM_PARAM_DOUBLE, F(disp_quantile), 0.99, 0, 1, PM_RANGE_LO_OPEN, "",
+     "the calm and displacement tests read this quantile of the bubbles' displacement / d "
+     "(1 = the largest, the papers)",
+     "our choice (bub_run.c: a step count that does not grow with n)", NULL},
+    {"final_steps", PM_PARAM_INT, F(final_steps), 100, 0, 1000000, PM_RANGE_CLOSED, "steps",
+     "relaxation steps after the population has settled, at most", "our choice", NULL},
     {"max_steps", PM_PARAM_INT, F(max_steps), 3000, 0, 100000000, PM_RANGE_CLOSED, "steps",
      "cap on the number of steps", "003 sec. 3.4", NULL},
     {"max_bubbles", PM_PARAM_DOUBLE, F(max_bubbles), 1e7, 1, 2e9, PM_RANGE_CLOSED, "",
@@ -160,6 +192,11 @@ pm_status bub_params_check(const bub_params *p, pm_error *err) {
                          "bubble parameters curve_open=%g and curve_excess=%g must satisfy "
                          "curve_open < 2 < curve_excess",
                          p->curve_open, p->curve_excess);
+  if (!(p->list_outer >= p->list_skin))
+    return pm_error_setf(err, PM_ERR_ARG,
+                         "bubble parameters list_skin=%g and list_outer=%g must satisfy "
+                         "list_skin <= list_outer",
+                         p->list_skin, p->list_outer);
   if (!(p->volume_open < 12 && p->volume_excess > 12))
     return pm_error_setf(err, PM_ERR_ARG,
                          "bubble parameters volume_open=%g and volume_excess=%g must satisfy "

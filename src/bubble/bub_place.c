@@ -473,7 +473,7 @@ static pm_status place_face(bub_state *s, int32_t face, int64_t cap, pm_error *e
     }
     int32_t id;
     st = bub_state_add(s, BUB_KFACE, face, pt->uv, NULL, 0, &id, err);
-    if (!st) st = pm_grid_insert(s->grid, id, &s->x[3 * id], BUB_GRID_FACTOR * s->d[id], err);
+    if (!st) st = pm_grid_insert(s->grid, id, &s->x[3 * id], s->grid_factor * s->d[id], err);
   }
   pm_idbuf_free(&buf);
   free(order);
@@ -500,11 +500,54 @@ pm_status bub_place_crowded(const bub_state *s, int kind, int32_t cell, const do
   return st;
 }
 
+/* The bubble count a size field asks for, from samples: the integral of ds / d over every curve
+ * (16 samples) and of dA / (sqrt3 / 2 d^2) over every face (the hexagonal packing's density; 16 x
+ * 16 samples of the parameter box, those inside the trimmed face). A field too fine for the cap
+ * fails here, before any bubble is placed; one that only the samples miss (a narrow refinement)
+ * is caught by the checks as bubbles are added. */
+static double count_estimate(const bub_state *s) {
+  const pm_model *m = s->model;
+  double total = m->count[PM_VERTEX];
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+    if (cv->degenerate) continue;
+    const double h = (cv->hi[0] - cv->lo[0]) / 16;
+    for (int k = 0; k < 16; ++k) {
+      pm_curve_point cp;
+      pm_curve_eval(cv, cv->lo[0] + (k + 0.5) * h, 1, &cp);
+      double d = pm_sizing_eval(s->size, cp.p);
+      if (d > 0 && isfinite(d)) total += pm_v3_norm(cp.d1) * h / d;
+    }
+  }
+  for (int32_t f = 0; f < m->count[PM_FACE]; ++f) {
+    const pm_cell *fc = pm_model_cell(m, PM_FACE, f);
+    const double hu = (fc->hi[0] - fc->lo[0]) / 16, hv = (fc->hi[1] - fc->lo[1]) / 16;
+    for (int a = 0; a < 16; ++a)
+      for (int b = 0; b < 16; ++b) {
+        double uv[2] = {fc->lo[0] + (a + 0.5) * hu, fc->lo[1] + (b + 0.5) * hv}, n[3];
+        if (!pm_face_inside(fc, uv)) continue;
+        pm_face_point fp;
+        pm_face_eval(fc, uv, 1, &fp);
+        pm_v3_cross(n, fp.su, fp.sv);
+        double d = pm_sizing_eval(s->size, fp.p);
+        if (d > 0 && isfinite(d)) total += pm_v3_norm(n) * hu * hv / (0.86602540378443865 * d * d);
+      }
+  }
+  return total;
+}
+
 pm_status bub_place(bub_state *s, pm_error *err) {
   const pm_model *m = s->model;
   int64_t cap = (int64_t)fmin(s->p.max_bubbles, 2e9);
   pm_status st = PM_OK;
   s->n = 0;
+  /* The cap before growth: a size field asking for clearly more than it fails at once (a margin
+   * of 1.5 for the samples' error; the quadtree starts sparser, by up to 4). */
+  double want = count_estimate(s), margin = s->p.place == BUB_PLACE_LATTICE ? 1.5 : 6;
+  if (!(want <= margin * (double)cap))
+    return pm_error_setf(err, PM_ERR_LIMIT,
+                         "bubble: the size field asks for about %.3g bubbles, above the cap of %lld",
+                         want, (long long)cap);
   pm_grid_clear(s->grid);
   for (int32_t v = 0; v < m->count[PM_VERTEX] && !st; ++v) {
     const pm_cell *c = pm_model_cell(m, PM_VERTEX, v);
@@ -514,7 +557,8 @@ pm_status bub_place(bub_state *s, pm_error *err) {
   for (int32_t c = 0; c < m->count[PM_CURVE] && !st; ++c) {
     double *t = NULL;
     int32_t nt = 0;
-    st = bub_place_curve(s, c, &t, &nt, err);
+    st = s->p.place == BUB_PLACE_LATTICE ? bub_place_curve_lattice(s, c, cap - s->n, &t, &nt, err)
+                                         : bub_place_curve(s, c, &t, &nt, err);
     if (!st && s->n + (int64_t)nt > cap)
       st = pm_error_setf(err, PM_ERR_LIMIT,
                          "bubble placement exceeds the cap of %lld bubbles (curve %d)",
@@ -525,8 +569,11 @@ pm_status bub_place(bub_state *s, pm_error *err) {
   if (st) return st;
   /* Boundary bubbles into the grid, so that faces can keep their points away from them. */
   st = bub_state_grid_rebuild(s, err);
-  for (int32_t f = 0; f < m->count[PM_FACE] && !st; ++f) st = place_face(s, f, cap, err);
+  if (!st && s->p.place == BUB_PLACE_LATTICE) st = bub_place_lattice(s, cap, err);
+  for (int32_t f = 0; f < m->count[PM_FACE] && !st && s->p.place == BUB_PLACE_QUADTREE; ++f)
+    st = place_face(s, f, cap, err);
   if (st) return st;
-  /* Arrays are in (kind, cell) order already; compact sets the ranges. */
-  return bub_state_compact(s, err);
+  /* Arrays are in (kind, cell) order already; ordering sets the ranges and sorts each cell's
+   * bubbles in space. */
+  return bub_state_order(s, err);
 }

@@ -1,7 +1,8 @@
 /* Adaptive population control (papers/003 section 3.5, papers/000 sections 4.1.2 and 4.2.1-4.2.5).
  *
  * A bubble is excess when its overlap ratio is above the cut-off of its kind, open when below
- * (000 section 4.1.2: 8.0 and 5.0 on faces). The control runs in the thesis's order (000 section
+ * (000 section 4.1.2: 8.0 and 5.0 on faces, for its sparse quadtree start; 7 and 5.6 by default
+ * with the lattice start, bubble.h). The control runs in the thesis's order (000 section
  * 4.2.5): remove excess curve bubbles, remove excess face bubbles, insert around open curve
  * bubbles, insert around open face bubbles, remove excess curve bubbles, remove excess face
  * bubbles. Vertex bubbles are never removed.
@@ -58,6 +59,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/clock.h"
 #include "common/vec3.h"
 
 /* ---- a lazy priority queue (highest priority first, ties: smaller id) ------------------------ */
@@ -188,7 +190,7 @@ static pm_status update_around(ctl *c, const double x[3], double d, int kind, in
  * overlap ratio alpha(s) = sum_k 4 max(0, 1.5 - k s) at spacing s l0 (2 for s = 1). The cut-offs
  * therefore mean spacings: open above s_open = alpha^-1(curve_open) (1.083 for 5/3), excess
  * below s_excess = alpha^-1(curve_excess) (0.833 for 8/3), the same window as a uniformly strained
- * hexagonal patch has under the face cut-offs 5 and 8 (which is why 5/3 and 8/3 are the
+ * hexagonal patch has under the thesis's face cut-offs 5 and 8 (which is why 5/3 and 8/3 are the
  * defaults). A control looks at bubbles before the chain has relaxed, and a bubble can be open
  * beside a gap that relaxation would close; so, our addition, a curve bubble is removed only if
  * the relaxed chain with one bubble less would not be open, and a bubble is inserted only if the
@@ -527,7 +529,7 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
     /* Faces: a candidate that is excess already would be removed at once. Curves: the chain
      * test above decided; a snapshot of a chain before it relaxes overstates the ratio of a
      * bubble put into a gap (1.5 l0 split in two reads 3, relaxed it is about 2). */
-    if (!best.ok || (kind != BUB_KCURVE && best.alpha > excess)) {
+    if (!best.ok || (kind != BUB_KCURVE && best.alpha > fmax(excess, kind == BUB_KFACE ? s->p.insert_excess : 0))) {
       c->info->failed++;
       continue;
     }
@@ -535,7 +537,7 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
     st = bub_state_add(s, kind, s->cell[o], best.par, best.x, 0, &id, c->err);
     if (st) break;
     s->flags[id] |= BUB_FNEW;
-    st = pm_grid_insert(s->grid, id, &s->x[3 * id], BUB_GRID_FACTOR * s->d[id], c->err);
+    st = pm_grid_insert(s->grid, id, &s->x[3 * id], s->grid_factor * s->d[id], c->err);
     if (st) break;
     c->live++;
     (*inserted)++;
@@ -559,7 +561,9 @@ static pm_status refresh_layer(ctl *c) {
   bub_state *s = c->s;
   const pm_model *m = s->model;
   if (!s->p.outside_layer) return PM_OK;
+  const double t0 = pm_seconds();
   pm_status st = bub_outside_layer(s, c->err);
+  s->t.overlap += pm_seconds() - t0;
   if (st) return st;
   int32_t nf = m->count[PM_FACE];
   uint8_t *face_hit = calloc((size_t)nf + 1, 1);
@@ -580,6 +584,7 @@ static pm_status refresh_layer(ctl *c) {
 pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *info,
                                  pm_error *err) {
   memset(info, 0, sizeof *info);
+  const double t_begin = pm_seconds(), overlap_begin = s->t.overlap;
   ctl c = {0};
   c.s = s, c.cap = cap, c.info = info, c.err = err;
   c.s_open = chain_spacing(s->p.curve_open), c.s_excess = chain_spacing(s->p.curve_excess);
@@ -591,7 +596,7 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   if (!s->grid_valid) {
     st = bub_state_grid_rebuild(s, err);
   } else {
-    for (int32_t i = 0; i < s->n && !st; ++i) st = pm_grid_move(s->grid, i, &s->x[3 * i], BUB_GRID_FACTOR * s->d[i], err);
+    for (int32_t i = 0; i < s->n && !st; ++i) st = pm_grid_move(s->grid, i, &s->x[3 * i], s->grid_factor * s->d[i], err);
   }
   if (st) return st;
   s->grid_valid = 1;
@@ -602,14 +607,18 @@ pm_status bub_population_control(bub_state *s, int64_t cap, bub_control_info *in
   int32_t k = 0;
   if (s->volume_phase) {
     /* Volumes, once the lower dimensions have settled: the same order for one kind. */
+    double t1 = pm_seconds();
     bub_alpha_all(s);
+    s->t.overlap += pm_seconds() - t1;
     st = remove_excess(&c, BUB_KVOLUME, &k);
     if (!st) st = insert_open(&c, BUB_KVOLUME, &k);
     if (!st) st = remove_excess(&c, BUB_KVOLUME, &k);
     goto finish;
   }
+  double t1 = pm_seconds();
   if (s->p.outside_layer) st = bub_outside_layer(s, err);
   if (!st) bub_alpha_all(s);
+  s->t.overlap += pm_seconds() - t1;
   if (!st) st = remove_excess(&c, BUB_KCURVE, &k);
   if (!st && k) st = refresh_layer(&c);
   if (!st) st = remove_excess(&c, BUB_KFACE, &k);
@@ -644,11 +653,12 @@ finish:
     if (s->flags[i] & BUB_FNEW) pm_v3_zero(&s->v[3 * i]);
   pm_idbuf_free(&c.buf);
   free(c.ev), free(c.lam), free(c.ngap), free(c.curve_changed);
-  if (!st) st = bub_state_compact(s, err);
+  if (!st) st = bub_state_order(s, err);
   info->after = s->volume_phase ? s->nw - s->nf : s->nf - s->nv;
   s->insertions += info->inserted;
   s->deletions += info->removed;
   s->failed_insertions += info->failed;
   s->last_ins = info->inserted, s->last_del = info->removed;
+  s->t.population += (pm_seconds() - t_begin) - (s->t.overlap - overlap_begin);
   return st;
 }

@@ -5,7 +5,9 @@
  * Rounds. A population control (bub_population.c) follows at least control_steps relaxation
  * steps (000 section 4.2.6: 20), and only when the system is relatively calm (003 section 3.5:
  * "only when the maximum velocity of all bubbles is within a small value"): when no bubble
- * moved more than `calm` of its diameter in the last step. A system that does not calm down
+ * moved more than `calm` of its diameter in the last step -- or, by default, 99% of them
+ * (disp_quantile: the largest of n displacements grows with n, and with it the steps a test on
+ * it waits; a quantile does not). A system that does not calm down
  * within 4 x control_steps steps is controlled anyway (our choice: oscillations that never settle
  * below `calm` must not stop the population from adapting). The steps between two controls are
  * a round (004's "round of simulation").
@@ -15,9 +17,9 @@
  *     most stop_change of itself in stop_rounds consecutive controls; then population control
  *     ends and up to final_steps relaxation steps follow (until the displacement tolerance);
  *   - the displacement tolerance (003 section 3.4: "the distance moved by the bubbles during one
- *     time-step in any d.o.f becomes less than a given small value"): no bubble moved more than
- *     disp_tol of its diameter in a step, and the last control changed nothing (or population
- *     control is off);
+ *     time-step in any d.o.f becomes less than a given small value"): no bubble (the
+ *     disp_quantile of them) moved more than disp_tol of its diameter in a step, and the last
+ *     control changed nothing (or population control is off);
  *   - max_steps;
  *   - the bubble cap max_bubbles: reached by insertions, it ends population control like the
  *     adaptive stop (the run reports it). The run's node budget (in->max_nodes, --max-nodes) is
@@ -79,7 +81,7 @@
 static const char *const trace_cols[] = {"step",     "bubbles",  "kinetic",   "potential",
                                          "mean_disp", "max_disp", "insertions", "deletions",
                                          "eps_t",    "zeta",     "max_rel_disp", "round",
-                                         "phase"};
+                                         "phase",    "q_rel_disp"};
 #define NCOL ((int)(sizeof trace_cols / sizeof trace_cols[0]))
 
 static pm_status snapshot(bub_state *s, pm_frames *fr, pm_error *err) {
@@ -142,7 +144,7 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
     bub_control_info ci = {0};
     int controlled = 0;
     if (p->population && !final_phase && s->steps_in_round >= p->control_steps &&
-        (info.max_rel_disp <= p->calm || s->steps_in_round >= 4 * p->control_steps)) {
+        (info.q_rel_disp <= p->calm || s->steps_in_round >= 4 * p->control_steps)) {
       st = bub_population_control(s, cap, &ci, err);
       if (st) break;
       controlled = 1;
@@ -175,20 +177,25 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
       double row[NCOL] = {(double)s->step, (double)(s->volume_phase ? s->nw - s->nf : s->nf - s->nv),
                           info.kinetic, info.potential, info.mean_disp, info.max_disp, ci.inserted,
                           ci.removed, info.eps_t, bub_zeta_now(s), info.max_rel_disp,
-                          (double)s->round, s->volume_phase ? 3 : 2};
+                          (double)s->round, s->volume_phase ? 3 : 2, info.q_rel_disp};
       st = pm_trace_add(in->trace, row, err);
       if (st) break;
     }
     if (in->frames && s->step % p->frame_every == 0 && (st = snapshot(s, in->frames, err))) break;
     if (final_phase) {
-      if (p->final_steps == 0 || --final_left <= 0 || (info.max_rel_disp <= p->disp_tol && !controlled))
+      if (p->final_steps == 0 || --final_left <= 0 || (info.q_rel_disp <= p->disp_tol && !controlled))
         break;
-    } else if (info.max_rel_disp <= p->disp_tol &&
+    } else if (info.q_rel_disp <= p->disp_tol &&
                (!p->population || (controlled && last_change == 0))) {
       snprintf(reason, 128, "converged: no bubble moved more than %g of its diameter in a step",
                p->disp_tol);
       break;
     }
+  }
+  if (!st) { /* nodes exactly on their cells (the frames' model is within FRAME_ERR d) */
+    double t0 = pm_seconds();
+    bub_state_refresh(s);
+    s->t.project += pm_seconds() - t0;
   }
   return st;
 }
@@ -420,6 +427,12 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   bub_state *s = NULL;
   st = bub_state_create(m, size, &q, in->threads, in->seed, &s, err);
   if (!st) st = bub_place(s, err);
+  if (st == PM_ERR_LIMIT && budget && err) { /* name the budget the caller set */
+    char msg[sizeof err->msg];
+    snprintf(msg, sizeof msg, "%s", strncmp(err->msg, "bubble: ", 8) == 0 ? err->msg + 8 : err->msg);
+    st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the node budget of %lld would be exceeded (%.400s)",
+                       (long long)cap, msg);
+  }
   if (!st && s->n > cap)
     st = pm_error_setf(err, PM_ERR_LIMIT, "bubble: the initial placement has %d bubbles, above the %s of %lld",
                        (int)s->n, budget ? "node budget" : "cap max_bubbles", (long long)cap);
@@ -461,6 +474,17 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
       pm_stats_set_time(S, "relax", t_relax - t_place, &e);
       if (volumes) pm_stats_set_time(S, "volume", t_vrelax - t_relax, &e);
       pm_stats_set_time(S, "connect", t_end - t_vrelax, &e);
+      /* The relaxation by stage (bub_private.h, bub_times; "other": the trace, frames, the
+       * stopping rules, and the threads' waits at the end of each parallel stage). */
+      const struct bub_times *bt = &s->t;
+      double staged = bt->neighbors + bt->force + bt->integrate + bt->project + bt->overlap + bt->population;
+      pm_stats_set_time(S, "bubble.neighbors", bt->neighbors, &e);
+      pm_stats_set_time(S, "bubble.force", bt->force, &e);
+      pm_stats_set_time(S, "bubble.integrate", bt->integrate, &e);
+      pm_stats_set_time(S, "bubble.project", bt->project, &e);
+      pm_stats_set_time(S, "bubble.overlap", bt->overlap, &e);
+      pm_stats_set_time(S, "bubble.population", bt->population, &e);
+      pm_stats_set_time(S, "bubble.other", fmax(0, (t_vrelax - t_place) - staged), &e);
       pm_stats_add_number(S, "bubble.initial", initial, &e);
       pm_stats_add_number(S, "bubble.final", s->nf, &e);
       pm_stats_add_number(S, "bubble.steps", (double)s->step, &e);
@@ -469,6 +493,11 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
       pm_stats_add_number(S, "bubble.deletions", (double)s->deletions, &e);
       pm_stats_add_number(S, "bubble.failed_insertions", (double)s->failed_insertions, &e);
       pm_stats_add_number(S, "bubble.list_builds", (double)s->list_builds, &e);
+      pm_stats_add_number(S, "bubble.outer_builds", (double)s->outer_builds, &e);
+      pm_stats_add_number(S, "bubble.partial_builds", (double)s->partial_builds, &e);
+      pm_stats_add_number(S, "bubble.partial_outer", (double)s->partial_outer, &e);
+      pm_stats_add_number(S, "bubble.evaluations", (double)s->evals, &e);
+      pm_stats_add_number(S, "bubble.bubble_steps", (double)s->bubble_steps, &e);
       pm_stats_add_number(S, "bubble.border_dropped", border_dropped, &e);
       pm_stats_add_number(S, "bubble.time_step", bub_time_step(p), &e);
       if (volumes) {

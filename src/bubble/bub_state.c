@@ -158,8 +158,98 @@ static pm_status grow(bub_state *s, int32_t need, pm_error *err) {
   GROW(cell, 1);
   GROW(flags, 1);
   GROW(wall, 1);
+  GROW(frame, BUB_FRAME_LEN);
+  GROW(frame_r, 1);
+  GROW(clear, 3);
 #undef GROW
   s->cap = nc;
+  return PM_OK;
+}
+
+/* ---- affine cells ---------------------------------------------------------------------------- */
+
+/* 1 when the Taylor model at one point reproduces the cell at the corners, centre and edge
+ * midpoints of its parameter box to 1e-12 of the model's size: a plane or a line, whose frames
+ * never need an exact evaluation (bub_dynamics.c). Only cells their backend calls "plane",
+ * "segment" or "line" are tried. */
+static int cell_affine(const pm_cell *c, double scale) {
+  const char *nm = c->cls && c->cls->name ? c->cls->name : "";
+  const int face = c->dim == PM_FACE;
+  if (face ? strcmp(nm, "plane") != 0 : (strcmp(nm, "segment") != 0 && strcmp(nm, "line") != 0))
+    return 0;
+  if (!(c->hi[0] > c->lo[0]) || (face && !(c->hi[1] > c->lo[1]))) return 0;
+  double p0[3], d0[6];
+  double par0[2] = {c->lo[0], face ? c->lo[1] : 0};
+  if (face) {
+    pm_face_point fp;
+    pm_face_eval(c, par0, 1, &fp);
+    pm_v3_copy(p0, fp.p), pm_v3_copy(d0, fp.su), pm_v3_copy(d0 + 3, fp.sv);
+  } else {
+    pm_curve_point cp;
+    pm_curve_eval(c, par0[0], 1, &cp);
+    pm_v3_copy(p0, cp.p), pm_v3_copy(d0, cp.d1), pm_v3_zero(d0 + 3);
+  }
+  const double tol = 1e-12 * scale;
+  for (int a = 0; a <= 2; ++a)
+    for (int b = 0; b <= (face ? 2 : 0); ++b) {
+      double du = 0.5 * a * (c->hi[0] - c->lo[0]), dv = face ? 0.5 * b * (c->hi[1] - c->lo[1]) : 0;
+      double par[2] = {par0[0] + du, par0[1] + dv}, x[3], d1[6];
+      if (face) {
+        pm_face_point fp;
+        pm_face_eval(c, par, 1, &fp);
+        pm_v3_copy(x, fp.p), pm_v3_copy(d1, fp.su), pm_v3_copy(d1 + 3, fp.sv);
+      } else {
+        pm_curve_point cp;
+        pm_curve_eval(c, par[0], 1, &cp);
+        pm_v3_copy(x, cp.p), pm_v3_copy(d1, cp.d1), pm_v3_zero(d1 + 3);
+      }
+      for (int k = 0; k < 3; ++k) {
+        double model = p0[k] + d0[k] * du + d0[3 + k] * dv;
+        if (!(fabs(model - x[k]) <= tol)) return 0;
+        if (!(fabs(d1[k] - d0[k]) <= 1e-12 * (fabs(d0[k]) + 1e-300) + tol) ||
+            !(fabs(d1[3 + k] - d0[3 + k]) <= 1e-12 * (fabs(d0[3 + k]) + 1e-300) + tol))
+          return 0;
+      }
+    }
+  return 1;
+}
+
+static pm_status find_affine(bub_state *s, pm_error *err) {
+  const pm_model *m = s->model;
+  int32_t nf = m->count[PM_FACE], nc = m->count[PM_CURVE];
+  s->affine = calloc((size_t)(nf + nc) + 1, 1);
+  if (!s->affine) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  double scale = m->diagonal > 0 ? m->diagonal : 1;
+  s->normal = calloc(3 * (size_t)nf + 1, sizeof(double));
+  s->pinv = calloc(6 * (size_t)nf + 1, sizeof(double));
+  s->pgain = calloc((size_t)nf + 1, sizeof(double));
+  if (!s->normal || !s->pinv || !s->pgain) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  for (int32_t f = 0; f < nf; ++f) {
+    const pm_cell *c = pm_model_cell(m, PM_FACE, f);
+    s->affine[f] = (uint8_t)cell_affine(c, scale);
+    if (!s->affine[f]) continue;
+    pm_face_point fp;
+    double uv[2] = {c->lo[0], c->lo[1]};
+    pm_face_eval(c, uv, 1, &fp);
+    pm_v3_cross(&s->normal[3 * f], fp.su, fp.sv);
+    if (!(pm_v3_normalize(&s->normal[3 * f]) > 0)) s->affine[f] = 0;
+    /* The rows of M^-1 J: the parameter steps of the unit steps along x, y, z (the shared rule
+     * applied to each, so that the fast path steps exactly as pm_cell_param_delta would). */
+    for (int k = 0; k < 3; ++k) {
+      double e[3] = {k == 0, k == 1, k == 2}, dp[3] = {0, 0, 0};
+      double der[6] = {fp.su[0], fp.su[1], fp.su[2], fp.sv[0], fp.sv[1], fp.sv[2]};
+      pm_cell_param_delta(c, uv, der, e, dp);
+      s->pinv[6 * f + k] = dp[0], s->pinv[6 * f + 3 + k] = dp[1];
+    }
+    /* |M^-1 J dx|^2 = dx^T J^T M^-2 J dx <= |dx|^2 / lambda_min(M) (J J^T = M), with a margin for
+     * rounding. */
+    const double a = pm_v3_dot(fp.su, fp.su), b = pm_v3_dot(fp.su, fp.sv), cc = pm_v3_dot(fp.sv, fp.sv);
+    const double lmin = 0.5 * (a + cc) - sqrt(0.25 * (a - cc) * (a - cc) + b * b);
+    s->pgain[f] = lmin > 0 ? (1 + 1e-9) / sqrt(lmin) : 0;
+    if (!(s->pgain[f] > 0) || !isfinite(s->pgain[f])) s->affine[f] = 0;
+  }
+  for (int32_t c = 0; c < nc; ++c)
+    s->affine[nf + c] = (uint8_t)cell_affine(pm_model_cell(m, PM_CURVE, c), scale);
   return PM_OK;
 }
 
@@ -171,7 +261,9 @@ pm_status bub_state_create(const pm_model *m, const pm_sizing *size, const bub_p
   s->model = m, s->size = size, s->p = *p;
   s->threads = threads >= 1 ? threads : 1;
   s->seed = seed;
+  s->grid_factor = fmax(1.0, bub_outer_reach(p));
   pm_status st = build_closures(s, err);
+  if (!st) st = find_affine(s, err);
   /* hmin of the grid: far below any bubble (it only affects speed). */
   if (!st) st = pm_grid_create(1e-6 * (m->diagonal > 0 ? m->diagonal : 1), &s->grid, err);
   if (!st) st = grow(s, 256, err);
@@ -186,16 +278,22 @@ pm_status bub_state_create(const pm_model *m, const pm_sizing *size, const bub_p
 void bub_state_destroy(bub_state *s) {
   if (!s) return;
   free(s->x), free(s->v), free(s->par), free(s->der), free(s->d), free(s->dmoved), free(s->alpha);
-  free(s->kind), free(s->cell), free(s->flags), free(s->wall);
+  free(s->kind), free(s->cell), free(s->flags), free(s->wall), free(s->frame), free(s->frame_r);
+  free(s->clear), free(s->normal), free(s->pinv), free(s->pgain);
+  free(s->affine);
   if (s->shell)
     for (int32_t v = 0; v < s->model->count[PM_VOLUME]; ++v) pm_volume_shell_destroy(s->shell[v]);
   free(s->shell);
   pm_grid_destroy(s->grid);
-  free(s->nb_off), free(s->nb), free(s->x_build), free(s->d_build);
+  free(s->nb_off), free(s->nb), free(s->nbo), free(s->nb_cnt), free(s->nbo_cnt), free(s->nb_mark), free(s->nb_moved), free(s->x_build), free(s->d_build);
+  free(s->xo_build), free(s->do_build);
   for (int k = 0; k < 4; ++k) free(s->clo_off[k]), free(s->clo[k]);
   free(s->seam);
-  free(s->xs), free(s->vs), free(s->as), free(s->ders), free(s->pars), free(s->sumv);
-  free(s->suma), free(s->x0), free(s->pot), free(s->disp), free(s->deg);
+  for (int k = 0; k < 3; ++k) free(s->pos[k]);
+  free(s->vs), free(s->sumv), free(s->suma), free(s->ders), free(s->pot), free(s->disp), free(s->deg);
+  free(s->skin0), free(s->room), free(s->hist), free(s->timers);
+  free(s->chunks);
+  bub_neighbors_free(s);
   free(s);
 }
 
@@ -237,6 +335,8 @@ pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
   s->kind[i] = (int8_t)kind, s->cell[i] = cell, s->flags[i] = 0, s->alpha[i] = 0;
   s->dmoved[i] = 0;
   s->wall[i] = 0;
+  s->frame_r[i] = 0; /* no frame yet: the first step evaluates the cell (bub_dynamics.c) */
+  s->clear[3 * i + 2] = 0;
   s->par[2 * i] = par && kind >= BUB_KCURVE && kind <= BUB_KFACE ? par[0] : 0;
   s->par[2 * i + 1] = par && kind == BUB_KFACE ? par[1] : 0;
   pm_v3_zero(&s->v[3 * i]);
@@ -267,9 +367,15 @@ pm_status bub_state_add(bub_state *s, int kind, int32_t cell, const double *par,
 
 /* ---- compaction ----------------------------------------------------------------------------- */
 
+/* bub_state_order sorts the bubbles of a cell along a Morton (Z-order) curve of their positions,
+ * ties by their previous index: bubbles near in space are near in memory, so the force sums'
+ * gathers hit the cache (at 10^6 bubbles a list in random order runs several times slower), and
+ * bubbles inserted by population control join their neighbourhood instead of the array's end.
+ * bub_state_compact keeps the previous order within a cell (tests rely on the indices). */
 typedef struct sort_key {
   int8_t kind;
   int32_t cell;
+  uint64_t z;
   int32_t idx;
 } sort_key;
 
@@ -277,16 +383,39 @@ static int cmp_key(const void *a, const void *b) {
   const sort_key *x = a, *y = b;
   if (x->kind != y->kind) return x->kind - y->kind;
   if (x->cell != y->cell) return (x->cell > y->cell) - (x->cell < y->cell);
+  if (x->z != y->z) return (x->z > y->z) - (x->z < y->z);
   return (x->idx > y->idx) - (x->idx < y->idx);
 }
 
-pm_status bub_state_compact(bub_state *s, pm_error *err) {
+/* Spread the low 21 bits of v to every third bit. */
+static uint64_t spread3(uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffull;
+  v = (v | v << 16) & 0x1f0000ff0000ffull;
+  v = (v | v << 8) & 0x100f00f00f00f00full;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ull;
+  v = (v | v << 2) & 0x1249249249249249ull;
+  return v;
+}
+
+static uint64_t morton(const pm_model *m, const double x[3]) {
+  uint64_t z = 0;
+  for (int k = 0; k < 3; ++k) {
+    double ext = m->box[k + 3] - m->box[k], t = ext > 0 ? (x[k] - m->box[k]) / ext : 0;
+    if (!(t > 0)) t = 0; /* also NaN */
+    if (t > 1) t = 1;
+    z |= spread3((uint64_t)(t * 2097151.0)) << k;
+  }
+  return z;
+}
+
+static pm_status compact(bub_state *s, int spatial, pm_error *err) {
   int32_t n = 0;
   sort_key *keys = malloc(sizeof(sort_key) * ((size_t)s->n + 1));
   if (!keys) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   for (int32_t i = 0; i < s->n; ++i)
     if (!(s->flags[i] & BUB_FDEAD) && s->kind[i] != BUB_KOUT)
-      keys[n++] = (sort_key){s->kind[i], s->cell[i], i};
+      keys[n++] = (sort_key){s->kind[i], s->cell[i], spatial ? morton(s->model, &s->x[3 * i]) : 0, i};
   qsort(keys, (size_t)n, sizeof(sort_key), cmp_key);
   /* Permute through a copy of each array. */
   size_t need = (size_t)(n ? n : 1);
@@ -314,7 +443,19 @@ pm_status bub_state_compact(bub_state *s, pm_error *err) {
   PERMUTE(cell, 1, int32_t);
   PERMUTE(flags, 1, uint8_t);
   PERMUTE(wall, 1, double);
+  PERMUTE(frame_r, 1, double);
+  PERMUTE(clear, 3, double);
 #undef PERMUTE
+  /* The frames, 20 doubles a bubble, through a buffer of their own. */
+  double *fb = malloc(sizeof(double) * BUB_FRAME_LEN * need);
+  if (!fb) {
+    free(buf), free(keys);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int32_t k = 0; k < n; ++k)
+    memcpy(&fb[(size_t)BUB_FRAME_LEN * k], &s->frame[(size_t)BUB_FRAME_LEN * keys[k].idx], sizeof(double) * BUB_FRAME_LEN);
+  memcpy(s->frame, fb, sizeof(double) * BUB_FRAME_LEN * (size_t)n);
+  free(fb);
   free(buf);
   free(keys);
   s->n = n;
@@ -334,11 +475,15 @@ pm_status bub_state_compact(bub_state *s, pm_error *err) {
   return PM_OK;
 }
 
+pm_status bub_state_compact(bub_state *s, pm_error *err) { return compact(s, 0, err); }
+
+pm_status bub_state_order(bub_state *s, pm_error *err) { return compact(s, 1, err); }
+
 pm_status bub_state_grid_rebuild(bub_state *s, pm_error *err) {
   pm_grid_clear(s->grid);
   pm_status st = pm_grid_reserve(s->grid, s->n, err);
   for (int32_t i = 0; i < s->n && !st; ++i)
-    if (!(s->flags[i] & BUB_FDEAD)) st = pm_grid_insert(s->grid, i, &s->x[3 * i], BUB_GRID_FACTOR * s->d[i], err);
+    if (!(s->flags[i] & BUB_FDEAD)) st = pm_grid_insert(s->grid, i, &s->x[3 * i], s->grid_factor * s->d[i], err);
   s->grid_valid = !st;
   return st;
 }

@@ -297,7 +297,7 @@ static pm_status place_volume(bub_state *s, int32_t vol, int64_t cap, pm_error *
     st = bub_state_add(s, BUB_KVOLUME, vol, NULL, pt->x, 0, &id, err);
     if (!st) {
       s->wall[id] = isfinite(wall) ? wall : 2.5 * d;
-      st = pm_grid_insert(s->grid, id, &s->x[3 * id], BUB_GRID_FACTOR * s->d[id], err);
+      st = pm_grid_insert(s->grid, id, &s->x[3 * id], s->grid_factor * s->d[id], err);
     }
   }
   pm_idbuf_free(&buf);
@@ -312,5 +312,5 @@ pm_status bub_place_volumes(bub_state *s, pm_error *err) {
   pm_status st = bub_state_grid_rebuild(s, err);
   for (int32_t v = 0; v < s->model->count[PM_VOLUME] && !st; ++v) st = place_volume(s, v, cap, err);
   if (st) return st;
-  return bub_state_compact(s, err);
+  return bub_state_order(s, err);
 }

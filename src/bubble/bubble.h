@@ -33,6 +33,8 @@ extern "C" {
 enum { BUB_RK4 = 0, BUB_RK2 = 1 };
 /* Viscosity schedules. */
 enum { BUB_VISC_CONSTANT = 0, BUB_VISC_SAWTOOTH = 1 };
+/* Initial placement of face bubbles. */
+enum { BUB_PLACE_QUADTREE = 0, BUB_PLACE_LATTICE = 1 };
 /* Where the tets' interior nodes come from with --volume. */
 enum { BUB_TETS_BUBBLES = 0, BUB_TETS_TETGEN = 1 };
 
@@ -63,7 +65,32 @@ typedef struct bub_params {
                        default 0.5 */
   double odd_from;  /* the odd-bubble scheme starts once a control changes the count by at most
                        this fraction (004: 0.05%); [0, 1], default 0.0005 */
+  /* ---- speed (bub_neighbors.c, bub_dynamics.c: no effect on the papers' equations) ---- */
+  double list_skin; /* skin of the neighbour lists: a pair is listed within (1 + list_skin)
+                       x 1.5 l0, and the lists are rebuilt (from the outer lists) once two
+                       bubbles may have crossed the skin; [0.02, 2], default 0.15 (our choice,
+                       bench_bubble: fewer pairs per list against more rebuilds) */
+  double list_outer; /* skin of the outer lists, from which the lists are rebuilt: pairs within
+                        (1 + list_outer) x 1.5 l0, found through the grid once two bubbles may
+                        have crossed it; [list_skin, 3], default 0.6 */
+  double list_partial; /* when the skin test fails, only the bubbles that used up half their skin
+                          get new lists (with their neighbours, and new outer lists from the grid
+                          where those are stale), while they are at most this fraction of the
+                          moving bubbles, else every list is built again; [0, 1], 0 = always
+                          every list, default 0.125 (our choice, bub_neighbors.c: a few bubbles
+                          gliding along a defect would otherwise rebuild every list every few
+                          steps) */
+  double frame_tol; /* a bubble whose parameters moved less than frame_tol x d from where its
+                       cell was last evaluated takes position and tangents from the cell's
+                       second-order Taylor model there (exact on planes and lines, error below
+                       1e-6 d elsewhere, bub_dynamics.c); [0, 0.5], 0 = exact evaluation at every
+                       RK stage (the papers), default 0.05 */
   /* ---- initial placement (003 section 3.2, 000 section 4.1.1, 004 section 2.3) ---- */
+  int place;        /* face bubbles: BUB_PLACE_QUADTREE, the rhombic quadtree of the papers (003
+                       section 3.2, 000 section 4.1.1, weights w1, w2 of 004 section 2.3), or
+                       BUB_PLACE_LATTICE, a hexagonal lattice grown from the border at the stable
+                       distance (our addition, bub_lattice.c: one grain, the final count);
+                       default lattice */
   double w1;        /* curve insertion weight: split while w1 |P1P2| > r1 + r2; (0, 4],
                        default 1 */
   double w2;        /* face insertion weight (004: 0.5..0.8); (0, 1], default 0.5 (a sparse
@@ -71,12 +98,16 @@ typedef struct bub_params {
                        that removals thin: see bub_place.c) */
   /* ---- population control (003 eq. 16, 000 sections 4.1.2, 4.2) ---- */
   int population;   /* adaptive population control on/off; default on (003 section 3.5) */
-  double face_open;   /* face bubble is open below this overlap ratio; (0, 12], < 6, default 5
-                         (000 section 4.1.2) */
-  double face_excess; /* face bubble is excess above this overlap ratio; (0, 30], > 6, default 8
-                         (000 section 4.1.2) */
+  double face_open;   /* face bubble is open below this overlap ratio; (0, 12], < 6, default 5.6
+                         (000 section 4.1.2: 5, for the quadtree's sparse start; our choice with
+                         the lattice start, which has the final density already: a narrower
+                         window turns a strained patch into a defect instead of spreading the
+                         strain over many triangles, bench_bubble compare) */
+  double face_excess; /* face bubble is excess above this overlap ratio; (0, 30], > 6, default 7
+                         (000 section 4.1.2: 8; the same choice) */
   double curve_open;  /* curve bubble open below; (0, 4], < 2, default 5/3 (our choice: the face
-                         cut-offs scaled by 2/6, the same spacing window; bub_population.c) */
+                         cut-offs of 000, 5 and 8, scaled by 2/6, the same spacing window;
+                         bub_population.c) */
   double curve_excess; /* curve bubble excess above; (0, 10], > 2, default 8/3 (same rule) */
   double volume_open;   /* volume bubble is open below this overlap ratio; (0, 40], < 12, default
                            10 (our choice: two of 12 neighbours missing, the faces' one of 6;
@@ -84,6 +115,10 @@ typedef struct bub_params {
   double volume_excess; /* volume bubble is excess above; (0, 60], > 12, default 13.5 (our
                            choice: below the 13.9 of a bubble pushed into the close packing's
                            roomiest hole, as the faces' 8 is at a pushed bubble's 7.6-7.95) */
+  double insert_excess; /* a face insertion place is not used when its overlap ratio is above
+                           max(face_excess, insert_excess) (a new bubble is not removed in the
+                           control that inserted it, 000 section 4.2.4, and relaxes before the
+                           next); [0, 30], default 8 (the papers' face_excess) */
   double insert_k;  /* insertion distance factor k (a new face bubble at k r); [0.5, 4],
                        default 1.8 (000 section 4.2.4) */
   int control_steps; /* relaxation steps between two population controls; [1, 100000],
@@ -100,8 +135,13 @@ typedef struct bub_params {
   int stop_rounds;  /* settled rounds in a row; [1, 1000], default 2 (004: twice) */
   double disp_tol;  /* stop when no bubble moves more than disp_tol x its diameter in a step and
                        the last control changed nothing (003 section 3.4); [0, 1], default 1e-3 */
-  int final_steps;  /* relaxation steps after the population has settled; [0, 1e6], default 60
-                       (our choice) */
+  double disp_quantile; /* the tests on a step's displacements (calm, disp_tol) read this quantile
+                           of the bubbles' displacement / d instead of the largest (our choice: the
+                           largest of n values grows with n, and so would the step count);
+                           (0, 1], 1 = the largest (003 sections 3.4-3.5), default 0.99 */
+  int final_steps;  /* relaxation steps after the population has settled, at most (the
+                       displacement test may end them sooner); [0, 1e6], default 100 (our
+                       choice) */
   int max_steps;    /* cap on steps; [0, 1e8], default 3000 */
   double max_bubbles; /* cap on bubbles: reached by insertions it ends the run (the run's own
                          node budget, pm_run_input.max_nodes, is an error instead); [1, 2e9],

@@ -136,17 +136,26 @@ pm_status pm_stats_set_needles(pm_stats *s, const pm_needles *n, double limit, p
 }
 
 pm_status pm_stats_set_time(pm_stats *s, const char *phase, double seconds, pm_error *err) {
-  if (!phase || !phase[0] || strchr(phase, '.'))
+  if (!phase || !phase[0] || phase[0] == '.' || phase[strlen(phase) - 1] == '.' ||
+      strstr(phase, "..") || strncmp(phase, "total.", 6) == 0)
     return pm_error_setf(err, PM_ERR_ARG, "bad timing name '%s'", phase ? phase : "");
   if (strcmp(phase, "total") == 0) {
     s->time_total = seconds;
     return PM_OK;
   }
-  for (int32_t i = 0; i < s->ntime; ++i)
-    if (strcmp(s->time[i].key, phase) == 0) {
+  size_t lk = strlen(phase);
+  for (int32_t i = 0; i < s->ntime; ++i) {
+    const char *o = s->time[i].key;
+    size_t lo = strlen(o);
+    if (strcmp(o, phase) == 0) {
       s->time[i].num = seconds;
       return PM_OK;
     }
+    /* A phase and its sub-phases cannot both be numbers ("a" and "a.b"). */
+    if ((lo < lk && strncmp(o, phase, lo) == 0 && phase[lo] == '.') ||
+        (lk < lo && strncmp(o, phase, lk) == 0 && o[lk] == '.'))
+      return pm_error_setf(err, PM_ERR_ARG, "timing name '%s' clashes with '%s'", phase, o);
+  }
   return push_item(&s->time, &s->ntime, phase, 0, seconds, NULL, err);
 }
 
@@ -301,7 +310,7 @@ static void add_quality(jb *b, cJSON *root, const pm_quality *q) {
   if (q->tet.n > 0) add_kind(b, root, "tet", &q->tet, "min_dihedral_deg", "max_dihedral_deg");
 }
 
-/* Put an extra item at its dotted path, creating the intermediate objects. */
+/* Put an item at its dotted path below root, creating the intermediate objects. */
 static void add_extra(jb *b, cJSON *root, const pm_stats_item *it) {
   char path[512];
   snprintf(path, sizeof path, "%s", it->key);
@@ -362,7 +371,7 @@ static cJSON *stats_json(const pm_stats *s) {
   add_num(&b, root, "iterations", (double)s->iterations);
   cJSON *t = add_obj(&b, root, "time_s");
   add_num(&b, t, "total", s->time_total);
-  for (int32_t i = 0; i < s->ntime; ++i) add_num(&b, t, s->time[i].key, s->time[i].num);
+  for (int32_t i = 0; i < s->ntime; ++i) add_extra(&b, t, &s->time[i]); /* "a.b" nests */
   if (s->has_quality) add_quality(&b, root, &s->quality);
   if (s->has_distance) {
     cJSON *d = add_obj(&b, root, "distance");

@@ -103,7 +103,8 @@ void pm_stats_set_quality(pm_stats *s, const pm_quality *q);
 pm_status pm_stats_set_needles(pm_stats *s, const pm_needles *n, double limit, pm_error *err);
 
 /* A phase time in seconds ("total" sets time_total; another name is added, or replaced when it
- * was set before). */
+ * was set before). Dots nest: "bubble.force" is time_s.bubble.force, {"bubble": {"force": ..}}
+ * in JSON; a name that is a dotted prefix of another ("a" and "a.b") is PM_ERR_ARG. */
 pm_status pm_stats_set_time(pm_stats *s, const char *phase, double seconds, pm_error *err);
 
 /* The two-sided mesh-to-model distance and the model's bounding-box diagonal. */

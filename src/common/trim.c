@@ -239,6 +239,31 @@ static int slab_inside(const pm_trim *tr, const double p[2]) {
   return on || parity;
 }
 
+static double seg_dist2(const double p[2], const double a[2], const double b[2]) {
+  double ab[2] = {b[0] - a[0], b[1] - a[1]}, ap[2] = {p[0] - a[0], p[1] - a[1]};
+  double L2 = ab[0] * ab[0] + ab[1] * ab[1], t = L2 > 0 ? (ab[0] * ap[0] + ab[1] * ap[1]) / L2 : 0;
+  t = t < 0 ? 0 : (t > 1 ? 1 : t);
+  double dx = ap[0] - t * ab[0], dy = ap[1] - t * ab[1];
+  return dx * dx + dy * dy;
+}
+
+double pm_trim_clearance(const pm_cell *f, const double uv[2], double rmax) {
+  const pm_trim *tr = f->trim;
+  if (!tr || !(rmax > 0) || !isfinite(uv[0]) || !isfinite(uv[1])) return 0;
+  /* Every edge within rmax of uv overlaps a slab between v - rmax and v + rmax. */
+  int r0 = cell_of(uv[1] - rmax, tr->v0, tr->rh, tr->nrow);
+  int r1 = cell_of(uv[1] + rmax, tr->v0, tr->rh, tr->nrow);
+  double best = rmax * rmax;
+  for (int r = r0; r <= r1; ++r)
+    for (int32_t k = tr->row_start[r]; k < tr->row_start[r + 1]; ++k) {
+      const double *e = &tr->edge[4 * tr->row_edge[k]];
+      double d2 = seg_dist2(uv, e, e + 2);
+      if (d2 < best) best = d2;
+    }
+  /* Rounding of the squared distances: a relative margin far above it. */
+  return sqrt(best) * (1 - 1e-9);
+}
+
 static pm_status build_accelerator(pm_cell *f, pm_error *err) {
   pm_trim *tr = calloc(1, sizeof *tr);
   if (!tr) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");

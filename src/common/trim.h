@@ -26,6 +26,12 @@ void pm_trim_free(pm_cell *f);
 /* The inside test on unwrapped (u, v): 1 inside or on the boundary, 0 outside. */
 int pm_trim_inside(const pm_cell *f, const double uv[2]);
 
+/* A lower bound on the distance in (u, v) from uv (unwrapped) to the loop polylines of face f,
+ * at most rmax (returned when no polyline point is nearer). Every point nearer to an inside uv
+ * than that is inside too (pm_trim_inside), so a particle that stays within it needs no inside
+ * test. Cost: the edges of the slabs between v - rmax and v + rmax. */
+double pm_trim_clearance(const pm_cell *f, const double uv[2], double rmax);
+
 /* Even-odd inside test of (u, v) against one closed polyline (no accelerator; exact
  * predicates). 1 inside or on it, 0 outside. */
 int pm_polyline_inside(const double *uv, int32_t npts, const double p[2]);

@@ -10,6 +10,9 @@
 
 static char dir[256];
 
+/* bub_private.h's BUB_PARALLEL_MIN (this test sees the command only). */
+#define BUB_PARALLEL_MIN_CLI 8192
+
 static int setup(void **state) {
   (void)state;
   snprintf(dir, sizeof dir, "/tmp/pm_test_bub_cli_XXXXXX");
@@ -65,6 +68,44 @@ static void qi3_stats(void **state) {
   assert_true(num(j, "time_s", "connect", NULL) >= 0);
   assert_true(num(j, "bubble", "steps", NULL) == num(j, "iterations", NULL, NULL));
   cJSON_Delete(j);
+}
+
+/* Byte-identical output files (mesh and trace) with 1, 2 and 4 threads and the same seed: on a
+ * planar case and on curved CAD faces (frames, batched evaluation), each above BUB_PARALLEL_MIN
+ * bubbles so that the threads do share the work. */
+static void threads_identical(void **state) {
+  (void)state;
+  const char *inputs[2][2] = {{"case:qi1", "0.025"}, {"case:torus", "0.03"}};
+  for (int c = 0; c < 2; ++c) {
+    char *mesh[3] = {NULL, NULL, NULL}, *trace[3] = {NULL, NULL, NULL};
+    const int threads[3] = {1, 2, 4};
+    for (int k = 0; k < 3; ++k) {
+      char args[4096], out[512], tr[512];
+      snprintf(out, sizeof out, "%s/thr%d_%d.msh", dir, c, threads[k]);
+      snprintf(tr, sizeof tr, "%s/thr%d_%d.csv", dir, c, threads[k]);
+      snprintf(args, sizeof args,
+               "mesh %s --size %s --method bubble --seed 5 --threads %d -o '%s' --trace '%s'",
+               inputs[c][0], inputs[c][1], threads[k], out, tr);
+      char *o = NULL, *e = NULL;
+      int rc = pm_test_cli(dir, args, &o, &e);
+      if (rc) fail_msg("%s: exit %d: %s", args, rc, e);
+      free(o), free(e);
+      mesh[k] = pm_test_slurp(out), trace[k] = pm_test_slurp(tr);
+      assert_non_null(mesh[k]);
+      assert_non_null(trace[k]);
+    }
+    /* Enough bubbles for the parallel loops (the trace's second column, last row). */
+    const char *last = strrchr(trace[0], '\n');
+    while (last > trace[0] && last[-1] != '\n') --last;
+    const char *comma = strchr(last > trace[0] ? last : trace[0], ',');
+    assert_non_null(comma);
+    assert_true(atof(comma + 1) > BUB_PARALLEL_MIN_CLI);
+    for (int k = 1; k < 3; ++k) {
+      if (strcmp(mesh[0], mesh[k]) != 0) fail_msg("%s: the mesh differs with %d threads", inputs[c][0], threads[k]);
+      if (strcmp(trace[0], trace[k]) != 0) fail_msg("%s: the trace differs with %d threads", inputs[c][0], threads[k]);
+    }
+    for (int k = 0; k < 3; ++k) free(mesh[k]), free(trace[k]);
+  }
 }
 
 /* Bad parameters: one line naming the key, a non-zero exit, no mesh file. */
@@ -189,11 +230,13 @@ static void volume_bubbles(void **state) {
       /* The trace's last row is of the volume phase (phase 3) and counts the volume bubbles. */
       char *text = pm_test_slurp(tr);
       assert_non_null(text);
-      assert_non_null(strstr(text, ",phase\n"));
+      assert_non_null(strstr(text, ",phase,q_rel_disp\n"));
       size_t len = strlen(text);
       while (len > 0 && text[len - 1] == '\n') text[--len] = 0;
       char *last = strrchr(text, '\n');
       assert_non_null(last);
+      char *lastcol = strrchr(last, ',');
+      *lastcol = 0; /* the phase is the column before q_rel_disp */
       assert_int_equal(atoi(strrchr(last, ',') + 1), 3);
       char *comma = strchr(last + 1, ',');
       assert_true(atoi(comma + 1) == (int)num(j, "bubble", "volume_bubbles", NULL) ||
@@ -216,7 +259,7 @@ static void volume_bubbles(void **state) {
 
 int main(void) {
   const struct CMUnitTest tests[] = {
-      cmocka_unit_test(qi3_stats),    cmocka_unit_test(bad_sets),
+      cmocka_unit_test(qi3_stats),    cmocka_unit_test(threads_identical), cmocka_unit_test(bad_sets),
       cmocka_unit_test(help),         cmocka_unit_test(trace_frames),
       cmocka_unit_test(cad_and_volume), cmocka_unit_test(volume_bubbles),
   };

@@ -43,13 +43,15 @@ static void curve_subdivision(void **state) {
   pm_model_destroy(m);
 }
 
-/* The face of a square with d = 1 and w2 = 1: the rhombic quadtree splits uniformly, so interior
- * face bubbles form a 60-degree lattice: each has 6 neighbours at one distance, at most d. */
+/* The face of a square with d = 1 and w2 = 1: the rhombic quadtree (place = quadtree, the
+ * papers') splits uniformly, so interior face bubbles form a 60-degree lattice: each has 6
+ * neighbours at one distance, at most d. */
 static void rhombic_lattice(void **state) {
   (void)state;
   pm_model *m = bt_square(0, 0, 8);
   pm_sizing *size = const_size(1.0);
   bub_params p = bt_params();
+  p.place = BUB_PLACE_QUADTREE;
   p.w2 = 1;
   bub_state *s = bt_state(m, size, &p, 1);
   pm_error e = {0};
@@ -89,6 +91,84 @@ static void rhombic_lattice(void **state) {
   pm_model_destroy(m);
 }
 
+/* place = lattice on a rectangle 10 x 6.4 with d = 1: each curve carries round(length / d) equal
+ * segments; the face bubbles form one hexagonal lattice at spacing d, rows along the longest
+ * side (every interior bubble has 6 neighbours at d, the row direction along x), none crowded
+ * against the border; on qi2's graded field, curve chains are even in units of l0. */
+static void grown_lattice(void **state) {
+  (void)state;
+  const pm_planar_piece pc[4] = {{PM_PIECE_LINE, {0, 0}, {0, 0}, 0}, {PM_PIECE_LINE, {10, 0}, {0, 0}, 0},
+                                 {PM_PIECE_LINE, {10, 6.4}, {0, 0}, 0}, {PM_PIECE_LINE, {0, 6.4}, {0, 0}, 0}};
+  pm_planar_loop lp = {4, pc};
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_planar_model("rect", 1, &lp, &m, &e), e);
+  pm_sizing *size = const_size(1.0);
+  bub_params p = bt_params();
+  assert_int_equal(p.place, BUB_PLACE_LATTICE); /* the default */
+  bub_state *s = bt_state(m, size, &p, 1);
+  PM_ASSERT_OK(bub_place(s, &e), e);
+  /* Curves: 10 segments on the long sides (9 bubbles each), round(6.4) = 6 on the short ones
+   * (5 each, at 6.4 / 6). */
+  assert_int_equal(s->nc - s->nv, 2 * 9 + 2 * 5);
+  for (int32_t i = s->nv; i < s->nc; ++i) {
+    const double *x = &s->x[3 * i];
+    double along = (x[1] == 0 || x[1] == 6.4) ? x[0] : x[1], step = (x[1] == 0 || x[1] == 6.4) ? 1.0 : 6.4 / 6;
+    PM_ASSERT_NEAR(along / step, round(along / step), 1e-6);
+  }
+  int checked = 0;
+  for (int32_t i = s->nc; i < s->nf; ++i) {
+    const double *x = &s->x[3 * i];
+    for (int32_t j = 0; j < s->nf; ++j)
+      if (j != i) assert_true(pm_v3_dist(x, &s->x[3 * j]) >= 0.7 * (1 - 1e-9));
+    if (x[0] < 2 || x[0] > 8 || x[1] < 2 || x[1] > 4.4) continue;
+    int nb = 0, along_x = 0;
+    for (int32_t j = s->nc; j < s->nf; ++j) {
+      double r = pm_v3_dist(x, &s->x[3 * j]);
+      if (j == i || r > 1.01) continue;
+      PM_ASSERT_NEAR(r, 1.0, 1e-9);
+      ++nb;
+      along_x += fabs(s->x[3 * j + 1] - x[1]) < 1e-9;
+    }
+    assert_int_equal(nb, 6);
+    assert_int_equal(along_x, 2);
+    ++checked;
+  }
+  assert_true(checked > 15);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+  /* A graded field: every curve's chain has equal steps of the integral of ds / d. */
+  pm_sizing *qsize = NULL;
+  PM_ASSERT_OK(pm_case_open("qi2", &m, &qsize, &e), e);
+  s = bt_state(m, qsize, &p, 1);
+  PM_ASSERT_OK(bub_place(s, &e), e);
+  const pm_cell *c = pm_model_cell(m, PM_CURVE, 0);
+  double *t = NULL;
+  int32_t nt = 0;
+  PM_ASSERT_OK(bub_place_curve_lattice(s, 0, 1000000, &t, &nt, &e), e);
+  assert_true(nt >= 3);
+  /* Integral of ds / d between consecutive bubbles (ends included), by fine quadrature. */
+  double prev = c->lo[0], first = -1;
+  for (int32_t k = 0; k <= nt; ++k) {
+    double next = k < nt ? t[k] : c->hi[0], sum = 0;
+    for (int q = 0; q < 2000; ++q) {
+      double tt = prev + (next - prev) * (q + 0.5) / 2000, x[3];
+      pm_curve_point cp;
+      pm_curve_eval(c, tt, 1, &cp);
+      pm_v3_copy(x, cp.p);
+      sum += pm_v3_norm(cp.d1) / pm_sizing_eval(qsize, x) * (next - prev) / 2000;
+    }
+    if (first < 0) first = sum;
+    PM_ASSERT_NEAR(sum, first, 1e-3 * first);
+    prev = next;
+  }
+  free(t);
+  bub_state_destroy(s);
+  pm_sizing_destroy(qsize);
+  pm_model_destroy(m);
+}
+
 /* qi2 (a square with a round hole, d = r / 8): every face bubble inside the face, none in the
  * hole; the hole's circle (one closed curve) is subdivided; placement is deterministic. */
 static void hole_and_determinism(void **state) {
@@ -125,6 +205,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(curve_subdivision),
       cmocka_unit_test(rhombic_lattice),
+      cmocka_unit_test(grown_lattice),
       cmocka_unit_test(hole_and_determinism),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

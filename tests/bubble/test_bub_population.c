@@ -137,13 +137,23 @@ static double min_pair_distance(const bub_state *s) {
   return mn;
 }
 
-/* Control on a relaxed packing changes nothing; a bubble pushed into it is removed. */
+/* Control on a relaxed packing changes nothing; a bubble pushed into it is removed: with the
+ * thesis's cut-offs (000 section 4.1.2: 5 and 8) exactly that one; with the defaults (5.6, 7) the
+ * pair it was pushed against may go too and a bubble is put back, the count and spacing restored
+ * either way. */
+static void removes_pushed_bubble_with(double open, double excess, int exact);
 static void removes_pushed_bubble(void **state) {
   (void)state;
+  removes_pushed_bubble_with(5, 8, 1);
+  removes_pushed_bubble_with(-1, -1, 0);
+}
+
+static void removes_pushed_bubble_with(double open, double excess, int exact) {
   pm_model *m = rhombus_model(8, 1.0);
   pm_sizing *size = const_size(1.0);
   int32_t n0;
   bub_state *s = lattice_rhombus(m, size, 8, 1.0, &n0);
+  if (open > 0) s->p.face_open = open, s->p.face_excess = excess;
   pm_error e = {0};
   bub_control_info ci;
   /* Relaxed already: steps move nothing, control changes nothing. */
@@ -159,9 +169,13 @@ static void removes_pushed_bubble(void **state) {
   PM_ASSERT_OK(bub_state_compact(s, &e), e);
   assert_true(min_pair_distance(s) < 0.3);
   PM_ASSERT_OK(bub_population_control(s, 1000000, &ci, &e), e);
-  assert_int_equal(ci.removed, 1);
-  assert_int_equal(ci.inserted, 0);
+  if (exact) {
+    assert_int_equal(ci.removed, 1);
+    assert_int_equal(ci.inserted, 0);
+  }
+  assert_int_equal(ci.removed - ci.inserted, 1);
   assert_int_equal(s->n, n0);
+  bt_steps(s, 200);
   assert_true(min_pair_distance(s) > 0.7);
   bub_state_destroy(s);
   pm_sizing_destroy(size);

@@ -82,7 +82,7 @@ static int same_mesh(const pm_mesh *a, const pm_mesh *b) {
          !memcmp(a->tri, b->tri, sizeof(int32_t) * 3 * (size_t)a->ntri);
 }
 
-/* Same seed: the identical mesh twice, and with 1 or 2 threads (qi1 at d = 0.06: about 2600
+/* Same seed: the identical mesh twice, and with 1 or 2 threads (qi1 at d = 0.03: about 10500
  * bubbles, above BUB_PARALLEL_MIN, so the second run does use 2 threads). */
 static void determinism(void **state) {
   (void)state;
@@ -90,11 +90,10 @@ static void determinism(void **state) {
   pm_sizing *size = NULL;
   pm_error e = {0};
   PM_ASSERT_OK(pm_case_open("qi1", &m, NULL, &e), e);
-  PM_ASSERT_OK(pm_sizing_constant(0.06, &size, &e), e);
+  PM_ASSERT_OK(pm_sizing_constant(0.03, &size, &e), e);
   bub_params p;
   bub_params_init(&p);
   p.max_steps = 45; /* a few controls are enough to exercise everything */
-  p.w2 = 1;         /* start dense: above BUB_PARALLEL_MIN from the first step */
   pm_run_output o1, o2, o3;
   pm_mesh *a = run(m, size, &p, 1, NULL, NULL, &o1);
   pm_mesh *b = run(m, size, &p, 1, NULL, NULL, &o2);
@@ -272,8 +271,10 @@ static void caps_and_errors(void **state) {
   assert_null(out.mesh);
   assert_non_null(strstr(e.msg, "over the cap max_bubbles 300"));
   /* The method's own cap ends the run when insertions reach it; the run's node budget is an
-   * error. */
+   * error. (The lattice starts with about 500 bubbles and would fail at once, naming the cap;
+   * the quadtree's sparse start has fewer than 400.) */
   p.max_bubbles = 400;
+  p.place = BUB_PLACE_QUADTREE;
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
   assert_non_null(strstr(out.stop_reason, "bubble cap (400) reached"));
   assert_true(out.mesh->nnode <= 400);
@@ -289,7 +290,24 @@ static void caps_and_errors(void **state) {
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
   assert_non_null(strstr(e.msg, "node budget of 400"));
   assert_null(out.mesh);
+  /* A size far too fine for the cap fails before any bubble is placed, naming the cap. */
   in.max_nodes = PM_DEFAULT_MAX_NODES;
+  bub_params_init(&p);
+  pm_sizing *tiny = NULL;
+  PM_ASSERT_OK(pm_sizing_constant(1e-5, &tiny, &e), e); /* about 1.2e10 bubbles */
+  in.size = tiny;
+  assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
+  assert_non_null(strstr(e.msg, "over the cap max_bubbles 10000000"));
+  assert_null(out.mesh);
+  { /* the placement itself: nothing placed, the check comes first */
+    bub_state *s = bt_state(m, tiny, &p, 1);
+    assert_int_equal(bub_place(s, &e), PM_ERR_LIMIT);
+    assert_int_equal(s->n, 0);
+    assert_non_null(strstr(e.msg, "cap of 10000000"));
+    bub_state_destroy(s);
+  }
+  in.size = size;
+  pm_sizing_destroy(tiny);
   p.k0 = 0;
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "k0"));

