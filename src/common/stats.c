@@ -119,17 +119,29 @@ static pm_status push_item(pm_stats_item **arr, int32_t *n, const char *key, int
 }
 
 pm_status pm_stats_set_time(pm_stats *s, const char *phase, double seconds, pm_error *err) {
-  if (!phase || !phase[0] || strchr(phase, '.'))
+  /* a dotted name ("psys.energy") nests under time_s like an extra key: no empty part */
+  if (!phase || !phase[0] || phase[0] == '.' || phase[strlen(phase) - 1] == '.' ||
+      strstr(phase, ".."))
     return pm_error_setf(err, PM_ERR_ARG, "bad timing name '%s'", phase ? phase : "");
   if (strcmp(phase, "total") == 0) {
     s->time_total = seconds;
     return PM_OK;
   }
-  for (int32_t i = 0; i < s->ntime; ++i)
-    if (strcmp(s->time[i].key, phase) == 0) {
+  const size_t lp = strlen(phase);
+  for (int32_t i = 0; i < s->ntime; ++i) {
+    const char *o = s->time[i].key;
+    const size_t lo = strlen(o);
+    if (strcmp(o, phase) == 0) {
       s->time[i].num = seconds;
       return PM_OK;
     }
+    /* "a" and "a.b" cannot both be timings: one would be a number, the other an object */
+    if ((lo < lp && strncmp(o, phase, lo) == 0 && phase[lo] == '.') ||
+        (lp < lo && strncmp(o, phase, lp) == 0 && o[lp] == '.'))
+      return pm_error_setf(err, PM_ERR_ARG, "timing name '%s' clashes with '%s'", phase, o);
+  }
+  if (strncmp(phase, "total.", 6) == 0)
+    return pm_error_setf(err, PM_ERR_ARG, "timing name '%s' clashes with 'total'", phase);
   return push_item(&s->time, &s->ntime, phase, 0, seconds, NULL, err);
 }
 
@@ -345,7 +357,7 @@ static cJSON *stats_json(const pm_stats *s) {
   add_num(&b, root, "iterations", (double)s->iterations);
   cJSON *t = add_obj(&b, root, "time_s");
   add_num(&b, t, "total", s->time_total);
-  for (int32_t i = 0; i < s->ntime; ++i) add_num(&b, t, s->time[i].key, s->time[i].num);
+  for (int32_t i = 0; i < s->ntime; ++i) add_extra(&b, t, &s->time[i]);
   if (s->has_quality) add_quality(&b, root, &s->quality);
   if (s->has_distance) {
     cJSON *d = add_obj(&b, root, "distance");

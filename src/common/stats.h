@@ -98,7 +98,8 @@ pm_status pm_stats_set_check(pm_stats *s, const pm_check_report *r, pm_error *er
 void pm_stats_set_quality(pm_stats *s, const pm_quality *q);
 
 /* A phase time in seconds ("total" sets time_total; another name is added, or replaced when it
- * was set before). */
+ * was set before). A dotted name nests in the JSON ("psys.energy" -> time_s: {"psys":
+ * {"energy": ...}}, flattened "time_s.psys.energy"); "a" and "a.b" cannot both be set. */
 pm_status pm_stats_set_time(pm_stats *s, const char *phase, double seconds, pm_error *err);
 
 /* The two-sided mesh-to-model distance and the model's bounding-box diagonal. */

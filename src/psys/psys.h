@@ -103,6 +103,15 @@ pm_status psys_params_check(const psys_params *p, pm_error *err);
  * "psys.sigma_min", "psys.sigma_max", "psys.splits", "psys.deletes". */
 extern const pm_method psys_method;
 
+/* The method's run (psys_method.run) that also returns, when field is not NULL, the field the
+ * particles' sigma describe: the sigma converted to an edge length with p->edge_per_sigma,
+ * sampled (pm_sizing_sampled) on the nodes and triangles of the output mesh, each node taking the
+ * sigma of the nearest particle. With the inferred field (in->size NULL) this is the field
+ * psys_infer_size returns, so a benchmark can run the peers on it without running psys twice.
+ * [out] field  free with pm_sizing_destroy; NULL on failure. */
+pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_run_output *out,
+                              pm_sizing **field, pm_error *err);
+
 /* The sizing inference alone, for `--size inferred` of other methods (the bubble mesher).
  * Runs the three phases of the particle system on model m with the inferred field (phases 1-3
  * of section 4.1), connects the particles into a surface triangle mesh and returns the field as

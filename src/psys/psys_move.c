@@ -53,6 +53,7 @@
 #include <omp.h>
 #endif
 
+#include "common/clock.h"
 #include "common/vec3.h"
 #include "psys/psys_private.h"
 
@@ -317,6 +318,7 @@ oom:
  * are written to the system at once (the particles of one colour never see each other). */
 static pm_status step_block(psys_sys *s, const nblist *L, block *B, int32_t m, double *moved,
                             pm_error *err) {
+  double t0 = pm_seconds();
 #pragma omp parallel for num_threads(s->threads) schedule(dynamic, 32) if (m > 256)
   for (int32_t k = 0; k < m; ++k) {
     const int32_t i = B->idx[k];
@@ -334,15 +336,20 @@ static pm_status step_block(psys_sys *s, const nblist *L, block *B, int32_t m, d
     if (B->e0[k] > 0 && newton_step(s, i, &s->force[3 * i], hess, &B->dir[3 * k]))
       B->st[k] = ST_PENDING;
   }
+  double t1 = pm_seconds();
+  psys_clock_add(s, PSYS_T_ENERGY, t1 - t0);
   /* Algorithm 1's retries, all pending particles of the block per round. */
   for (int round = 0; round < 64; ++round) {
     int any = 0;
     for (int32_t k = 0; k < m && !any; ++k) any = B->st[k] == ST_PENDING;
     if (!any) break;
+    t0 = pm_seconds();
 #pragma omp parallel for num_threads(s->threads) schedule(dynamic, 32) if (m > 256)
     for (int32_t k = 0; k < m; ++k)
       if (B->st[k] == ST_PENDING) trial(s, B, k, B->idx[k]);
     batch_eval(s, B, m);
+    t1 = pm_seconds();
+    psys_clock_add(s, PSYS_T_SURFACE, t1 - t0);
 #pragma omp parallel for num_threads(s->threads) schedule(dynamic, 32) if (m > 256)
     for (int32_t k = 0; k < m; ++k) {
       if (B->st[k] != ST_PENDING) continue;
@@ -365,7 +372,9 @@ static pm_status step_block(psys_sys *s, const nblist *L, block *B, int32_t m, d
         B->lam[k] /= 10; /* line 13 */
       }
     }
+    psys_clock_add(s, PSYS_T_STEP, pm_seconds() - t1);
   }
+  t0 = pm_seconds();
   for (int32_t k = 0; k < m; ++k) {
     const int32_t i = B->idx[k];
     if (B->acc[k]) {
@@ -384,6 +393,7 @@ static pm_status step_block(psys_sys *s, const nblist *L, block *B, int32_t m, d
       s->lambda[i] = B->lam[k];
     }
   }
+  psys_clock_add(s, PSYS_T_NEIGHBOURS, pm_seconds() - t0);
   return PM_OK;
 }
 
@@ -399,12 +409,14 @@ pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err) {
     st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto out;
   }
+  double t0 = pm_seconds();
   if ((st = nblist_build(s, &L, err))) goto out;
   int32_t ncol = colour_particles(s, &L, colour);
   if (ncol < 0) {
     st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto out;
   }
+  psys_clock_add(s, PSYS_T_NEIGHBOURS, pm_seconds() - t0);
   /* Colour by colour, in index order within a colour, blocks of BLOCK particles. */
   for (int32_t c = 0; c < ncol; ++c) {
     int32_t m = 0;
@@ -417,6 +429,7 @@ pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err) {
     }
   }
   /* The fixed particles' energies, for the trace and the population rules. */
+  t0 = pm_seconds();
 #pragma omp parallel for num_threads(s->threads) schedule(dynamic, 64) if (n > 512)
   for (int32_t i = 0; i < n; ++i) {
     if (!s->fixed[i]) continue;
@@ -425,6 +438,7 @@ pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err) {
                                         (int32_t)(L.off[i + 1] - L.off[i]), grad, NULL);
     pm_v3_scale(&s->force[3 * i], grad, -1.0);
   }
+  psys_clock_add(s, PSYS_T_ENERGY, pm_seconds() - t0);
   double sum_move = 0, sum_rel = 0, sum_e = 0;
   for (int32_t i = 0; i < n; ++i) {
     sum_e += s->energy[i];

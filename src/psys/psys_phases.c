@@ -159,6 +159,7 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
   memset(rep, 0, sizeof *rep);
   pm_status st = PM_OK;
   s->phase = phase;
+  double tc = pm_seconds();
   if (phase == 1) {
     s->gap_curves = s->gap_faces = 0;
     if (s->n == 0 && (st = psys_seed_curves(s, err))) return st;
@@ -182,6 +183,7 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
       if (s->face_on[f] && (st = psys_seed_face(s, f, s->p.seeds_per_face, err))) return st;
     }
   }
+  psys_clock_add(s, PSYS_T_SEEDING, pm_seconds() - tc);
   double a = 1;
   int pop_on = 1;
   int32_t hist[POP_WINDOW]; /* particle counts of the last POP_WINDOW iterations */
@@ -191,8 +193,10 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
     const int held = phase == 3 && !pop_on && s->p.hold_sigma && !s->unsized;
     if (!held && (st = psys_sigma_update(s, err))) return st;
     if ((st = psys_move_pass(s, &mi, err))) return st;
+    tc = pm_seconds();
     const int32_t hungry = pop_on && a == 1 ? psys_hungry_count(s) : 0; /* fresh energies */
     if (pop_on && (st = psys_population_pass(s, a, &sp, &de, err))) return st;
+    psys_clock_add(s, PSYS_T_POPULATION, pm_seconds() - tc);
     rep->iterations = it + 1;
     /* the count POP_WINDOW iterations ago, then this one in its place */
     int32_t then = it >= POP_WINDOW ? hist[it % POP_WINDOW] : -1;

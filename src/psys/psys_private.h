@@ -52,6 +52,29 @@ double psys_pair_d2energy(double r, double sigma);
 /* eq. 6: E_ideal = sigma 6 E(beta) with E the energy of unit sigma. */
 double psys_ideal_energy(double sigma);
 
+/* ---- time per step (the time_s.psys.* keys of --stats) ------------------------------------ */
+
+/* The steps of an iteration whose wall time is kept, per phase. Where one parallel loop does the
+ * work of several steps, its wall time is split between them in proportion to the time each
+ * took on the threads (psys_clock_split). */
+typedef enum psys_step {
+  PSYS_T_NEIGHBOURS = 0, /* neighbour search, colouring, upkeep of the neighbour structures */
+  PSYS_T_ENERGY,         /* E_i, its gradient and Hessian at the particles (eq. 1-2, 8) */
+  PSYS_T_STEP,           /* the tangent Newton step, the energy check of trial points, the
+                            boundary-distance rule (Algorithm 1) */
+  PSYS_T_SURFACE,        /* parameter steps (eq. 7, 9-10), surface and curve evaluation */
+  PSYS_T_CURVATURE,      /* sizing: the curvature bound (section 3.1) */
+  PSYS_T_GAP,            /* sizing: the gap size */
+  PSYS_T_LIPSCHITZ,      /* sizing: the Lipschitz closure (eq. 14-15) and sigma's commit */
+  PSYS_T_FIELD,          /* sizing: a given size field's values (instead of the three above) */
+  PSYS_T_POPULATION,     /* splits, deletes, refills (eq. 3-6) */
+  PSYS_T_SEEDING,        /* seeding at the start of a phase */
+  PSYS_T_COUNT
+} psys_step;
+
+/* The key of each step under time_s.psys (and time_s.psys.phaseK). */
+extern const char *const psys_step_names[PSYS_T_COUNT];
+
 /* ---- the system (psys_system.c) --------------------------------------------------------- */
 
 typedef struct psys_sys {
@@ -116,6 +139,7 @@ typedef struct psys_sys {
   int gap_faces;           /* sigma_tau on face particles (phase 3) */
   int64_t iter;            /* iterations run so far, all phases (random streams) */
   int32_t splits_total, deletes_total;
+  double tstep[3][PSYS_T_COUNT]; /* wall seconds per phase and step (psys_step) */
 
   /* scratch of the sigma update */
   double *target;          /* [cap] */
@@ -164,6 +188,15 @@ static inline int psys_interacts(const psys_sys *s, int32_t ki, int32_t j) {
   int32_t kj = psys_key(s, s->dim[j], s->cell[j]);
   return kj == ki || psys_adjacent(s, ki, kj);
 }
+
+/* Add wall seconds to step k of the current phase. */
+static inline void psys_clock_add(psys_sys *s, psys_step k, double seconds) {
+  s->tstep[(s->phase >= 1 && s->phase <= 3 ? s->phase : 1) - 1][k] += seconds;
+}
+
+/* Split the wall time `wall` of a parallel loop between the m steps ks[] in proportion to the
+ * seconds cpu[] each took summed over the threads. */
+void psys_clock_split(psys_sys *s, double wall, int m, const psys_step *ks, const double *cpu);
 
 /* The random number in [0, 1) that particle i draws for `purpose` at the current iteration. */
 double psys_random(const psys_sys *s, int32_t i, int purpose);

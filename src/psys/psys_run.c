@@ -38,15 +38,51 @@ static pm_status add_stats(pm_stats *st, const psys_sys *s, const psys_phase_rep
   if (!r) r = pm_stats_add_number(st, "psys.sigma_max", s->sigma_max, err);
   if (!r) r = pm_stats_add_number(st, "psys.splits", s->splits_total, err);
   if (!r) r = pm_stats_add_number(st, "psys.deletes", s->deletes_total, err);
+  /* time per step, under time_s: psys.STEP over all phases, psys.phaseK.STEP per phase */
+  for (int k = 0; k < PSYS_T_COUNT && !r; ++k) {
+    double sum = 0;
+    for (int ph = 0; ph < 3; ++ph) sum += s->tstep[ph][k];
+    snprintf(key, sizeof key, "psys.%s", psys_step_names[k]);
+    r = pm_stats_set_time(st, key, sum, err);
+    for (int ph = 0; ph < 3 && !r; ++ph) {
+      snprintf(key, sizeof key, "psys.%s.%s", names[ph], psys_step_names[k]);
+      r = pm_stats_set_time(st, key, s->tstep[ph][k], err);
+    }
+  }
   return r;
 }
 
-static pm_status run(const pm_run_input *in, const void *params, pm_run_output *out,
-                     pm_error *err) {
-  const psys_params *p = params;
+/* The particles' sigma as an edge-length field sampled on the connected mesh's nodes and
+ * triangles (tets left out: the field is the surface's): each node takes the sigma of the nearest
+ * particle, which is itself for every particle; the connection may add nodes (vertices without a
+ * particle, closed curves with fewer than two, tet nodes) and drops none of ours. */
+static pm_status field_of(const psys_sys *s, const pm_mesh *mesh, pm_sizing **out,
+                          pm_error *err) {
+  double *val = malloc(sizeof(double) * ((size_t)mesh->nnode + 1));
+  if (!val) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  pm_status st = PM_OK;
+  for (int32_t k = 0; k < mesh->nnode && !st; ++k) {
+    int32_t j = pm_grid_nearest(s->grid, &mesh->xyz[3 * k], NULL);
+    if (j < 0)
+      st = pm_error_setf(err, PM_ERR_INTERNAL, "psys: no particle left for the sampled field");
+    else
+      val[k] = s->sigma[j] * s->p.edge_per_sigma; /* sigma -> edge length (the calibration) */
+  }
+  if (!st) {
+    pm_mesh surface = *mesh; /* a view without the tets: pm_sizing_sampled copies what it uses */
+    surface.ntet = 0;
+    st = pm_sizing_sampled(&surface, val, out, err);
+  }
+  free(val);
+  return st;
+}
+
+pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_run_output *out,
+                              pm_sizing **field, pm_error *err) {
   out->mesh = NULL;
   out->iterations = 0;
   out->stop_reason[0] = '\0';
+  if (field) *field = NULL;
   if (!in || !in->model) return pm_error_setf(err, PM_ERR_ARG, "psys: no model");
   psys_sys *s = NULL;
   pm_mesh *mesh = NULL;
@@ -71,6 +107,7 @@ static pm_status run(const pm_run_input *in, const void *params, pm_run_output *
            (long long)rep[0].iterations, (long long)rep[1].iterations,
            (long long)rep[2].iterations, all ? "" : " (a phase reached max_iter)");
   if ((st = add_stats(out->stats, s, rep, t_connect, err))) goto fail;
+  if (field && (st = field_of(s, mesh, field, err))) goto fail;
   psys_sys_destroy(s);
   out->mesh = mesh;
   return PM_OK;
@@ -78,6 +115,11 @@ fail:
   pm_mesh_destroy(mesh);
   psys_sys_destroy(s);
   return st;
+}
+
+static pm_status run(const pm_run_input *in, const void *params, pm_run_output *out,
+                     pm_error *err) {
+  return psys_run_with_field(in, params, out, NULL, err);
 }
 
 /* The default field as a pm_sizing a caller can scale (--target-nodes): the inferred one. */
@@ -105,38 +147,13 @@ pm_status psys_infer_size(const pm_model *m, const psys_params *p, uint64_t seed
   *out = NULL;
   psys_params def;
   if (!p) psys_params_init(&def), p = &def;
-  psys_sys *s = NULL;
-  pm_mesh *mesh = NULL;
-  double *val = NULL;
-  pm_status st = psys_sys_create(m, p, NULL, seed, threads, PM_DEFAULT_MAX_NODES, &s, err);
-  if (st) return st;
-  psys_phase_report rep[3];
-  if ((st = psys_optimize(s, NULL, rep, err))) goto out;
-  if ((st = psys_to_mesh(s, &mesh, err))) goto out;
-  pm_connect_params cp;
-  connect_params(p, 0, 0, &cp);
-  if ((st = pm_connect(m, mesh, &cp, NULL, err))) goto out;
-  /* The connection may add nodes (vertices without a particle, closed curves with fewer than
-   * two) and drops none of ours inside their cells: each node takes the sigma of the nearest
-   * particle, which is itself for every particle. */
-  val = malloc(sizeof(double) * ((size_t)mesh->nnode + 1));
-  if (!val) {
-    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    goto out;
-  }
-  for (int32_t k = 0; k < mesh->nnode; ++k) {
-    int32_t j = pm_grid_nearest(s->grid, &mesh->xyz[3 * k], NULL);
-    if (j < 0) {
-      st = pm_error_setf(err, PM_ERR_INTERNAL, "psys: no particle left for the sampled field");
-      goto out;
-    }
-    val[k] = s->sigma[j] * p->edge_per_sigma; /* sigma -> edge length (the calibration) */
-  }
-  st = pm_sizing_sampled(mesh, val, out, err);
-out:
-  free(val);
-  pm_mesh_destroy(mesh);
-  psys_sys_destroy(s);
+  pm_run_input in;
+  memset(&in, 0, sizeof in);
+  in.model = m, in.seed = seed, in.threads = threads, in.max_nodes = PM_DEFAULT_MAX_NODES;
+  pm_run_output ro;
+  memset(&ro, 0, sizeof ro);
+  pm_status st = psys_run_with_field(&in, p, &ro, out, err);
+  pm_mesh_destroy(ro.mesh);
   if (st) pm_error_prefix(err, "psys sizing inference");
   return st;
 }

@@ -67,6 +67,7 @@
 #include <omp.h>
 #endif
 
+#include "common/clock.h"
 #include "common/vec3.h"
 #include "psys/psys_private.h"
 
@@ -617,24 +618,32 @@ static pm_status update_given(psys_sys *s, pm_error *err) {
 }
 
 pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
-  if (s->size) return update_given(s, err);
+  if (s->size) {
+    double t0 = pm_seconds();
+    pm_status st = update_given(s, err);
+    psys_clock_add(s, PSYS_T_FIELD, pm_seconds() - t0);
+    return st;
+  }
   const int32_t n = s->n;
   const double g = s->p.sigma_grow;
   int oom = 0;
   int nthr = s->threads;
   ebuf *eb = calloc((size_t)nthr, sizeof(ebuf));
   double *key = malloc(sizeof(double) * ((size_t)n + 1));
-  if (!eb || !key) {
-    free(eb), free(key);
+  double(*cpu)[3] = calloc((size_t)nthr, sizeof *cpu); /* curvature, gap, Lipschitz pairs */
+  if (!eb || !key || !cpu) {
+    free(eb), free(key), free(cpu);
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
+  double t_loop = pm_seconds();
 #pragma omp parallel num_threads(nthr)
   {
 #ifdef _OPENMP
-    ebuf *e = &eb[omp_get_thread_num()];
+    const int tid = omp_get_thread_num();
 #else
-    ebuf *e = &eb[0];
+    const int tid = 0;
 #endif
+    ebuf *e = &eb[tid];
     cand c = {0};
 #pragma omp for schedule(dynamic, 64)
     for (int32_t i = 0; i < n; ++i) {
@@ -643,6 +652,7 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
         s->target[i] = s->sigma[i];
         continue;
       }
+      double ta = pm_seconds();
       /* the curvature bound, re-evaluated once the particle has moved kappa_refresh sigma */
       double moved2 = pm_v3_dist2(xi, &s->kxyz[3 * i]);
       double lim = s->p.kappa_refresh * s->sigma[i];
@@ -652,6 +662,8 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
       }
       double T = fmin(s->sigma_max, s->sig_curv[i]);
       const double tmax = g * s->sigma[i];
+      double tb = pm_seconds();
+      cpu[tid][0] += tb - ta;
       if (gap_active(s, i)) {
         const double R = tmax / s->p.s_tau;
         double moved = pm_v3_dist(xi, &s->gxyz[3 * i]);
@@ -705,6 +717,8 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
         }
         T = fmin(T, s->p.s_tau * G);
       }
+      ta = pm_seconds();
+      cpu[tid][1] += ta - tb;
       c.n = 0;
       pm_grid_visit(s->grid, xi, update_radius(s, i), PM_GRID_MUTUAL, cand_collect, &c);
       if (c.oom) {
@@ -731,9 +745,18 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
         }
         if (keep) ebuf_push(e, i, j, r);
       }
+      cpu[tid][2] += pm_seconds() - ta;
     }
     cand_free(&c);
   }
+  {
+    const psys_step ks[3] = {PSYS_T_CURVATURE, PSYS_T_GAP, PSYS_T_LIPSCHITZ};
+    double sum[3] = {0, 0, 0};
+    for (int t = 0; t < nthr; ++t)
+      for (int k = 0; k < 3; ++k) sum[k] += cpu[t][k];
+    psys_clock_split(s, pm_seconds() - t_loop, 3, ks, sum);
+  }
+  t_loop = pm_seconds();
   pm_status st = PM_OK;
   int64_t ne = 0;
   for (int t = 0; t < nthr; ++t) {
@@ -770,8 +793,10 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
     if (!st) s->unsized = 0;
   }
 out:
+  psys_clock_add(s, PSYS_T_LIPSCHITZ, pm_seconds() - t_loop);
   for (int t = 0; t < nthr; ++t) free(eb[t].a), free(eb[t].b), free(eb[t].r);
   free(eb);
   free(key);
+  free(cpu);
   return st;
 }

@@ -115,6 +115,18 @@ int psys_touch(const psys_sys *s, int32_t ka, int32_t kb) {
   return 0;
 }
 
+/* ---- time per step ---------------------------------------------------------------------- */
+
+const char *const psys_step_names[PSYS_T_COUNT] = {
+    "neighbours", "energy", "step", "surface", "sizing.curvature", "sizing.gap",
+    "sizing.lipschitz", "sizing.field", "population", "seeding"};
+
+void psys_clock_split(psys_sys *s, double wall, int m, const psys_step *ks, const double *cpu) {
+  double sum = 0;
+  for (int k = 0; k < m; ++k) sum += cpu[k];
+  for (int k = 0; k < m; ++k) psys_clock_add(s, ks[k], sum > 0 ? wall * cpu[k] / sum : wall / m);
+}
+
 /* ---- random streams ----------------------------------------------------------------------- */
 
 static uint64_t mix64(uint64_t x) {
