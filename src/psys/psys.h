@@ -56,6 +56,9 @@ typedef struct psys_params {
   double lambda_grow;   /* lambda_i is multiplied by this after an accepted step (the paper
                            only divides by 10); 2 */
   double step_max;      /* longest world-space step, in units of sigma_i; 0.5 */
+  double frame_tol;     /* faces evaluated by gmsh: a particle keeps the surface derivatives of
+                           its last frame until it has moved this many sigma from it; 0.05
+                           (0: new derivatives at every trial point, as eq. 7-9) */
   /* ---- population (eq. 3-6) ---- */
   double split_ratio;   /* split when E* < split_ratio E_ideal (eq. 4); 0.35 */
   double delete_ratio;  /* delete when E* > delete_ratio E_ideal (eq. 5); 1.75 */

@@ -45,6 +45,10 @@ static const pm_param_desc desc[] = {
     {"step_max", D, F(step_max), 0.5, 0, 1, PM_RANGE_LO_OPEN, "sigma",
      "longest world-space step of a particle (eq. 2 diverges as r -> 0)", "ours (001 is silent)",
      NULL},
+    {"frame_tol", D, F(frame_tol), 0.05, 0, 10, PM_RANGE_CLOSED, "sigma",
+     "faces evaluated by gmsh: an accepted particle keeps its surface derivatives until it has "
+     "moved this far from where they were evaluated (0: new ones at every trial point)",
+     "ours (001 eq. 7-9 take them at the particle: frame_tol = 0)", NULL},
     {"split_ratio", D, F(split_ratio), 0.35, 0, 100, PM_RANGE_LO_OPEN, "",
      "split when E_i (1 + eps) < split_ratio E_ideal", "001 eq. 4", NULL},
     {"delete_ratio", D, F(delete_ratio), 1.75, 0, 100, PM_RANGE_LO_OPEN, "",

@@ -152,6 +152,7 @@ static pm_status observe(psys_sys *s, const psys_observer *obs, const psys_move_
 /* ---- one phase -------------------------------------------------------------------------------- */
 
 #define POP_WINDOW 10
+#define REORDER_FRACTION 0.25
 
 pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psys_observer *obs,
                          psys_phase_report *rep, pm_error *err) {
@@ -159,6 +160,7 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
   memset(rep, 0, sizeof *rep);
   pm_status st = PM_OK;
   s->phase = phase;
+  psys_nbr_reset(s); /* the gap relation and the list radii change with the phase */
   double tc = pm_seconds();
   if (phase == 1) {
     s->gap_curves = s->gap_faces = 0;
@@ -190,13 +192,23 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
   for (int64_t it = 0;; ++it) {
     psys_move_info mi;
     int32_t sp = 0, de = 0;
+    /* particles added since the last spatial ordering sit at the end of the arrays, far from
+     * their neighbours in memory: order again once they are a quarter of all (psys_reorder) */
+    if ((double)(s->next_serial - s->ordered_serial) > REORDER_FRACTION * s->n) {
+      tc = pm_seconds();
+      if ((st = psys_reorder(s, err))) return st;
+      psys_clock_add(s, PSYS_T_NEIGHBOURS, pm_seconds() - tc);
+    }
     const int held = phase == 3 && !pop_on && s->p.hold_sigma && !s->unsized;
     if (!held && (st = psys_sigma_update(s, err))) return st;
     if ((st = psys_move_pass(s, &mi, err))) return st;
     tc = pm_seconds();
+    /* the population's own time: the neighbour structure's work in it is counted as such */
+    const double nbr0 = s->tstep[phase - 1][PSYS_T_NEIGHBOURS];
     const int32_t hungry = pop_on && a == 1 ? psys_hungry_count(s) : 0; /* fresh energies */
     if (pop_on && (st = psys_population_pass(s, a, &sp, &de, err))) return st;
-    psys_clock_add(s, PSYS_T_POPULATION, pm_seconds() - tc);
+    psys_clock_add(s, PSYS_T_POPULATION,
+                   pm_seconds() - tc - (s->tstep[phase - 1][PSYS_T_NEIGHBOURS] - nbr0));
     rep->iterations = it + 1;
     /* the count POP_WINDOW iterations ago, then this one in its place */
     int32_t then = it >= POP_WINDOW ? hist[it % POP_WINDOW] : -1;

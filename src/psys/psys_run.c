@@ -38,6 +38,11 @@ static pm_status add_stats(pm_stats *st, const psys_sys *s, const psys_phase_rep
   if (!r) r = pm_stats_add_number(st, "psys.sigma_max", s->sigma_max, err);
   if (!r) r = pm_stats_add_number(st, "psys.splits", s->splits_total, err);
   if (!r) r = pm_stats_add_number(st, "psys.deletes", s->deletes_total, err);
+  /* the neighbour structure's work: lists made again one by one, updates that made all */
+  if (!r) r = pm_stats_add_number(st, "psys.lists.neighbour_renewed", (double)s->nbr.nb.renewed, err);
+  if (!r) r = pm_stats_add_number(st, "psys.lists.neighbour_rebuilds", (double)s->nbr.nb.rebuilds, err);
+  if (!r) r = pm_stats_add_number(st, "psys.lists.gap_renewed", (double)s->nbr.gp.renewed, err);
+  if (!r) r = pm_stats_add_number(st, "psys.lists.gap_rebuilds", (double)s->nbr.gp.rebuilds, err);
   /* time per step, under time_s: psys.STEP over all phases, psys.phaseK.STEP per phase */
   for (int k = 0; k < PSYS_T_COUNT && !r; ++k) {
     double sum = 0;
@@ -60,9 +65,11 @@ static pm_status field_of(const psys_sys *s, const pm_mesh *mesh, pm_sizing **ou
                           pm_error *err) {
   double *val = malloc(sizeof(double) * ((size_t)mesh->nnode + 1));
   if (!val) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  pm_status st = PM_OK;
+  pm_grid *g = NULL;
+  pm_status st = pm_grid_create(1e-6 * s->model->diagonal, &g, err);
+  for (int32_t i = 0; i < s->n && !st; ++i) st = pm_grid_insert(g, i, &s->xyz[3 * i], 0, err);
   for (int32_t k = 0; k < mesh->nnode && !st; ++k) {
-    int32_t j = pm_grid_nearest(s->grid, &mesh->xyz[3 * k], NULL);
+    int32_t j = pm_grid_nearest(g, &mesh->xyz[3 * k], NULL);
     if (j < 0)
       st = pm_error_setf(err, PM_ERR_INTERNAL, "psys: no particle left for the sampled field");
     else
@@ -73,6 +80,7 @@ static pm_status field_of(const psys_sys *s, const pm_mesh *mesh, pm_sizing **ou
     surface.ntet = 0;
     st = pm_sizing_sampled(&surface, val, out, err);
   }
+  pm_grid_destroy(g);
   free(val);
   return st;
 }

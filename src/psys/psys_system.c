@@ -212,9 +212,7 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
     double d[3] = {b[3] - b[0], b[4] - b[1], b[5] - b[2]};
     s->extent[m->count[1] + f] = pm_v3_norm(d);
   }
-  /* The grid's smallest distinguished radius: a hundredth of the smallest sigma expected. */
-  double hmin = size ? 1e-6 * m->diagonal : 1e-2 * s->sigma_min;
-  if ((st = pm_grid_create(hmin, &s->grid, err))) {
+  if ((st = psys_nbr_init(s, err))) {
     psys_sys_destroy(s);
     return st;
   }
@@ -225,15 +223,15 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
 
 void psys_sys_destroy(psys_sys *s) {
   if (!s) return;
-  free(s->dim), free(s->cell), free(s->par), free(s->xyz), free(s->deriv);
-  free(s->sigma), free(s->lambda), free(s->energy), free(s->force);
-  free(s->sig_curv), free(s->kxyz), free(s->gap), free(s->gxyz), free(s->bdist), free(s->serial), free(s->grace), free(s->fixed), free(s->frozen);
+  psys_nbr_free(s);
+  free(s->dim), free(s->cell), free(s->par), free(s->xyz), free(s->xs), free(s->deriv);
+  free(s->fxyz), free(s->sigma), free(s->lambda), free(s->energy), free(s->force);
+  free(s->sig_curv), free(s->kxyz), free(s->bdist), free(s->serial), free(s->grace);
+  free(s->fixed), free(s->frozen);
   free(s->clo_off), free(s->clo), free(s->vert_off), free(s->vert);
   free(s->corner), free(s->slow_face), free(s->extent);
   free(s->chain_off), free(s->chain), free(s->chain_pos), free(s->vpart), free(s->face_on);
-  free(s->target), free(s->edge_a), free(s->edge_b), free(s->edge_r);
-  pm_grid_destroy(s->grid);
-  pm_grid_destroy(s->bgrid);
+  free(s->target), free(s->key);
   free(s);
 }
 
@@ -252,21 +250,23 @@ static int reserve(psys_sys *s, int32_t need) {
   GROW(cell, int32_t, 1);
   GROW(par, double, 2);
   GROW(xyz, double, 3);
+  GROW(xs, double, 4);
   GROW(deriv, double, 6);
+  GROW(fxyz, double, 3);
   GROW(sigma, double, 1);
   GROW(lambda, double, 1);
   GROW(energy, double, 1);
   GROW(force, double, 3);
   GROW(sig_curv, double, 1);
   GROW(kxyz, double, 3);
-  GROW(gap, double, 1);
-  GROW(gxyz, double, 3);
   GROW(bdist, double, 1);
   GROW(serial, uint64_t, 1);
   GROW(grace, int64_t, 1);
   GROW(fixed, uint8_t, 1);
   GROW(frozen, uint8_t, 1);
   GROW(target, double, 1);
+  GROW(key, double, 1);
+  if (psys_nbr_reserve(s, cap, NULL)) return -1;
   s->cap = cap;
   return 0;
 }
@@ -276,6 +276,8 @@ static void eval_point(psys_sys *s, int32_t i) {
   const pm_cell *c = pm_model_cell(s->model, s->dim[i], s->cell[i]);
   double *x = &s->xyz[3 * i], *d = &s->deriv[6 * i];
   memset(d, 0, 6 * sizeof(double));
+  /* the frame (deriv) is evaluated where the point is */
+  double *fx = &s->fxyz[3 * i];
   if (c->dim == PM_VERTEX) {
     pm_v3_copy(x, c->xyz);
   } else if (c->dim == PM_CURVE) {
@@ -287,6 +289,8 @@ static void eval_point(psys_sys *s, int32_t i) {
     pm_face_eval(c, &s->par[2 * i], 1, &fp);
     pm_v3_copy(x, fp.p), pm_v3_copy(d, fp.su), pm_v3_copy(d + 3, fp.sv);
   }
+  pm_v3_copy(fx, x);
+  for (int k = 0; k < 3; ++k) s->xs[4 * i + k] = x[k];
 }
 
 /* The given field's sigma at x, or an error naming the point. */
@@ -319,13 +323,9 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
      * the child is within a sigma, and both are refreshed as it moves away (psys_sizing.c). */
     s->sig_curv[i] = s->sig_curv[parent];
     pm_v3_copy(&s->kxyz[3 * i], &s->kxyz[3 * parent]);
-    s->gap[i] = s->gap[parent];
-    pm_v3_copy(&s->gxyz[3 * i], &s->gxyz[3 * parent]);
   } else {
     s->sig_curv[i] = s->size ? 0 : psys_curvature_sigma(s, dim, cell, &s->par[2 * i], x);
     pm_v3_copy(&s->kxyz[3 * i], x);
-    s->gap[i] = -1;
-    pm_v3_copy(&s->gxyz[3 * i], x);
   }
   if (!(sigma > 0)) {
     if (s->size) {
@@ -336,7 +336,7 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
       s->unsized = 1;
     }
   }
-  s->sigma[i] = sigma;
+  psys_set_sigma(s, i, sigma);
   s->lambda[i] = s->p.lambda_init;
   s->energy[i] = 0;
   pm_v3_zero(&s->force[3 * i]);
@@ -346,8 +346,6 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
   s->fixed[i] = dim == PM_VERTEX;
   s->frozen[i] = 0;
   s->target[i] = sigma;
-  pm_status st = pm_grid_insert(s->grid, i, x, sigma, err);
-  if (st) return st;
   s->n++;
   if (index) *index = i;
   return PM_OK;
@@ -365,26 +363,28 @@ pm_status psys_add_child(psys_sys *s, int32_t parent, const double *par, int32_t
   return add_core(s, s->dim[parent], s->cell[parent], par, s->sigma[parent], parent, index, err);
 }
 
-pm_status psys_set_sigma(psys_sys *s, int32_t i, double sigma, pm_error *err) {
-  s->sigma[i] = sigma;
-  return pm_grid_move(s->grid, i, &s->xyz[3 * i], sigma, err);
-}
-
 pm_status psys_compact(psys_sys *s, const uint8_t *dead, pm_error *err) {
+  const int32_t n_old = s->n;
+  int32_t *map = malloc(sizeof(int32_t) * ((size_t)n_old + 1));
+  if (!map) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   int32_t n = 0;
-  for (int32_t i = 0; i < s->n; ++i) {
-    if (dead[i]) continue;
+  for (int32_t i = 0; i < n_old; ++i) {
+    if (dead[i]) {
+      map[i] = -1;
+      continue;
+    }
+    map[i] = n;
     if (n != i) {
       s->dim[n] = s->dim[i], s->cell[n] = s->cell[i];
       memcpy(&s->par[2 * n], &s->par[2 * i], 2 * sizeof(double));
       memcpy(&s->xyz[3 * n], &s->xyz[3 * i], 3 * sizeof(double));
+      memcpy(&s->xs[4 * n], &s->xs[4 * i], 4 * sizeof(double));
       memcpy(&s->deriv[6 * n], &s->deriv[6 * i], 6 * sizeof(double));
+      memcpy(&s->fxyz[3 * n], &s->fxyz[3 * i], 3 * sizeof(double));
       s->sigma[n] = s->sigma[i], s->lambda[n] = s->lambda[i], s->energy[n] = s->energy[i];
       memcpy(&s->force[3 * n], &s->force[3 * i], 3 * sizeof(double));
       s->sig_curv[n] = s->sig_curv[i];
       memcpy(&s->kxyz[3 * n], &s->kxyz[3 * i], 3 * sizeof(double));
-      s->gap[n] = s->gap[i];
-      memcpy(&s->gxyz[3 * n], &s->gxyz[3 * i], 3 * sizeof(double));
       s->serial[n] = s->serial[i], s->fixed[n] = s->fixed[i], s->frozen[n] = s->frozen[i];
       s->grace[n] = s->grace[i];
       s->bdist[n] = s->bdist[i];
@@ -393,11 +393,93 @@ pm_status psys_compact(psys_sys *s, const uint8_t *dead, pm_error *err) {
     ++n;
   }
   s->n = n;
-  /* Indices changed: refile every particle (ids are indices). */
-  pm_grid_clear(s->grid);
-  for (int32_t i = 0; i < n; ++i) {
-    pm_status st = pm_grid_insert(s->grid, i, &s->xyz[3 * i], s->sigma[i], err);
-    if (st) return st;
-  }
-  return PM_OK;
+  pm_status st = psys_nbr_compact(s, map, n_old, err);
+  free(map);
+  return st;
 }
+
+/* ---- spatial order --------------------------------------------------------------------------- */
+
+/* Interleave the low 21 bits of x, y, z (Morton order). */
+static uint64_t spread21(uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+typedef struct mkey {
+  uint64_t key;
+  int32_t i;
+} mkey;
+
+static int cmp_mkey(const void *a, const void *b) {
+  const mkey *x = a, *y = b;
+  if (x->key != y->key) return x->key < y->key ? -1 : 1;
+  return (x->i > y->i) - (x->i < y->i);
+}
+
+/* a[lo + k] := a[perm[k]] for k < m, elements of `size` bytes, through `tmp`. */
+static void permute(void *a, size_t size, int32_t lo, int32_t m, const int32_t *perm, void *tmp) {
+  char *c = a, *t = tmp;
+  for (int32_t k = 0; k < m; ++k) memcpy(t + size * (size_t)k, c + size * (size_t)perm[k], size);
+  memcpy(c + size * (size_t)lo, t, size * (size_t)m);
+}
+
+pm_status psys_reorder(psys_sys *s, pm_error *err) {
+  const int32_t lo = s->phase == 3 ? s->nfrozen : 0, m = s->n - lo;
+  s->ordered_serial = s->next_serial;
+  if (m < 2) return PM_OK;
+  mkey *k = malloc(sizeof(mkey) * (size_t)m);
+  int32_t *perm = malloc(sizeof(int32_t) * (size_t)m);
+  void *tmp = malloc(sizeof(double) * 6 * (size_t)m);
+  if (!k || !perm || !tmp) {
+    free(k), free(perm), free(tmp);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  const double *b = s->model->box;
+  double ext = fmax(fmax(b[3] - b[0], b[4] - b[1]), b[5] - b[2]);
+  const double scale = ext > 0 ? 2097151.0 / ext : 0;
+  for (int32_t q = 0; q < m; ++q) {
+    const double *x = &s->xyz[3 * (lo + q)];
+    uint64_t c[3];
+    for (int a = 0; a < 3; ++a) {
+      double t = (x[a] - b[a]) * scale;
+      c[a] = t <= 0 ? 0 : (t >= 2097151.0 ? 2097151 : (uint64_t)t);
+    }
+    k[q].key = spread21(c[0]) | spread21(c[1]) << 1 | spread21(c[2]) << 2;
+    k[q].i = lo + q;
+  }
+  qsort(k, (size_t)m, sizeof(mkey), cmp_mkey);
+  for (int32_t q = 0; q < m; ++q) perm[q] = k[q].i;
+  free(k);
+#define PERMUTE(arr, n_per) permute(s->arr, sizeof(*s->arr) * (n_per), lo, m, perm, tmp)
+  /* arrays of several values per particle are permuted as blocks of that many */
+  permute(s->dim, 1, lo, m, perm, tmp);
+  PERMUTE(cell, 1);
+  PERMUTE(par, 2);
+  PERMUTE(xyz, 3);
+  PERMUTE(xs, 4);
+  PERMUTE(deriv, 6);
+  PERMUTE(fxyz, 3);
+  PERMUTE(sigma, 1);
+  PERMUTE(lambda, 1);
+  PERMUTE(energy, 1);
+  PERMUTE(force, 3);
+  PERMUTE(sig_curv, 1);
+  PERMUTE(kxyz, 3);
+  PERMUTE(bdist, 1);
+  PERMUTE(serial, 1);
+  PERMUTE(grace, 1);
+  PERMUTE(fixed, 1);
+  PERMUTE(frozen, 1);
+  PERMUTE(target, 1);
+#undef PERMUTE
+  pm_status st = psys_nbr_permute(s, lo, m, perm, err);
+  free(perm), free(tmp);
+  return st;
+}
+
