@@ -80,6 +80,9 @@ typedef struct psys_params {
                            below this many sigma; 2e-3 */
   int max_iter;         /* iteration cap per phase; 1500 */
   int hold_sigma;       /* 1: phase 3 holds sigma once population control is off; 1 */
+  double max_memory_gb; /* the particle system stops (PM_ERR_LIMIT) before its estimated memory
+                           exceeds this many GB, checked before a run and before arrays grow;
+                           0: the machine's physical memory */
   /* ---- output ---- */
   double edge_per_sigma; /* mean edge length over sigma of the final packing: the calibration
                             between a size field d (edge length) and sigma = d / edge_per_sigma;

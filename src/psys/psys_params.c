@@ -78,6 +78,10 @@ static const pm_param_desc desc[] = {
      "001 sec. 4.1 ('change ... below some threshold'; value ours)", NULL},
     {"hold_sigma", I, F(hold_sigma), 1, 0, 1, PM_RANGE_CLOSED, "",
      "1: in phase 3, sigma is no longer updated once population control is off", "ours", NULL},
+    {"max_memory_gb", D, F(max_memory_gb), 0, 0, 1e6, PM_RANGE_CLOSED, "GB",
+     "memory cap of the particle system, checked before the run (estimated count) and before "
+     "its arrays grow (0: the physical memory)",
+     "ours", NULL},
     {"max_iter", I, F(max_iter), 1500, 1, 10000000, PM_RANGE_CLOSED, "iterations",
      "iteration cap of each phase", "ours", NULL},
     {"edge_per_sigma", D, F(edge_per_sigma), 0.66, 0.05, 2, PM_RANGE_CLOSED, "",

@@ -97,7 +97,12 @@ pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_r
   pm_status st = psys_sys_create(in->model, p, in->size, in->seed, in->threads,
                                  in->max_nodes > 0 ? in->max_nodes : PM_DEFAULT_MAX_NODES, &s,
                                  err);
-  if (st) return st;
+  /* the caps, before any particle is placed (a size far too small fails here, at once) */
+  if (!st) st = psys_check_caps(s, err);
+  if (st) {
+    psys_sys_destroy(s);
+    return st;
+  }
   psys_observer obs = {in->trace, in->frames};
   psys_phase_report rep[3];
   if ((st = psys_optimize(s, &obs, rep, err))) goto fail;

@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "common/geom_cad.h"
 #include "common/rng.h"
@@ -164,6 +165,12 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
   s->seed = seed;
   s->threads = threads > 0 ? threads : 1;
   s->max_particles = max_particles > 0 ? max_particles : INT32_MAX;
+  if (p->max_memory_gb > 0) {
+    s->max_bytes = p->max_memory_gb * 1e9;
+  } else {
+    long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
+    s->max_bytes = pages > 0 && size > 0 ? (double)pages * (double)size : INFINITY;
+  }
   /* kappa_min / kappa_max default to 5 and 500 over the model diagonal (ours: the paper leaves
    * them to the user): sigma_max = diagonal / (5 s_kappa) = diagonal / 10 gives edges of about
    * 1/17 of the diagonal on flat parts, like the built-in cases' default sizes, and sigma_min =
@@ -246,6 +253,7 @@ static int reserve(psys_sys *s, int32_t need) {
   if (need <= s->cap) return 0;
   int32_t cap = s->cap ? s->cap : 256;
   while (cap < need) cap = cap > INT32_MAX / 2 ? INT32_MAX : 2 * cap;
+  if (cap > s->max_particles && need <= s->max_particles) cap = (int32_t)s->max_particles;
   GROW(dim, int8_t, 1);
   GROW(cell, int32_t, 1);
   GROW(par, double, 2);
@@ -310,6 +318,15 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
     return pm_error_setf(err, PM_ERR_LIMIT,
                          "psys: the particle count would exceed the node cap of %lld",
                          (long long)s->max_particles);
+  if (s->n + 1 > s->cap) {
+    /* the memory the arrays are about to take, checked before they grow */
+    const double bytes = PSYS_BYTES_PER_PARTICLE * 2.0 * (s->cap ? s->cap : 128);
+    if (bytes > s->max_bytes)
+      return pm_error_setf(err, PM_ERR_LIMIT,
+                           "psys: %d particles would take about %.2g GB, above the memory cap of "
+                           "%.2g GB (max_memory_gb)",
+                           (int)(2 * s->cap), bytes / 1e9, s->max_bytes / 1e9);
+  }
   if (reserve(s, s->n + 1)) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   int32_t i = s->n;
   s->dim[i] = (int8_t)dim;
@@ -481,5 +498,89 @@ pm_status psys_reorder(psys_sys *s, pm_error *err) {
   pm_status st = psys_nbr_permute(s, lo, m, perm, err);
   free(perm), free(tmp);
   return st;
+}
+
+/* ---- caps ------------------------------------------------------------------------------------ */
+
+/* Edge length of the field at x: the given field, or the largest the inferred one allows. */
+static double edge_at(const psys_sys *s, const double x[3]) {
+  return s->size ? pm_sizing_eval(s->size, x) : s->sigma_max * s->p.edge_per_sigma;
+}
+
+void psys_estimate_count(const psys_sys *s, double *curves, double *faces) {
+  const pm_model *m = s->model;
+  double nc = 0, nf = 0;
+  /* curves: the integral of 1 / d over the arc length, by 64 chords */
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+    if (cv->degenerate) continue;
+    double prev[3];
+    for (int k = 0; k <= 64; ++k) {
+      double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * k / 64.0, x[3], mid[3];
+      pm_cell_point(cv, &t, x);
+      if (k) {
+        for (int a = 0; a < 3; ++a) mid[a] = 0.5 * (x[a] + prev[a]);
+        nc += pm_v3_dist(prev, x) / edge_at(s, mid);
+      }
+      pm_v3_copy(prev, x);
+    }
+  }
+  /* faces: the integral of 1 / (sqrt(3)/2 d^2), the area of a node of the hexagonal lattice, by
+   * the midpoint rule on a 24 x 24 grid of the parameter box (points inside the trim) */
+  enum { G = 24 };
+  double uv[2 * G * G];
+  pm_face_point fp[G * G];
+  for (int32_t f = 0; f < m->count[PM_FACE]; ++f) {
+    const pm_cell *c = pm_model_cell(m, PM_FACE, f);
+    const double du = (c->hi[0] - c->lo[0]) / G, dv = (c->hi[1] - c->lo[1]) / G;
+    for (int a = 0; a < G; ++a)
+      for (int b = 0; b < G; ++b)
+        uv[2 * (a * G + b)] = c->lo[0] + (a + 0.5) * du, uv[2 * (a * G + b) + 1] = c->lo[1] + (b + 0.5) * dv;
+    pm_face_eval_many(c, G * G, uv, 1, fp);
+    for (int k = 0; k < G * G; ++k) {
+      if (!pm_face_inside(c, &uv[2 * k])) continue;
+      double n[3];
+      pm_v3_cross(n, fp[k].su, fp[k].sv);
+      const double d = edge_at(s, fp[k].p);
+      nf += pm_v3_norm(n) * du * dv / (0.8660254037844386 * d * d);
+    }
+  }
+  *curves = nc, *faces = nf;
+}
+
+pm_status psys_check_caps(const psys_sys *s, pm_error *err) {
+  double nc, nf;
+  psys_estimate_count(s, &nc, &nf);
+  const double n = nc + nf + s->model->count[PM_VERTEX];
+  const double cap_n = (double)s->max_particles;
+  const double cap_m = s->max_bytes / PSYS_BYTES_PER_PARTICLE;
+  const double cap = cap_n < cap_m ? cap_n : cap_m;
+  if (!(n > cap)) return PM_OK;
+  /* the factor c on the field that fits: nf / c^2 + nc / c = cap */
+  const double c = (nc + sqrt(nc * nc + 4 * cap * nf)) / (2 * cap);
+  char what[128];
+  if (cap_n <= cap_m)
+    snprintf(what, sizeof what, "the particle cap of %.0f (--max-nodes)", cap_n);
+  else
+    snprintf(what, sizeof what, "the %.0f particles that fit the memory cap of %.2g GB "
+             "(max_memory_gb)", cap_m, s->max_bytes / 1e9);
+  if (!s->size)
+    return pm_error_setf(err, PM_ERR_LIMIT,
+                         "psys: even at its largest sigma the inferred field needs about %.3g "
+                         "particles, above %s; a kappa_min %.3g times smaller fits",
+                         n, what, c);
+  /* a constant field reads back as a number: name the size that fits */
+  const char *text = pm_sizing_describe(s->size);
+  char *end = NULL;
+  const double d = text ? strtod(text, &end) : 0;
+  if (end && end != text && *end == '\0' && d > 0)
+    return pm_error_setf(err, PM_ERR_LIMIT,
+                         "psys: size %g needs about %.3g particles (curves %.3g, faces %.3g), "
+                         "above %s; a size of at least %.3g fits",
+                         d, n, nc, nf, what, c * d * (1 + 1e-3));
+  return pm_error_setf(err, PM_ERR_LIMIT,
+                       "psys: the size field needs about %.3g particles (curves %.3g, faces %.3g), "
+                       "above %s; the field multiplied by at least %.3g fits",
+                       n, nc, nf, what, c * (1 + 1e-3));
 }
 
