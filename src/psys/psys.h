@@ -69,6 +69,8 @@ typedef struct psys_params {
   int delete_grace;     /* particles around a split or delete are not deleted for this many
                            iterations; 3 */
   int seeds_per_face;   /* k random particles per face at the start of phase 3; 8 */
+  int seeding;          /* phase 3's seeds: 0 k random per face (the paper), 1 a front filling
+                           each face in its field from its boundary (psys_seed.c); 1 */
   /* ---- convergence and annealing (section 3, 4.1) ---- */
   double pop_tol;       /* annealing starts once the particle count moved by at most
                            max(2, pop_tol n) over the last 10 iterations; 0.005 */

@@ -62,6 +62,10 @@ static const pm_param_desc desc[] = {
      "ours (001 is silent)", NULL},
     {"seeds_per_face", I, F(seeds_per_face), 8, 1, 100000, PM_RANGE_CLOSED, "",
      "k: random particles seeded per face at the start of phase 3", "001 sec. 4.1", NULL},
+    {"seeding", I, F(seeding), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "phase 3's seeds: 0 = seeds_per_face random particles per face (the paper), 1 = each face "
+     "filled by a front in its field from its boundary, a hexagonal lattice along the curves",
+     "001 sec. 4.1 (0); ours, after sec. 5.2.1's 'bootstrap initial samplings' (1)", NULL},
     {"pop_tol", D, F(pop_tol), 0.005, 0, 1, PM_RANGE_CLOSED, "",
      "annealing starts once the particle count moved by at most max(2, pop_tol n) over 10 "
      "iterations",

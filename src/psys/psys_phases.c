@@ -120,6 +120,83 @@ pm_status psys_seed_face(psys_sys *s, int32_t f, int k, pm_error *err) {
   return PM_OK;
 }
 
+/* One front per face (in parallel), the particles appended in face order; a face the front
+ * leaves empty (too small for a row) gets seeds_per_face random ones. */
+static pm_status fronts(psys_sys *s, const psys_hint *hint, pm_error *err) {
+  const int32_t nf = s->model->count[PM_FACE];
+  double **uv = calloc((size_t)nf + 1, sizeof(double *));
+  double **sg = calloc((size_t)nf + 1, sizeof(double *));
+  int32_t *cnt = calloc((size_t)nf + 1, sizeof(int32_t));
+  pm_status *fst = calloc((size_t)nf + 1, sizeof(pm_status));
+  pm_error *ferr = calloc((size_t)nf + 1, sizeof(pm_error));
+  pm_status st = PM_OK;
+  if (!uv || !sg || !cnt || !fst || !ferr) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+#pragma omp parallel for num_threads(s->threads) schedule(dynamic, 1)
+  for (int32_t f = 0; f < nf; ++f)
+    if (s->face_on[f]) fst[f] = psys_seed_front(s, f, hint, &uv[f], &sg[f], &cnt[f], &ferr[f]);
+  for (int32_t f = 0; f < nf && !st; ++f) {
+    if (!s->face_on[f]) continue;
+    if (fst[f]) {
+      if (err) *err = ferr[f];
+      st = fst[f];
+      break;
+    }
+    for (int32_t k = 0; k < cnt[f] && !st; ++k)
+      st = psys_add(s, PM_FACE, f, &uv[f][2 * k], sg[f][k], NULL, err);
+    if (!st && cnt[f] == 0) st = psys_seed_face(s, f, s->p.seeds_per_face, err);
+  }
+out:
+  for (int32_t f = 0; f < nf && uv; ++f) free(uv[f]), free(sg[f]);
+  free(uv), free(sg), free(cnt), free(fst), free(ferr);
+  return st;
+}
+
+/* Phase 3's seeds: k random particles per face (seeding = 0, section 4.1), or the bootstrap
+ * fronts of psys_seed.c (seeding = 1): a first front per face, one sizing update of its
+ * particles (the gap across walls, the Lipschitz closure over the model), and a second front
+ * with that field as its hint. */
+static pm_status seed_faces(psys_sys *s, pm_error *err) {
+  const int32_t nf = s->model->count[PM_FACE];
+  if (s->p.seeding == 0) {
+    for (int32_t f = 0; f < nf; ++f) {
+      if (!s->face_on[f]) continue;
+      pm_status st = psys_seed_face(s, f, s->p.seeds_per_face, err);
+      if (st) return st;
+    }
+    return PM_OK;
+  }
+  const int32_t n0 = s->n;
+  pm_status st = fronts(s, NULL, err);
+  if (st || s->size) return st; /* a given field: the first front had it already */
+  if ((st = psys_sigma_update(s, err))) return st;
+  psys_hint hint = {NULL, NULL, NULL};
+  const int32_t m = s->n - n0;
+  double *hx = malloc(sizeof(double) * 3 * ((size_t)m + 1));
+  double *hs = malloc(sizeof(double) * ((size_t)m + 1));
+  uint8_t *dead = calloc((size_t)s->n + 1, 1);
+  if (!hx || !hs || !dead) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+  if ((st = pm_grid_create(1e-2 * s->sigma_min, &hint.grid, err))) goto out;
+  for (int32_t k = 0; k < m && !st; ++k) {
+    memcpy(&hx[3 * k], &s->xyz[3 * (n0 + k)], 3 * sizeof(double));
+    hs[k] = s->sigma[n0 + k];
+    dead[n0 + k] = 1;
+    st = pm_grid_insert(hint.grid, k, &hx[3 * k], 0, err);
+  }
+  hint.xyz = hx, hint.sigma = hs;
+  if (!st) st = psys_compact(s, dead, err);
+  if (!st) st = fronts(s, &hint, err);
+out:
+  pm_grid_destroy(hint.grid);
+  free(hx), free(hs), free(dead);
+  return st;
+}
+
 /* ---- observation -------------------------------------------------------------------------- */
 
 static const char *const trace_cols[] = {"iteration", "phase",      "particles", "energy",
@@ -180,10 +257,8 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
     free(s->face_on);
     if (!(s->face_on = calloc((size_t)nf + 1, 1)))
       return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    for (int32_t f = 0; f < nf; ++f) {
-      s->face_on[f] = !faces || faces[f];
-      if (s->face_on[f] && (st = psys_seed_face(s, f, s->p.seeds_per_face, err))) return st;
-    }
+    for (int32_t f = 0; f < nf; ++f) s->face_on[f] = !faces || faces[f];
+    if ((st = seed_faces(s, err))) return st;
   }
   psys_clock_add(s, PSYS_T_SEEDING, pm_seconds() - tc);
   double a = 1;

@@ -408,6 +408,19 @@ pm_status psys_seed_curves(psys_sys *s, pm_error *err);
 /* Seed phase 3 on face f: k random points of its trimmed region. */
 pm_status psys_seed_face(psys_sys *s, int32_t f, int k, pm_error *err);
 
+/* Bootstrap seeding of face f (psys_seed.c): the (u, v) and sigma of the particles an advancing
+ * front in the face's field places, from the frozen particles of its boundary; with a hint (may
+ * be NULL), sigma at most hint sigma + L r from the hint's points. Reads the
+ * system only (faces may be seeded in parallel). out_uv[2 count], out_sigma[count] malloc'd,
+ * the caller's to free (NULL when count is 0). */
+typedef struct psys_hint {
+  pm_grid *grid;        /* the points, id = index */
+  const double *xyz;    /* [3 n] */
+  const double *sigma;  /* [n] */
+} psys_hint;
+pm_status psys_seed_front(const psys_sys *s, int32_t f, const psys_hint *hint, double **out_uv,
+                          double **out_sigma, int32_t *count, pm_error *err);
+
 /* Run one phase (1, 2 or 3: sets the flags, fixes and freezes what the phase holds still) until
  * it converges or reaches the cap. Phase 3 seeds only the faces with faces[f] != 0 (NULL: all). */
 pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psys_observer *obs,
