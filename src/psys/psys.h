@@ -82,6 +82,7 @@ typedef struct psys_params {
                            below this many sigma; 2e-3 */
   int max_iter;         /* iteration cap per phase; 1500 */
   int hold_sigma;       /* 1: phase 3 holds sigma once population control is off; 1 */
+  int hungry_curves;    /* 1: hungry curve particles also keep population control on; 0 */
   double max_memory_gb; /* the particle system stops (PM_ERR_LIMIT) before its estimated memory
                            exceeds this many GB, checked before a run and before arrays grow;
                            0: the machine's physical memory */

@@ -86,6 +86,10 @@ static const pm_param_desc desc[] = {
      "memory cap of the particle system, checked before the run (estimated count) and before "
      "its arrays grow (0: the physical memory)",
      "ours", NULL},
+    {"hungry_curves", I, F(hungry_curves), 0, 0, 1, PM_RANGE_CLOSED, "",
+     "1: a curve particle below half the split threshold keeps population control on, like a "
+     "face particle (0: faces only; curves are grown by halving their gaps)",
+     "ours", NULL},
     {"max_iter", I, F(max_iter), 1500, 1, 10000000, PM_RANGE_CLOSED, "iterations",
      "iteration cap of each phase", "ours", NULL},
     {"edge_per_sigma", D, F(edge_per_sigma), 0.66, 0.05, 2, PM_RANGE_CLOSED, "",

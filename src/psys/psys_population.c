@@ -315,7 +315,8 @@ static double ideal_energy_of(const psys_sys *s, int32_t i) {
 int32_t psys_hungry_count(const psys_sys *s) {
   int32_t n = 0;
   for (int32_t i = 0; i < s->n; ++i)
-    n += !s->fixed[i] && s->energy[i] < 0.5 * s->p.split_ratio * ideal_energy_of(s, i);
+    n += !s->fixed[i] && (s->dim[i] == PM_FACE || s->p.hungry_curves) &&
+         s->energy[i] < 0.5 * s->p.split_ratio * ideal_energy_of(s, i);
   return n;
 }
 

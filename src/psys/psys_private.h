@@ -384,7 +384,8 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
                                pm_error *err);
 
 /* The movable particles that eq. 4 splits whatever their eps: E_i below half the split threshold
- * (a front of particles still growing into an empty stretch of its cell). */
+ * (a front of particles still growing into an empty stretch of its cell); face particles only
+ * unless hungry_curves (psys_phases.c). */
 int32_t psys_hungry_count(const psys_sys *s);
 
 /* ---- phases (psys_phases.c) ------------------------------------------------------------- */
