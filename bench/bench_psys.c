@@ -2,17 +2,21 @@
  * parameters (the inferred sizing field), and the throughput of one iteration at 10^4 and 10^5
  * particles on a curved face.
  *
- *   bench_psys [models|throughput|all] [--threads N] [--volume] [--peers] [--only NAME] [CAD_DIR]
+ *   bench_psys [models|throughput|all] [--threads N] [--volume] [--peers] [--bubble]
+ *              [--only A,B] [--skip A,B] [--tp-model FILE] [CAD_DIR]
  *
- * models:     per model: nodes, iterations per phase, times, the mesh checker's verdict, and the
- *             triangle aspect ratio R / l_min as min / p25 / median / p75 / max (the statistic of
- *             papers/001 Fig. 11; an equilateral triangle has 0.577); with --volume the solids
- *             are also tetrahedralized (TetGen quality refinement) and their tets summarized the
- *             same way. The last column tells whether the target (median <= 0.60 and
- *             p75 <= 0.65) is met. With --peers, two more rows per model: gmsh's Frontal-Delaunay
- *             and the bubble mesher on psys's inferred field (psys_infer_size, the field
- *             `--size inferred` gives), surface only, summarized the same way: the same field,
- *             so a difference is a difference in node placement and connection.
+ * models:     per model: nodes, iterations per phase, times (per step of an iteration too),
+ *             peak resident memory per particle, the mesh checker's verdict, and the triangle
+ *             aspect ratio R / l_min as min / p25 / median / p75 / max (the statistic of
+ *             papers/001 Fig. 11; an equilateral triangle has 0.577), overall and by site
+ *             (tri.by_site: boundary, irregular, regular); with --volume the solids are also
+ *             tetrahedralized (TetGen quality refinement) and their tets summarized the same
+ *             way. The last column tells whether the target (median <= 0.60 and p75 <= 0.65) is
+ *             met. With --peers, gmsh's Frontal-Delaunay on psys's inferred field (the field of
+ *             the same psys run, psys_run_with_field) scaled to psys's node count, surface only,
+ *             its time beside psys's and its median beside psys's; --bubble adds the bubble
+ *             mesher on the same field. --only and --skip take comma-separated parts of file
+ *             names. A table at the end repeats one line per model.
  * throughput: case:sphere (radius 1) with a uniform size giving about 10^4 and 10^5 particles:
  *             phase-3 particle-iterations per second and seconds per iteration at the final
  *             count; equal rates at both sizes mean a cost linear in the particle count.
@@ -149,6 +153,19 @@ static void print_steps(const pm_stats *st) {
   printf(" other %.2f/%.2f\n", ph - sum, stat_time(st, "phase3") - sum3);
 }
 
+/* R / l_min of the triangles by site (tri.by_site): which triangles hold a model's median and
+ * p75 back -- along the curves (boundary), around lattice defects (irregular) or in the lattice
+ * (regular). */
+static void print_sites(const pm_quality *q) {
+  printf("    by site (share, median/p75):");
+  for (int k = 0; k < PM_TRI_SITES; ++k) {
+    const pm_summary *s = &q->tri_site_aspect[k];
+    printf(" %s %.0f%% %.4f/%.4f", pm_tri_site_name((pm_tri_site)k),
+           q->tri.n ? 100.0 * (double)s->n / (double)q->tri.n : 0.0, s->median, s->p75);
+  }
+  printf("\n");
+}
+
 /* Nodes on vertices, curves and faces: the surface mesh's count, tet nodes left out. */
 static int32_t surface_nodes(const pm_mesh *m) {
   int32_t n = 0;
@@ -195,8 +212,19 @@ static void print_peer(const char *name, const pm_model *m, const pm_mesh *mesh,
  * gmsh's Frontal-Delaunay at matched node count (the field scaled until gmsh's surface node count
  * is within 3% of psys's, as `--target-nodes` does; its time is that of the last, matched run),
  * and the bubble mesher on the field as it is. */
+/* One line per model for the table at the end. */
+typedef struct model_row {
+  char name[64];
+  int ok, valid, met;
+  int32_t nodes;
+  double seconds, median, p75, rss;
+  double gmsh_seconds, gmsh_median; /* < 0: not run */
+  int32_t gmsh_nodes;
+} model_row;
+
 static void bench_peers_on_field(const pm_model *m, const pm_sizing *field, int32_t psys_nodes,
-                                 double psys_seconds, double psys_median, int threads) {
+                                 double psys_seconds, double psys_median, int threads,
+                                 int bubble, model_row *row) {
   pm_error e = {0};
   pm_mesh *mesh = NULL;
   double scale = 1, seconds = 0;
@@ -230,11 +258,14 @@ static void bench_peers_on_field(const pm_model *m, const pm_sizing *field, int3
            "R/l_min %.4f / %.4f (%s)\n",
            psys_seconds, seconds, psys_median, q.tri.s_aspect_ratio.median,
            psys_median < q.tri.s_aspect_ratio.median ? "psys better" : "gmsh better");
+    row->gmsh_seconds = seconds, row->gmsh_median = q.tri.s_aspect_ratio.median;
+    row->gmsh_nodes = surface_nodes(mesh);
     pm_quality_clear(&q);
     pm_check_report_clear(&cr);
   }
   pm_mesh_destroy(mesh);
   mesh = NULL;
+  if (!bubble) return;
   if (run_peer(m, field, &bub_method, threads, &mesh, &seconds, &e))
     printf("  %-20s FAILED: %s\n", bub_method.name, e.msg);
   else
@@ -243,7 +274,8 @@ static void bench_peers_on_field(const pm_model *m, const pm_sizing *field, int3
 }
 
 /* One model: mesh, check, measure, print one line. Returns 1 when the target is met. */
-static int bench_model(const char *path, const char *name, int threads, int volume, int peers) {
+static int bench_model(const char *path, const char *name, int threads, int volume, int peers,
+                       int bubble, model_row *row) {
   pm_error e = {0};
   pm_model *m = NULL;
   pm_stats st;
@@ -251,6 +283,9 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   pm_run_output out;
   memset(&out, 0, sizeof out);
   int met = 0;
+  memset(row, 0, sizeof *row);
+  snprintf(row->name, sizeof row->name, "%s", name);
+  row->gmsh_seconds = row->gmsh_median = -1;
   peak_rss_reset();
   double t0 = pm_seconds();
   if (pm_input_open(path, &m, NULL, &e)) {
@@ -291,6 +326,10 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   if (out.mesh->ntet) print_summary(" tet", &q.tet.s_aspect_ratio);
   met = target_met(&q);
   printf("  target %s\n", met ? "met" : "MISSED");
+  row->ok = 1, row->valid = cr.valid, row->met = met, row->nodes = surface_nodes(out.mesh);
+  row->seconds = t_run, row->median = q.tri.s_aspect_ratio.median;
+  row->p75 = q.tri.s_aspect_ratio.p75, row->rss = rss;
+  print_sites(&q);
   if (!cr.valid)
     for (int32_t k = 0; k < cr.nproblem; ++k) printf("    problem: %s\n", cr.problem[k]);
   print_steps(&st);
@@ -299,7 +338,7 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   fflush(stdout);
   if (peers)
     bench_peers_on_field(m, field, surface_nodes(out.mesh), t_run, q.tri.s_aspect_ratio.median,
-                         threads);
+                         threads, bubble, row);
   pm_sizing_destroy(field);
   pm_quality_clear(&q);
   pm_check_report_clear(&cr);
@@ -309,7 +348,18 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   return met;
 }
 
-static void models(const char *dir, int threads, int volume, int peers, const char *only) {
+/* Whether name is picked by a comma-separated list of substrings (NULL: no list). */
+static int listed(const char *list, const char *name) {
+  if (!list) return 0;
+  char buf[1024];
+  snprintf(buf, sizeof buf, "%s", list);
+  for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save))
+    if (*t && strstr(name, t)) return 1;
+  return 0;
+}
+
+static void models(const char *dir, int threads, int volume, int peers, int bubble,
+                   const char *only, const char *skip) {
   DIR *d = opendir(dir);
   if (!d) {
     printf("no CAD folder %s: models skipped\n\n", dir);
@@ -325,19 +375,39 @@ static void models(const char *dir, int threads, int volume, int peers, const ch
   printf("models (default parameters, inferred field, seed 1%s): nodes, iterations of phases 1/2/3,"
          " wall time, checker, R/l_min min/p25/median/p75/max\n",
          volume ? ", solids with tets" : "");
+  model_row *rows = calloc((size_t)n + 1, sizeof(model_row));
   int met = 0, tried = 0;
   for (int i = 0; i < n; ++i) {
-    if (only && !strstr(names[i], only)) {
+    if ((only && !listed(only, names[i])) || listed(skip, names[i])) {
       free(names[i]);
       continue;
     }
     char path[1024];
     snprintf(path, sizeof path, "%s/%s", dir, names[i]);
-    met += bench_model(path, names[i], threads, volume, peers);
+    if (rows) met += bench_model(path, names[i], threads, volume, peers, bubble, &rows[tried]);
     ++tried;
     free(names[i]);
   }
   printf("target (median <= 0.60, p75 <= 0.65) met on %d of %d models\n\n", met, tried);
+  /* the table: psys beside gmsh-frontal on psys's field at matched node count */
+  printf("%-26s %8s %9s %8s %8s %6s %5s | %8s %9s %8s %s\n", "model", "nodes", "time_s",
+         "median", "p75", "target", "RSS_MB", "gmsh_n", "gmsh_s", "gmsh_med", "median: psys-gmsh");
+  for (int k = 0; rows && k < tried; ++k) {
+    const model_row *r = &rows[k];
+    if (!r->ok) {
+      printf("%-26s FAILED\n", r->name);
+      continue;
+    }
+    printf("%-26s %8d %9.1f %8.4f %8.4f %6s %5.0f", r->name, r->nodes, r->seconds, r->median,
+           r->p75, r->met ? "met" : "MISSED", r->rss / 1048576);
+    if (r->gmsh_seconds >= 0)
+      printf(" | %8d %9.1f %8.4f %+.4f%s\n", r->gmsh_nodes, r->gmsh_seconds, r->gmsh_median,
+             r->median - r->gmsh_median, r->valid ? "" : " (psys mesh INVALID)");
+    else
+      printf("%s\n", r->valid ? "" : " (INVALID)");
+  }
+  printf("\n");
+  free(rows);
 }
 
 /* Throughput of one run: particle-iterations per second over phase 3 (from the trace: the sum
@@ -429,8 +499,8 @@ static void throughput(int threads, const char *cad) {
 }
 
 int main(int argc, char **argv) {
-  const char *mode = "all", *dir = PM_CAD_DIR, *only = NULL, *tp_model = NULL;
-  int threads = 1, volume = 0, peers = 0;
+  const char *mode = "all", *dir = PM_CAD_DIR, *only = NULL, *skip = NULL, *tp_model = NULL;
+  int threads = 1, volume = 0, peers = 0, bubble = 0;
   for (int i = 1; i < argc; ++i) {
     if (!strcmp(argv[i], "--threads") && i + 1 < argc)
       threads = atoi(argv[++i]);
@@ -438,8 +508,12 @@ int main(int argc, char **argv) {
       volume = 1;
     else if (!strcmp(argv[i], "--peers"))
       peers = 1;
+    else if (!strcmp(argv[i], "--bubble"))
+      bubble = 1;
     else if (!strcmp(argv[i], "--only") && i + 1 < argc)
       only = argv[++i];
+    else if (!strcmp(argv[i], "--skip") && i + 1 < argc)
+      skip = argv[++i];
     else if (!strcmp(argv[i], "--tp-model") && i + 1 < argc)
       tp_model = argv[++i];
     else if (!strcmp(argv[i], "models") || !strcmp(argv[i], "throughput") ||
@@ -449,7 +523,8 @@ int main(int argc, char **argv) {
       dir = argv[i];
     else {
       fprintf(stderr, "usage: bench_psys [models|throughput|all] [--threads N] [--volume] "
-                      "[--peers] [--only NAME] [--tp-model FILE] [CAD_DIR]\n");
+                      "[--peers] [--bubble] [--only A,B] [--skip A,B] [--tp-model FILE] "
+                      "[CAD_DIR]\n");
       return 2;
     }
   }
@@ -459,6 +534,6 @@ int main(int argc, char **argv) {
   snprintf(tp_default, sizeof tp_default, "%s/%s", dir, TP_MODEL);
   if (!strcmp(mode, "throughput") || !strcmp(mode, "all"))
     throughput(threads, tp_model ? tp_model : tp_default);
-  if (!strcmp(mode, "models") || !strcmp(mode, "all")) models(dir, threads, volume, peers, only);
+  if (!strcmp(mode, "models") || !strcmp(mode, "all")) models(dir, threads, volume, peers, bubble, only, skip);
   return 0;
 }
