@@ -80,6 +80,7 @@ typedef struct psys_params {
   double anneal_off;    /* population control stops when a falls below this; 0.02 */
   double move_tol;      /* a phase ends when population control is off and the mean move is
                            below this many sigma; 2e-3 */
+  double move_tol_faces; /* phase 3's move_tol (the faces); 0: move_tol */
   int max_iter;         /* iteration cap per phase; 1500 */
   int hold_sigma;       /* 1: phase 3 holds sigma once population control is off; 1 */
   int hungry_curves;    /* 1: hungry curve particles also keep population control on; 0 */

@@ -283,13 +283,14 @@ static void near_candidates(const psys_sys *s, chunk *B, int32_t k, int32_t i,
 }
 
 /* Evaluate the trial points of the slots in ST_EVAL, face by face (gmsh: batched), with
- * derivatives when `order` is 1. */
-static void batch_eval(const psys_sys *s, chunk *B, int32_t m, int order) {
+ * derivatives when `order` is 1. Returns how many; B->keys then holds (face, slot) of each,
+ * sorted. */
+static int32_t batch_eval(const psys_sys *s, chunk *B, int32_t m, int order) {
   int32_t nk = 0;
   for (int32_t k = 0; k < m; ++k)
     if (B->st[k] == ST_EVAL)
       B->keys[nk++] = ((uint64_t)(uint32_t)s->cell[B->idx[k]] << 32) | (uint32_t)k;
-  if (!nk) return;
+  if (!nk) return 0;
   qsort(B->keys, (size_t)nk, sizeof(uint64_t), cmp_u64);
   for (int32_t a = 0; a < nk;) {
     int32_t f = (int32_t)(B->keys[a] >> 32), e = a;
@@ -309,6 +310,7 @@ static void batch_eval(const psys_sys *s, chunk *B, int32_t m, int order) {
     }
     a = e;
   }
+  return nk;
 }
 
 /* The particle's sampled timing (see step_chunk): every TSAMPLE-th slot reads the clock. */
@@ -383,13 +385,15 @@ static pm_status step_chunk(psys_sys *s, chunk *B, int32_t m, pm_error *err) {
   /* the particles on gmsh faces, in rounds */
   for (int round = 0; slow && round < 64; ++round) {
     t0 = pm_seconds();
-    batch_eval(s, B, m, frames ? 0 : 1);
+    const int32_t ne = batch_eval(s, B, m, frames ? 0 : 1);
     t1 = pm_seconds();
     psys_clock_add(s, PSYS_T_SURFACE, t1 - t0);
     slow = 0;
-#pragma omp parallel for num_threads(nthr) schedule(dynamic, 32) if (m > 256) reduction(| : slow)
-    for (int32_t k = 0; k < m; ++k) {
-      if (B->st[k] != ST_PENDING || !slow_cell(s, B->idx[k])) continue;
+    /* only the slots just evaluated (a round's evaluation is serial under gmsh's lock; later
+     * rounds hold few slots, too few to pay for waking the threads) */
+#pragma omp parallel for num_threads(nthr) schedule(dynamic, 32) if (ne > 2048) reduction(| : slow)
+    for (int32_t q = 0; q < ne; ++q) {
+      const int32_t k = (int32_t)(B->keys[q] & 0xffffffffu);
       const int32_t i = B->idx[k];
       trial_check(s, B, k, i);
       if (B->st[k] != ST_PENDING) continue;

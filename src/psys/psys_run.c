@@ -108,6 +108,10 @@ pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_r
   if ((st = psys_optimize(s, &obs, rep, err))) goto fail;
   for (int k = 0; k < 3; ++k) out->iterations += rep[k].iterations;
   if ((st = psys_to_mesh(s, &mesh, err))) goto fail;
+  /* the neighbour and gap lists and their grids, about half of the system's memory, are not
+   * needed any more: freed before the connection, whose own peak (CDT, flips, tets) then does
+   * not come on top of theirs */
+  psys_nbr_free(s);
   pm_connect_params cp;
   connect_params(p, in->volume, in->max_nodes, &cp);
   double t0 = pm_seconds();
