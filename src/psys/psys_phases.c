@@ -41,7 +41,8 @@
  * R / l_min 0.605 after 49 phase-3 iterations, 0.594 with move_tol_faces = 5e-4 after 292, 0.591
  * with 1e-4 after 1181; lattice defects 22% -> 12% -> 10% of the triangles), but on the graded
  * inferred field of t20_component8.step it moves the median from 0.659 to 0.656 (1e-3, 95
- * iterations) and 0.655 (5e-4, 150): the default stays move_tol.
+ * iterations) and 0.655 (5e-4, 150), and on case:qi1 --size 0.05, filled by the bootstrap fronts,
+ * from 0.5878 to 0.5895 (3e-4): the default stays move_tol.
  * Phase 3 holds sigma once population control is off (hold_sigma = 1, the default; 0 keeps
  * updating it). The field was inferred while the particles moved, and the count followed it; with
  * the count fixed, what is left is relaxing the packing in that field. Updated further, the field

@@ -131,10 +131,50 @@ static void bootstrap_seeding(void **state) {
   pm_model_destroy(m);
 }
 
+/* The last mean_rel_move of phase 3 in a trace, and its iteration count. */
+static double phase3_end(const pm_trace *tr, int64_t *its) {
+  double last = -1;
+  *its = 0;
+  for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) {
+    const double *row = pm_trace_row(tr, r);
+    if (row[1] == 3) last = row[10], ++*its;
+  }
+  return last;
+}
+
+/* move_tol_faces: phase 3 ends at its own tolerance, the curves' phases at move_tol (case:qi1,
+ * d = 0.05). */
+static void phase3_tolerance(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:qi1");
+  pm_sizing *d = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(0.05, &d, &e), e);
+  double end[2];
+  int64_t its[2];
+  for (int k = 0; k < 2; ++k) {
+    const char *sets[] = {k ? "move_tol_faces=3e-4" : "move_tol_faces=0", NULL};
+    pm_trace *tr = NULL;
+    PM_ASSERT_OK(pm_trace_create(&tr, &e), e);
+    pm_mesh *mesh = psys_test_run(m, d, 1, 1, 0, sets, NULL, tr, NULL);
+    psys_test_assert_valid(mesh, m);
+    end[k] = phase3_end(tr, &its[k]);
+    pm_mesh_destroy(mesh);
+    pm_trace_destroy(tr);
+  }
+  if (!(end[0] < 2e-3 && end[0] >= 3e-4 && end[1] < 3e-4 && its[1] > its[0]))
+    fail_msg("phase 3 ended at a mean move of %g sigma after %lld iterations (move_tol), %g after "
+             "%lld (move_tol_faces = 3e-4)",
+             end[0], (long long)its[0], end[1], (long long)its[1]);
+  pm_sizing_destroy(d);
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(curves_sampled_to_their_ends),
       cmocka_unit_test(bootstrap_seeding),
+      cmocka_unit_test(phase3_tolerance),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
