@@ -17,9 +17,13 @@
  *             its time beside psys's and its median beside psys's; --bubble adds the bubble
  *             mesher on the same field. --only and --skip take comma-separated parts of file
  *             names. A table at the end repeats one line per model.
- * throughput: case:sphere (radius 1) with a uniform size giving about 10^4 and 10^5 particles:
- *             phase-3 particle-iterations per second and seconds per iteration at the final
- *             count; equal rates at both sizes mean a cost linear in the particle count.
+ * throughput: case:sphere (radius 1) with a uniform size giving about 10^4 and 10^5 particles,
+ *             then table.brep with a uniform size (10^5 particles) and wrench.stp with the
+ *             inferred field, each at 1 thread and at --threads (at least 2): phase-3
+ *             particle-iterations per second, seconds per iteration at the final count, the end
+ *             to end rate, CPU seconds beside wall seconds (the machine may be shared), time per
+ *             step and peak RSS per particle; equal rates at both sphere sizes mean a cost
+ *             linear in the particle count.
  *
  * Prints figures only; never a test.
  */
@@ -41,7 +45,12 @@
 #include "peers/peers.h"
 #include "psys/psys.h"
 
-/* The CAD model of `throughput` (--tp-model overrides it). */
+/* The CAD models of `throughput`: table.brep (planes and cylinders, evaluated in closed form)
+ * with a uniform size of 0.5, about 10^5 particles, the figure of the throughput target at 1 and
+ * 2 threads; and wrench.stp (B-spline faces evaluated by gmsh) with the inferred field, the
+ * default use (--tp-model overrides it). */
+#define TP_UNIFORM_MODEL "table.brep"
+#define TP_UNIFORM_SIZE 0.5
 #define TP_MODEL "wrench.stp"
 
 static void machine_info(int argc, char **argv, int threads) {
@@ -111,6 +120,25 @@ static void measure(const pm_mesh *mesh, const pm_model *m, pm_check_report *cr,
 /* The target for triangles: median R / l_min <= 0.60 and p75 <= 0.65. */
 static int target_met(const pm_quality *q) {
   return q->tri.s_aspect_ratio.median <= 0.60 && q->tri.s_aspect_ratio.p75 <= 0.65;
+}
+
+/* CPU seconds of the process, all threads: beside the wall time, on a machine shared with other
+ * work, the rate per CPU second says what one core does, and CPU over wall how many cores the
+ * run had. */
+static double cpu_seconds(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static double load_average(void) {
+  double load = -1;
+  FILE *f = fopen("/proc/loadavg", "r");
+  if (f) {
+    if (fscanf(f, "%lf", &load) != 1) load = -1;
+    fclose(f);
+  }
+  return load;
 }
 
 /* Peak resident memory. The kernel's high-water mark (VmHWM) is reset before each run by writing
@@ -287,7 +315,7 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   snprintf(row->name, sizeof row->name, "%s", name);
   row->gmsh_seconds = row->gmsh_median = -1;
   peak_rss_reset();
-  double t0 = pm_seconds();
+  double t0 = pm_seconds(), c0 = cpu_seconds();
   if (pm_input_open(path, &m, NULL, &e)) {
     printf("%-22s FAILED to load: %s\n", name, e.msg);
     return 0;
@@ -310,7 +338,7 @@ static int bench_model(const char *path, const char *name, int threads, int volu
     pm_stats_clear(&st);
     return 0;
   }
-  double t_run = pm_seconds() - t0;
+  double t_run = pm_seconds() - t0, c_run = cpu_seconds() - c0;
   double rss = peak_rss_bytes();
   pm_check_report cr;
   pm_quality q;
@@ -333,8 +361,10 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   if (!cr.valid)
     for (int32_t k = 0; k < cr.nproblem; ++k) printf("    problem: %s\n", cr.problem[k]);
   print_steps(&st);
-  printf("    peak RSS %.0f MB, %.0f bytes per particle (%0.f particles)\n", rss / 1048576,
-         particles > 0 ? rss / particles : 0, particles);
+  printf("    peak RSS %.0f MB, %.0f bytes per particle (%0.f particles); CPU %.1f s over wall "
+         "%.1f s, load average %.2f\n",
+         rss / 1048576, particles > 0 ? rss / particles : 0, particles, c_run, t_run,
+         load_average());
   fflush(stdout);
   if (peers)
     bench_peers_on_field(m, field, surface_nodes(out.mesh), t_run, q.tri.s_aspect_ratio.median,
@@ -436,13 +466,13 @@ static double throughput_one(const char *input, const char *label, const pm_sizi
   pm_stats st;
   pm_stats_init(&st);
   out.stats = &st;
-  double t0 = pm_seconds();
+  double t0 = pm_seconds(), c0 = cpu_seconds();
   if (psys_method.run(&in, &p, &out, &e)) {
     printf("throughput: %s\n", e.msg);
     pm_stats_clear(&st);
     goto out;
   }
-  double t_run = pm_seconds() - t0;
+  double t_run = pm_seconds() - t0, c_run = cpu_seconds() - c0;
   /* particle-iterations of phase 3 from the trace (columns: iteration, phase, particles, ...) */
   double pit = 0, last_n = 0;
   int64_t its = 0;
@@ -459,6 +489,9 @@ static double throughput_one(const char *input, const char *label, const pm_sizi
          label, threads, last_n, (long long)out.iterations, (long long)its, t_run, rate,
          t3 / (double)its * last_n / (pit / (double)its),
          last_n * (double)out.iterations / t_run);
+  printf("    CPU %.2f s over wall %.2f s = %.2f cores in use (load average now %.2f); end to end "
+         "%.0f particle-iterations per CPU second\n",
+         c_run, t_run, c_run / t_run, load_average(), last_n * (double)out.iterations / c_run);
   print_steps(&st);
   double rss = peak_rss_bytes();
   printf("    peak RSS %.0f MB, %.0f bytes per particle\n", rss / 1048576,
@@ -472,7 +505,7 @@ out:
   return rate;
 }
 
-static void throughput(int threads, const char *cad) {
+static void throughput(int threads, const char *cad, const char *dir) {
   printf("throughput: case:sphere (radius 1), uniform size, and a CAD model with the inferred "
          "field\n");
   /* A hexagonal packing of edge d on the unit sphere holds about 4 pi / (sqrt(3)/2 d^2) nodes. */
@@ -489,11 +522,26 @@ static void throughput(int threads, const char *cad) {
     throughput_one("case:sphere", label, size, threads);
     pm_sizing_destroy(size);
   }
-  /* The CAD model on one thread and on `threads` (at least 2): the scaling figure. */
+  /* The CAD models on one thread and on `threads` (at least 2): the scaling figures. */
+  const int tn = threads > 1 ? threads : 2;
+  {
+    pm_error e = {0};
+    pm_sizing *size = NULL;
+    char path[1024], label[96];
+    snprintf(path, sizeof path, "%s/%s", dir, TP_UNIFORM_MODEL);
+    snprintf(label, sizeof label, "%s d=%g", TP_UNIFORM_MODEL, TP_UNIFORM_SIZE);
+    if (pm_sizing_constant(TP_UNIFORM_SIZE, &size, &e)) {
+      printf("throughput: %s\n", e.msg);
+    } else {
+      double r1 = throughput_one(path, label, size, 1);
+      double rn = throughput_one(path, label, size, tn);
+      printf("%s: %d threads / 1 thread = %.2f (phase-3 rates)\n", label, tn, r1 > 0 ? rn / r1 : 0);
+    }
+    pm_sizing_destroy(size);
+  }
   const char *base = strrchr(cad, '/');
   base = base ? base + 1 : cad;
   double r1 = throughput_one(cad, base, NULL, 1);
-  int tn = threads > 1 ? threads : 2;
   double rn = throughput_one(cad, base, NULL, tn);
   printf("%s: %d threads / 1 thread = %.2f (phase-3 rates)\n\n", base, tn, r1 > 0 ? rn / r1 : 0);
 }
@@ -533,7 +581,7 @@ int main(int argc, char **argv) {
   char tp_default[1024];
   snprintf(tp_default, sizeof tp_default, "%s/%s", dir, TP_MODEL);
   if (!strcmp(mode, "throughput") || !strcmp(mode, "all"))
-    throughput(threads, tp_model ? tp_model : tp_default);
+    throughput(threads, tp_model ? tp_model : tp_default, dir);
   if (!strcmp(mode, "models") || !strcmp(mode, "all")) models(dir, threads, volume, peers, bubble, only, skip);
   return 0;
 }
