@@ -322,30 +322,13 @@ static pm_status step_chunk(psys_sys *s, chunk *B, int32_t m, pm_error *err) {
   (void)err;
   const int nthr = s->threads;
   const int frames = s->p.frame_tol > 0;
-  double *cpu = calloc((size_t)nthr * 2, sizeof(double)); /* surface, step (sampled slots) */
+  double *cpu = calloc((size_t)nthr * 3, sizeof(double)); /* energy, surface, step (sampled) */
   if (!cpu) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  /* For each particle, in one parallel loop (one barrier): E_i, its gradient and Hessian, the
+   * Newton step, then Algorithm 1's trials -- a particle on a closed-form cell to the end at
+   * once, the others up to their next point to evaluate. A slot reads only its own particle and
+   * the points of other colours, which no slot of this chunk writes. */
   double t0 = pm_seconds();
-#pragma omp parallel for num_threads(nthr) schedule(dynamic, 32) if (m > 256)
-  for (int32_t k = 0; k < m; ++k) {
-    const int32_t i = B->idx[k];
-    const psys_list *l = psys_nb(s, i);
-    double grad[3], hess[7];
-    B->e0[k] = psys_particle_energy(s, i, &s->xyz[3 * i], l->ids, l->n, grad, hess);
-    pm_v3_scale(&s->force[3 * i], grad, -1.0); /* eq. 8: the velocity that repels */
-    B->lam[k] = s->lambda[i];
-    B->acc[k] = 0, B->tframe[k] = 0;
-    B->st[k] = ST_DONE;
-    if (s->dim[i] == PM_FACE && s->chain_off)
-      s->bdist[i] = psys_boundary_distance(s, i, &s->xyz[3 * i], l->ids, l->n);
-    if (B->e0[k] > 0 && newton_step(s, i, &s->force[3 * i], hess, &B->dir[3 * k])) {
-      B->st[k] = ST_PENDING;
-      near_candidates(s, B, k, i, l);
-    }
-  }
-  double t1 = pm_seconds();
-  psys_clock_add(s, PSYS_T_ENERGY, t1 - t0);
-  /* Algorithm 1's trials: a particle on a closed-form cell to the end at once, the others up to
-   * their next point to evaluate. */
   int slow = 0;
 #pragma omp parallel num_threads(nthr) if (m > 256) reduction(| : slow)
   {
@@ -358,6 +341,21 @@ static pm_status step_chunk(psys_sys *s, chunk *B, int32_t m, pm_error *err) {
     for (int32_t k = 0; k < m; ++k) {
       const int32_t i = B->idx[k];
       const int timed = k % TSAMPLE == 0, is_slow = slow_cell(s, i);
+      double te = timed ? pm_seconds() : 0;
+      const psys_list *l = psys_nb(s, i);
+      double grad[3], hess[7];
+      B->e0[k] = psys_particle_energy(s, i, &s->xyz[3 * i], l->ids, l->n, grad, hess);
+      pm_v3_scale(&s->force[3 * i], grad, -1.0); /* eq. 8: the velocity that repels */
+      B->lam[k] = s->lambda[i];
+      B->acc[k] = 0, B->tframe[k] = 0;
+      B->st[k] = ST_DONE;
+      if (s->dim[i] == PM_FACE && s->chain_off)
+        s->bdist[i] = psys_boundary_distance(s, i, &s->xyz[3 * i], l->ids, l->n);
+      if (B->e0[k] > 0 && newton_step(s, i, &s->force[3 * i], hess, &B->dir[3 * k])) {
+        B->st[k] = ST_PENDING;
+        near_candidates(s, B, k, i, l);
+      }
+      if (timed) cpu[3 * tid] += pm_seconds() - te;
       while (B->st[k] == ST_PENDING) {
         double ta = timed ? pm_seconds() : 0;
         if (!trial_par(s, B, k, i)) {
@@ -366,21 +364,24 @@ static pm_status step_chunk(psys_sys *s, chunk *B, int32_t m, pm_error *err) {
         }
         if (is_slow) {
           B->st[k] = ST_EVAL, slow = 1;
-          if (timed) cpu[2 * tid] += pm_seconds() - ta;
+          if (timed) cpu[3 * tid + 1] += pm_seconds() - ta;
           break;
         }
         trial_eval(s, B, k, i);
         double tb = timed ? pm_seconds() : 0;
         trial_check(s, B, k, i);
-        if (timed) cpu[2 * tid] += tb - ta, cpu[2 * tid + 1] += pm_seconds() - tb;
+        if (timed) cpu[3 * tid + 1] += tb - ta, cpu[3 * tid + 2] += pm_seconds() - tb;
       }
     }
   }
+  double t1;
   {
-    const psys_step ks[2] = {PSYS_T_SURFACE, PSYS_T_STEP};
-    double sum[2] = {0, 0};
-    for (int t = 0; t < nthr; ++t) sum[0] += cpu[2 * t], sum[1] += cpu[2 * t + 1];
-    psys_clock_split(s, pm_seconds() - t1, 2, ks, sum);
+    const psys_step ks[3] = {PSYS_T_ENERGY, PSYS_T_SURFACE, PSYS_T_STEP};
+    double sum[3] = {0, 0, 0};
+    for (int t = 0; t < nthr; ++t)
+      for (int q = 0; q < 3; ++q) sum[q] += cpu[3 * t + q];
+    t1 = pm_seconds();
+    psys_clock_split(s, t1 - t0, 3, ks, sum);
   }
   /* the particles on gmsh faces, in rounds */
   for (int round = 0; slow && round < 64; ++round) {
