@@ -137,10 +137,7 @@ static void vl_free(psys_vl *V, int32_t cap) {
     for (int32_t i = 0; i < cap; ++i) list_free(&V->l[i]);
   free(V->x0), free(V->s0), free(V->l), free(V->mark);
   pm_grid_destroy(V->grid);
-  /* the counts of the work done stay for the statistics */
-  const int64_t renewed = V->renewed, rebuilds = V->rebuilds;
   memset(V, 0, sizeof *V);
-  V->renewed = renewed, V->rebuilds = rebuilds;
 }
 
 void psys_nbr_free(psys_sys *s) {

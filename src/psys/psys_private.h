@@ -248,8 +248,6 @@ static inline const psys_list *psys_nb(const psys_sys *s, int32_t i) { return &s
 static inline const psys_list *psys_gp(const psys_sys *s, int32_t i) { return &s->nbr.gp.l[i]; }
 
 pm_status psys_nbr_init(psys_sys *s, pm_error *err);
-/* Free the lists and their grids (the counts of renewed lists and rebuilds stay); no update may
- * follow. psys_run.c calls it once the particles are final, before the connection. */
 void psys_nbr_free(psys_sys *s);
 /* Room for cap particles. */
 pm_status psys_nbr_reserve(psys_sys *s, int32_t cap, pm_error *err);

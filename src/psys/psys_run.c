@@ -22,12 +22,11 @@ static void connect_params(const psys_params *p, int volume, int64_t max_nodes,
 }
 
 static pm_status add_stats(pm_stats *st, const psys_sys *s, const psys_phase_report rep[3],
-                           double t_connect, pm_error *err) {
+                           pm_error *err) {
   if (!st) return PM_OK;
   static const char *const names[3] = {"phase1", "phase2", "phase3"};
   pm_status r = PM_OK;
   for (int k = 0; k < 3 && !r; ++k) r = pm_stats_set_time(st, names[k], rep[k].seconds, err);
-  if (!r) r = pm_stats_set_time(st, "connect", t_connect, err);
   char key[64];
   for (int k = 0; k < 3 && !r; ++k) {
     snprintf(key, sizeof key, "psys.iterations.%s", names[k]);
@@ -60,20 +59,22 @@ static pm_status add_stats(pm_stats *st, const psys_sys *s, const psys_phase_rep
 /* The particles' sigma as an edge-length field sampled on the connected mesh's nodes and
  * triangles (tets left out: the field is the surface's): each node takes the sigma of the nearest
  * particle, which is itself for every particle; the connection may add nodes (vertices without a
- * particle, closed curves with fewer than two, tet nodes) and drops none of ours. */
-static pm_status field_of(const psys_sys *s, const pm_mesh *mesh, pm_sizing **out,
-                          pm_error *err) {
+ * particle, closed curves with fewer than two, tet nodes) and drops none of ours. The particles'
+ * points and sigma are copies (xyz[3 n], sigma[n]), taken before the system was freed. */
+static pm_status field_of(const pm_model *model, double edge_per_sigma, int32_t n,
+                          const double *xyz, const double *sigma, const pm_mesh *mesh,
+                          pm_sizing **out, pm_error *err) {
   double *val = malloc(sizeof(double) * ((size_t)mesh->nnode + 1));
   if (!val) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   pm_grid *g = NULL;
-  pm_status st = pm_grid_create(1e-6 * s->model->diagonal, &g, err);
-  for (int32_t i = 0; i < s->n && !st; ++i) st = pm_grid_insert(g, i, &s->xyz[3 * i], 0, err);
+  pm_status st = pm_grid_create(1e-6 * model->diagonal, &g, err);
+  for (int32_t i = 0; i < n && !st; ++i) st = pm_grid_insert(g, i, &xyz[3 * i], 0, err);
   for (int32_t k = 0; k < mesh->nnode && !st; ++k) {
     int32_t j = pm_grid_nearest(g, &mesh->xyz[3 * k], NULL);
     if (j < 0)
       st = pm_error_setf(err, PM_ERR_INTERNAL, "psys: no particle left for the sampled field");
     else
-      val[k] = s->sigma[j] * s->p.edge_per_sigma; /* sigma -> edge length (the calibration) */
+      val[k] = sigma[j] * edge_per_sigma; /* sigma -> edge length (the calibration) */
   }
   if (!st) {
     pm_mesh surface = *mesh; /* a view without the tets: pm_sizing_sampled copies what it uses */
@@ -94,6 +95,7 @@ pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_r
   if (!in || !in->model) return pm_error_setf(err, PM_ERR_ARG, "psys: no model");
   psys_sys *s = NULL;
   pm_mesh *mesh = NULL;
+  double *fxyz = NULL, *fsig = NULL; /* the field's copies of the particles */
   pm_status st = psys_sys_create(in->model, p, in->size, in->seed, in->threads,
                                  in->max_nodes > 0 ? in->max_nodes : PM_DEFAULT_MAX_NODES, &s,
                                  err);
@@ -108,27 +110,43 @@ pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_r
   if ((st = psys_optimize(s, &obs, rep, err))) goto fail;
   for (int k = 0; k < 3; ++k) out->iterations += rep[k].iterations;
   if ((st = psys_to_mesh(s, &mesh, err))) goto fail;
-  /* the neighbour and gap lists and their grids, about half of the system's memory, are not
-   * needed any more: freed before the connection, whose own peak (CDT, flips, tets) then does
-   * not come on top of theirs */
-  psys_nbr_free(s);
-  pm_connect_params cp;
-  connect_params(p, in->volume, in->max_nodes, &cp);
-  double t0 = pm_seconds();
-  pm_connect_report crep;
-  if ((st = pm_connect(in->model, mesh, &cp, &crep, err))) goto fail;
-  double t_connect = pm_seconds() - t0;
   int all = rep[0].converged && rep[1].converged && rep[2].converged;
   snprintf(out->stop_reason, sizeof out->stop_reason,
            "%s: phases 1-3 ran %lld, %lld, %lld iterations%s", all ? "converged" : "max_iter",
            (long long)rep[0].iterations, (long long)rep[1].iterations,
            (long long)rep[2].iterations, all ? "" : " (a phase reached max_iter)");
-  if ((st = add_stats(out->stats, s, rep, t_connect, err))) goto fail;
-  if (field && (st = field_of(s, mesh, field, err))) goto fail;
+  if ((st = add_stats(out->stats, s, rep, err))) goto fail;
+  /* The particles are final: the system (its arrays, the neighbour and gap lists and their
+   * grids) is freed before the connection, whose own peak (CDT, flips, the tets) then does not
+   * come on top of it -- nor the tet step's child process, which shares the parent's resident
+   * pages. The field keeps copies of the points and sigma. */
+  const int32_t n = s->n;
+  const double eps = s->p.edge_per_sigma;
+  if (field) {
+    fxyz = malloc(sizeof(double) * 3 * ((size_t)n + 1));
+    fsig = malloc(sizeof(double) * ((size_t)n + 1));
+    if (!fxyz || !fsig) {
+      st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+      goto fail;
+    }
+    memcpy(fxyz, s->xyz, sizeof(double) * 3 * (size_t)n);
+    memcpy(fsig, s->sigma, sizeof(double) * (size_t)n);
+  }
   psys_sys_destroy(s);
+  s = NULL;
+  pm_connect_params cp;
+  connect_params(p, in->volume, in->max_nodes, &cp);
+  double t0 = pm_seconds();
+  pm_connect_report crep;
+  if ((st = pm_connect(in->model, mesh, &cp, &crep, err))) goto fail;
+  if (out->stats && (st = pm_stats_set_time(out->stats, "connect", pm_seconds() - t0, err)))
+    goto fail;
+  if (field && (st = field_of(in->model, eps, n, fxyz, fsig, mesh, field, err))) goto fail;
+  free(fxyz), free(fsig);
   out->mesh = mesh;
   return PM_OK;
 fail:
+  free(fxyz), free(fsig);
   pm_mesh_destroy(mesh);
   psys_sys_destroy(s);
   return st;
