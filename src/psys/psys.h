@@ -55,6 +55,7 @@ typedef struct psys_params {
   double lambda_max;    /* cap of lambda_i; 1 */
   double lambda_grow;   /* lambda_i is multiplied by this after an accepted step (the paper
                            only divides by 10); 2 */
+  int pair_sigma;       /* sigma_ij of a pair: 0 max(sigma_i, sigma_j) (eq. 1), 1 their mean; 0 */
   double step_max;      /* longest world-space step, in units of sigma_i; 0.5 */
   double frame_tol;     /* faces evaluated by gmsh: a particle keeps the surface derivatives of
                            its last frame until it has moved this many sigma from it; 0.05
