@@ -761,6 +761,38 @@ pm_status pm_grid_reserve(pm_grid *g, int32_t max_id, pm_error *err) {
   return PM_OK;
 }
 
+pm_status pm_grid_renumber(pm_grid *g, int32_t nmap, const int32_t *new_id, pm_error *err) {
+  /* check everything first, so that a bad map leaves the grid as it was */
+  int32_t top = -1;
+  for (int32_t id = 0; id < g->id_cap; ++id) {
+    if (g->slot_of[id] < 0) continue;
+    int32_t to = id < nmap ? new_id[id] : -1;
+    if (to < 0)
+      return pm_error_setf(err, PM_ERR_ARG, "neighbour grid renumbering: point %d has no new id",
+                           id);
+    if (to > top) top = to;
+  }
+  int32_t *s = malloc((size_t)(top >= g->id_cap ? top + 1 : g->id_cap) * sizeof *s);
+  if (!s) return pm_error_setf(err, PM_ERR_NOMEM, "neighbour grid: out of memory for ids");
+  const int32_t cap = top >= g->id_cap ? top + 1 : g->id_cap;
+  for (int32_t i = 0; i < cap; ++i) s[i] = -1;
+  for (int32_t id = 0; id < g->id_cap; ++id) {
+    if (g->slot_of[id] < 0) continue;
+    if (s[new_id[id]] >= 0) {
+      free(s);
+      return pm_error_setf(err, PM_ERR_ARG,
+                           "neighbour grid renumbering: two points get the new id %d", new_id[id]);
+    }
+    s[new_id[id]] = g->slot_of[id];
+  }
+  for (int32_t id = 0; id < cap; ++id)
+    if (s[id] >= 0) g->pts[s[id]].id = id;
+  free(g->slot_of);
+  g->slot_of = s;
+  g->id_cap = cap;
+  return PM_OK;
+}
+
 /* Room for one more point record. */
 static pm_status reserve_slot(pm_grid *g, pm_error *err) {
   if (g->free_slot >= 0 || g->slot_used < g->slot_cap) return PM_OK;

@@ -135,6 +135,14 @@ pm_status pm_grid_remove(pm_grid *g, int32_t id, pm_error *err);
 /* Set the position and radius of point `id` (must be present); same rules as insert. */
 pm_status pm_grid_move(pm_grid *g, int32_t id, const double xyz[3], double r, pm_error *err);
 
+/* Give every point a new id: the point of id k (< nmap) becomes point new_id[k]. Every point in
+ * the grid must get an id >= 0, no two the same (PM_ERR_ARG otherwise, the grid unchanged); ids
+ * of absent points are ignored. Positions, radii and cells do not change, so this costs one pass
+ * over the ids: for callers whose ids are indices that shift when some are dropped (the
+ * particles of a compacted array) it replaces clearing the grid and inserting every point
+ * again. */
+pm_status pm_grid_renumber(pm_grid *g, int32_t nmap, const int32_t *new_id, pm_error *err);
+
 /* 1 if `id` is in the grid (then xyz and r, when not NULL, receive its data), else 0. */
 int pm_grid_get(const pm_grid *g, int32_t id, double xyz[3], double *r);
 

@@ -55,7 +55,11 @@ typedef struct psys_params {
   double lambda_max;    /* cap of lambda_i; 1 */
   double lambda_grow;   /* lambda_i is multiplied by this after an accepted step (the paper
                            only divides by 10); 2 */
+  int pair_sigma;       /* sigma_ij of a pair: 0 max(sigma_i, sigma_j) (eq. 1), 1 their mean; 0 */
   double step_max;      /* longest world-space step, in units of sigma_i; 0.5 */
+  double frame_tol;     /* faces evaluated by gmsh: a particle keeps the surface derivatives of
+                           its last frame until it has moved this many sigma from it; 0.05
+                           (0: new derivatives at every trial point, as eq. 7-9) */
   /* ---- population (eq. 3-6) ---- */
   double split_ratio;   /* split when E* < split_ratio E_ideal (eq. 4); 0.35 */
   double delete_ratio;  /* delete when E* > delete_ratio E_ideal (eq. 5); 1.75 */
@@ -66,6 +70,8 @@ typedef struct psys_params {
   int delete_grace;     /* particles around a split or delete are not deleted for this many
                            iterations; 3 */
   int seeds_per_face;   /* k random particles per face at the start of phase 3; 8 */
+  int seeding;          /* phase 3's seeds: 0 k random per face (the paper), 1 a front filling
+                           each face in its field from its boundary (psys_seed.c); 1 */
   /* ---- convergence and annealing (section 3, 4.1) ---- */
   double pop_tol;       /* annealing starts once the particle count moved by at most
                            max(2, pop_tol n) over the last 10 iterations; 0.005 */
@@ -75,8 +81,13 @@ typedef struct psys_params {
   double anneal_off;    /* population control stops when a falls below this; 0.02 */
   double move_tol;      /* a phase ends when population control is off and the mean move is
                            below this many sigma; 2e-3 */
+  double move_tol_faces; /* phase 3's move_tol (the faces); 0: move_tol */
   int max_iter;         /* iteration cap per phase; 1500 */
   int hold_sigma;       /* 1: phase 3 holds sigma once population control is off; 1 */
+  int hungry_curves;    /* 1: hungry curve particles also keep population control on; 0 */
+  double max_memory_gb; /* the particle system stops (PM_ERR_LIMIT) before its estimated memory
+                           exceeds this many GB, checked before a run and before arrays grow;
+                           0: the machine's physical memory */
   /* ---- output ---- */
   double edge_per_sigma; /* mean edge length over sigma of the final packing: the calibration
                             between a size field d (edge length) and sigma = d / edge_per_sigma;
@@ -102,6 +113,15 @@ pm_status psys_params_check(const psys_params *p, pm_error *err);
  * "phase1", "phase2", "phase3", "connect"; numbers "psys.iterations.phase1..3", "psys.particles",
  * "psys.sigma_min", "psys.sigma_max", "psys.splits", "psys.deletes". */
 extern const pm_method psys_method;
+
+/* The method's run (psys_method.run) that also returns, when field is not NULL, the field the
+ * particles' sigma describe: the sigma converted to an edge length with p->edge_per_sigma,
+ * sampled (pm_sizing_sampled) on the nodes and triangles of the output mesh, each node taking the
+ * sigma of the nearest particle. With the inferred field (in->size NULL) this is the field
+ * psys_infer_size returns, so a benchmark can run the peers on it without running psys twice.
+ * [out] field  free with pm_sizing_destroy; NULL on failure. */
+pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_run_output *out,
+                              pm_sizing **field, pm_error *err);
 
 /* The sizing inference alone, for `--size inferred` of other methods (the bubble mesher).
  * Runs the three phases of the particle system on model m with the inferred field (phases 1-3

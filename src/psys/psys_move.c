@@ -38,13 +38,28 @@
  *     Gauss-Seidel sweep in colour order, identical for any thread count. (Simultaneous steps,
  *     Jacobi, were tried first: they need lambda <= 0.5 against the zigzag mode of a chain,
  *     where two neighbours stepping towards each other double the stiffness each sees alone,
- *     and converged about twice as slowly.) The neighbour lists are gathered once per sweep with
- *     radius (1 + step_max) sigma_i, so that the energy at a trial point sees the particles it
- *     may reach.
+ *     and converged about twice as slowly.) A colour's particles step against the points of
+ *     the colours before them; within a colour, in chunks of up to CHUNK particles in index
+ *     order, every particle sees the same points, so the chunking, like the thread count, does
+ *     not change a result.
+ *   - two movable particles conflict when |x_i - x_j| < (1 + step_max) max(sigma_i, sigma_j):
+ *     one may reach the other's ball in its step. The colours are the greedy colouring of that
+ *     relation in index order, made at every pass from the neighbour lists (psys_nbr.c).
  *
- * Evaluation: the trial points of all pending particles are evaluated together per round, in
- * parallel for closed-form cells and batched per face (pm_face_eval_many) for faces evaluated
- * by gmsh, whose calls are serialized.
+ * Frames (ours). A step's parameter displacement needs the derivatives Su, Sv of the surface at
+ * the particle (eq. 7, 9). Closed-form cells evaluate them with the point at no extra cost. A
+ * face evaluated by gmsh costs one call for the point and another for the derivatives, under a
+ * lock: there the trial points are evaluated without derivatives, and an accepted particle keeps
+ * the derivatives it had (its "frame") until it has moved frame_tol sigma from where they were
+ * evaluated. The trial point itself is always exact, so every particle stays on its surface and
+ * every energy is exact; only the direction of the parameter step is the one of a point up to
+ * frame_tol sigma away. frame_tol = 0 evaluates the derivatives at every trial point, as
+ * papers/001 eq. 7-9 do.
+ *
+ * Evaluation: a particle on a closed-form cell runs Algorithm 1 to its end in one go, its trial
+ * points evaluated as they come. Particles on gmsh faces take their trials in rounds: the trial
+ * points of a round are evaluated together, batched per face (pm_face_eval_many), since gmsh's
+ * calls are serialized.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -53,24 +68,67 @@
 #include <omp.h>
 #endif
 
+#include "common/clock.h"
 #include "common/vec3.h"
 #include "psys/psys_private.h"
 
-#define BLOCK 4096
+#define CHUNK 16384 /* particles of a colour stepped together */
+#define NEAR_MAX 48 /* near candidates kept per particle for its trial points */
 
-enum { ST_DONE = 0, ST_PENDING = 1 };
+enum { ST_DONE = 0, ST_PENDING = 1, ST_EVAL = 2 };
 
-typedef struct block {
-  int32_t idx[BLOCK];    /* the particle in each slot */
-  double e0[BLOCK], en[BLOCK], lam[BLOCK];
-  double dir[3 * BLOCK]; /* the Newton step n_i (lambda = 1) */
-  double bd[BLOCK];      /* boundary distance at the trial point (face particles, phase 3) */
-  double tp[2 * BLOCK], tx[3 * BLOCK], td[6 * BLOCK];
-  uint8_t st[BLOCK], acc[BLOCK], ready[BLOCK];
-  int32_t order[BLOCK];
-  double uv[2 * BLOCK];
-  pm_face_point fp[BLOCK];
-} block;
+/* The work of one chunk, slot k for its k-th particle. */
+typedef struct chunk {
+  int32_t cap;
+  int32_t *idx;    /* the particle in each slot */
+  double *e0, *en, *lam;
+  double *dir;     /* [3] the Newton step n_i (lambda = 1) */
+  double *bd;      /* boundary distance at the trial point (face particles, phase 3) */
+  double *tp;      /* [2] trial parameters */
+  double *tx;      /* [3] trial point */
+  double *td;      /* [6] derivatives at the trial point (when evaluated with it) */
+  uint8_t *st, *acc, *tframe; /* state; accepted; td holds the trial point's frame */
+  double *reach;   /* the longest trial step of the slot's particle (see near) */
+  int32_t *noff;   /* [cap + 1] the slot's near candidates: near[noff[k] .. noff[k] + nn[k]) */
+  int32_t *nn;     /* how many; -1 when they did not fit (the whole list is used) */
+  int32_t *near;   /* [NEAR_MAX cap] */
+  double *moved;   /* displacement of an accepted step */
+  /* scratch of a batched evaluation */
+  uint64_t *keys;
+  double *uv;
+  pm_face_point *fp;
+} chunk;
+
+static void chunk_free(chunk *B) {
+  free(B->idx), free(B->e0), free(B->en), free(B->lam), free(B->dir), free(B->bd), free(B->tp);
+  free(B->tx), free(B->td), free(B->st), free(B->acc), free(B->tframe), free(B->moved);
+  free(B->keys), free(B->uv), free(B->fp);
+  free(B->reach), free(B->noff), free(B->nn), free(B->near);
+  memset(B, 0, sizeof *B);
+}
+
+static int chunk_alloc(chunk *B, int32_t cap) {
+  memset(B, 0, sizeof *B);
+  B->cap = cap;
+  const size_t c = (size_t)cap + 1;
+  B->idx = malloc(sizeof(int32_t) * c);
+  B->e0 = malloc(sizeof(double) * c), B->en = malloc(sizeof(double) * c);
+  B->lam = malloc(sizeof(double) * c), B->dir = malloc(sizeof(double) * 3 * c);
+  B->bd = malloc(sizeof(double) * c), B->tp = malloc(sizeof(double) * 2 * c);
+  B->tx = malloc(sizeof(double) * 3 * c), B->td = malloc(sizeof(double) * 6 * c);
+  B->st = malloc(c), B->acc = malloc(c), B->tframe = malloc(c);
+  B->moved = malloc(sizeof(double) * c);
+  B->keys = malloc(sizeof(uint64_t) * c), B->uv = malloc(sizeof(double) * 2 * c);
+  B->fp = malloc(sizeof(pm_face_point) * c);
+  B->reach = malloc(sizeof(double) * c), B->nn = malloc(sizeof(int32_t) * c);
+  B->noff = malloc(sizeof(int32_t) * c), B->near = malloc(sizeof(int32_t) * NEAR_MAX * c);
+  if (!B->reach || !B->nn || !B->noff || !B->near ||!B->idx || !B->e0 || !B->en || !B->lam || !B->dir || !B->bd || !B->tp || !B->tx ||
+      !B->td || !B->st || !B->acc || !B->tframe || !B->moved || !B->keys || !B->uv || !B->fp) {
+    chunk_free(B);
+    return -1;
+  }
+  return 0;
+}
 
 /* Sort (cell, slot) pairs packed in 64 bits. */
 static int cmp_u64(const void *a, const void *b) {
@@ -129,8 +187,14 @@ static int newton_step(const psys_sys *s, int32_t i, const double v[3], const do
   return t1 != 0 || t2 != 0;
 }
 
-/* The trial point of pending particle i (slot k) at lam[k]; slow faces are left for the batch. */
-static void trial(const psys_sys *s, block *B, int32_t k, int32_t i) {
+/* Whether particle i's cell is evaluated by gmsh (batched). */
+static int slow_cell(const psys_sys *s, int32_t i) {
+  return s->dim[i] == PM_FACE && s->slow_face[s->cell[i]];
+}
+
+/* The trial parameters of particle i (slot k) at lam[k]; 0 when the step is clipped to where the
+ * particle stands (nothing to try). */
+static int trial_par(const psys_sys *s, chunk *B, int32_t k, int32_t i) {
   const pm_cell *c = pm_model_cell(s->model, s->dim[i], s->cell[i]);
   double dx[3];
   pm_v3_scale(dx, &B->dir[3 * k], B->lam[k]);
@@ -140,291 +204,347 @@ static void trial(const psys_sys *s, block *B, int32_t k, int32_t i) {
   const double *par = &s->par[2 * i];
   pm_cell_param_delta(c, par, &s->deriv[6 * i], dx, dpar); /* eq. 7, 9 */
   pm_cell_move(c, par, dpar, tp);                          /* eq. 10, shared clip rule */
-  B->ready[k] = 0;
-  if (tp[0] == par[0] && (c->dim == PM_CURVE || tp[1] == par[1])) {
-    B->st[k] = ST_DONE; /* clipped to where it stands: nothing to try */
-    return;
-  }
+  return !(tp[0] == par[0] && (c->dim == PM_CURVE || tp[1] == par[1]));
+}
+
+/* Evaluate the trial point of slot k on a closed-form cell, with its derivatives. */
+static void trial_eval(const psys_sys *s, chunk *B, int32_t k, int32_t i) {
+  const pm_cell *c = pm_model_cell(s->model, s->dim[i], s->cell[i]);
   double *tx = &B->tx[3 * k], *td = &B->td[6 * k];
   if (c->dim == PM_CURVE) {
     pm_curve_point cp;
-    pm_curve_eval(c, tp[0], 1, &cp);
+    pm_curve_eval(c, B->tp[2 * k], 1, &cp);
     pm_v3_copy(tx, cp.p), pm_v3_copy(td, cp.d1);
     memset(td + 3, 0, 3 * sizeof(double));
-    B->ready[k] = 1;
-  } else if (!s->slow_face[c->index]) {
+  } else {
     pm_face_point fp;
-    pm_face_eval(c, tp, 1, &fp);
+    pm_face_eval(c, &B->tp[2 * k], 1, &fp);
     pm_v3_copy(tx, fp.p), pm_v3_copy(td, fp.su), pm_v3_copy(td + 3, fp.sv);
-    B->ready[k] = 1;
+  }
+  B->tframe[k] = 1;
+}
+
+/* Algorithm 1's test of the evaluated trial point of slot k: accept (ST_DONE, acc), give up
+ * (ST_DONE) or shrink lambda (ST_PENDING). */
+static void trial_check(const psys_sys *s, chunk *B, int32_t k, int32_t i) {
+  const psys_list *l = psys_nb(s, i);
+  /* the near candidates serve a trial point within the reach they were chosen for (the point of
+   * a curved cell is not always within its 3D step of the particle: then the whole list) */
+  const double rr = B->reach[k];
+  if (B->nn[k] >= 0 && psys_d2(&B->tx[3 * k], &s->xyz[3 * i]) <= rr * rr)
+    B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], B->near + B->noff[k], B->nn[k], NULL,
+                                    NULL);
+  else
+    B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], l->ids, l->n, NULL, NULL);
+  int off_boundary = 1;
+  if (s->dim[i] == PM_FACE && s->chain_off) {
+    /* a face particle does not step onto its face's boundary (see the file comment) */
+    B->bd[k] = psys_boundary_distance(s, i, &B->tx[3 * k], l->ids, l->n);
+    if (B->bd[k] < PSYS_BOUNDARY_CLEARANCE * s->sigma[i] && B->bd[k] < s->bdist[i])
+      off_boundary = 0;
+  }
+  if (B->en[k] < B->e0[k] && off_boundary) {
+    B->acc[k] = 1, B->st[k] = ST_DONE; /* Algorithm 1: accept */
+  } else if (B->lam[k] <= s->p.lambda_min) {
+    B->st[k] = ST_DONE; /* lines 10-11: skip */
+  } else {
+    B->lam[k] /= 10; /* line 13 */
+    B->st[k] = ST_PENDING;
   }
 }
 
-/* Evaluate the trial points left for the batch, face by face. */
-static void batch_eval(const psys_sys *s, block *B, int32_t m) {
-  uint64_t keys[BLOCK];
+/* The candidates a trial point of slot k can meet: its trial steps are at most
+ * min(lambda_i |n_i|, step_max sigma_i) long (reach[k]), so a trial point within that of x_i
+ * interacts only with the j that have |x_i - x_j| < sigma_ij + reach[k] (a few more than the
+ * neighbours at x_i itself; the list reaches (1 + step_max) sigma_ij). Choosing them once per
+ * pass makes each trial's energy a short loop. The same sums: the near candidates are the
+ * list's, in its order, less ones that contribute nothing at the trial point. */
+static void near_candidates(const psys_sys *s, chunk *B, int32_t k, int32_t i,
+                            const psys_list *l) {
+  const double step = B->lam[k] * pm_v3_norm(&B->dir[3 * k]);
+  const double cap = s->p.step_max * s->sigma[i];
+  const double reach = (step < cap ? step : cap) * (1 + 1e-9);
+  const double *xi = &s->xs[4 * i];
+  int32_t *out = B->near + (size_t)NEAR_MAX * (size_t)k, m = 0;
+  B->reach[k] = reach;
+  B->noff[k] = NEAR_MAX * k;
+  for (int32_t q = 0; q < l->n; ++q) {
+    const double *xj = &s->xs[4 * l->ids[q]];
+    const double r = (xi[3] > xj[3] ? xi[3] : xj[3]) + reach;
+    if (psys_d2(xi, xj) < r * r) {
+      if (m == NEAR_MAX) {
+        B->nn[k] = -1;
+        return;
+      }
+      out[m++] = l->ids[q];
+    }
+  }
+  B->nn[k] = m;
+}
+
+/* Evaluate the trial points of the slots in ST_EVAL, face by face (gmsh: batched), with
+ * derivatives when `order` is 1. Returns how many; B->keys then holds (face, slot) of each,
+ * sorted. */
+static int32_t batch_eval(const psys_sys *s, chunk *B, int32_t m, int order) {
   int32_t nk = 0;
   for (int32_t k = 0; k < m; ++k)
-    if (B->st[k] == ST_PENDING && !B->ready[k])
-      keys[nk++] = ((uint64_t)(uint32_t)s->cell[B->idx[k]] << 32) | (uint32_t)k;
-  if (!nk) return;
-  qsort(keys, (size_t)nk, sizeof(uint64_t), cmp_u64);
+    if (B->st[k] == ST_EVAL)
+      B->keys[nk++] = ((uint64_t)(uint32_t)s->cell[B->idx[k]] << 32) | (uint32_t)k;
+  if (!nk) return 0;
+  qsort(B->keys, (size_t)nk, sizeof(uint64_t), cmp_u64);
   for (int32_t a = 0; a < nk;) {
-    int32_t f = (int32_t)(keys[a] >> 32), e = a;
-    while (e < nk && (int32_t)(keys[e] >> 32) == f) {
-      int32_t k = (int32_t)(keys[e] & 0xffffffffu);
+    int32_t f = (int32_t)(B->keys[a] >> 32), e = a;
+    while (e < nk && (int32_t)(B->keys[e] >> 32) == f) {
+      int32_t k = (int32_t)(B->keys[e] & 0xffffffffu);
       B->uv[2 * (e - a)] = B->tp[2 * k], B->uv[2 * (e - a) + 1] = B->tp[2 * k + 1];
       ++e;
     }
-    pm_face_eval_many(pm_model_cell(s->model, PM_FACE, f), e - a, B->uv, 1, B->fp);
+    pm_face_eval_many(pm_model_cell(s->model, PM_FACE, f), e - a, B->uv, order, B->fp);
     for (int32_t q = a; q < e; ++q) {
-      int32_t k = (int32_t)(keys[q] & 0xffffffffu);
+      int32_t k = (int32_t)(B->keys[q] & 0xffffffffu);
       const pm_face_point *fp = &B->fp[q - a];
-      pm_v3_copy(&B->tx[3 * k], fp->p), pm_v3_copy(&B->td[6 * k], fp->su);
-      pm_v3_copy(&B->td[6 * k + 3], fp->sv);
-      B->ready[k] = 1;
+      pm_v3_copy(&B->tx[3 * k], fp->p);
+      if (order >= 1) pm_v3_copy(&B->td[6 * k], fp->su), pm_v3_copy(&B->td[6 * k + 3], fp->sv);
+      B->tframe[k] = order >= 1;
+      B->st[k] = ST_PENDING;
     }
     a = e;
   }
+  return nk;
 }
 
-/* Neighbour lists of every particle, as CSR: the ids of particle i are ids[off[i] .. off[i+1]). */
-typedef struct nblist {
-  int64_t *off;
-  int32_t *ids;
-} nblist;
+/* The particle's sampled timing (see step_chunk): every TSAMPLE-th slot reads the clock. */
+#define TSAMPLE 8
 
-static void nblist_free(nblist *L) {
-  free(L->off), free(L->ids);
-  L->off = NULL, L->ids = NULL;
-}
-
-/* The search radius around particle i: its ball, widened by the longest step it may take. */
-static double search_radius(const psys_sys *s, int32_t i) {
-  return s->fixed[i] ? s->sigma[i] : (1 + s->p.step_max) * s->sigma[i];
-}
-
-static pm_status nblist_build(const psys_sys *s, nblist *L, pm_error *err) {
-  const int32_t n = s->n;
+/* Algorithm 1 for the m particles in B->idx against the current points; the accepted steps are
+ * written to the system at the end (the particles of one colour never see each other). */
+static pm_status step_chunk(psys_sys *s, chunk *B, int32_t m, pm_error *err) {
+  (void)err;
   const int nthr = s->threads;
-  L->off = calloc((size_t)n + 1, sizeof(int64_t));
-  int32_t *tstart = malloc(sizeof(int32_t) * ((size_t)n + 1)); /* offset in its thread's buffer */
-  int8_t *towner = malloc((size_t)n + 1);
-  pm_idbuf *tb = calloc((size_t)nthr, sizeof(pm_idbuf));
-  int fail = 0;
-  if (!L->off || !tstart || !towner || !tb) fail = 1;
-  if (!fail) {
-#pragma omp parallel num_threads(nthr) if (n > 512)
-    {
-#ifdef _OPENMP
-      int t = omp_get_thread_num();
-#else
-      int t = 0;
-#endif
-      pm_idbuf q = PM_IDBUF_INIT;
-#pragma omp for schedule(dynamic, 64)
-      for (int32_t i = 0; i < n; ++i) {
-        if (fail) continue;
-        if (pm_grid_query_mutual(s->grid, &s->xyz[3 * i], search_radius(s, i), &q, NULL) ||
-            pm_idbuf_reserve(&tb[t], tb[t].n + q.n, NULL)) {
-#pragma omp atomic write
-          fail = 1;
-          continue;
-        }
-        tstart[i] = tb[t].n, towner[i] = (int8_t)t;
-        memcpy(tb[t].ids + tb[t].n, q.ids, sizeof(int32_t) * (size_t)q.n);
-        tb[t].n += q.n;
-        L->off[i + 1] = q.n;
-      }
-      pm_idbuf_free(&q);
-    }
-  }
-  if (!fail) {
-    for (int32_t i = 0; i < n; ++i) L->off[i + 1] += L->off[i];
-    L->ids = malloc(sizeof(int32_t) * (size_t)(L->off[n] + 1));
-    if (!L->ids) fail = 1;
-  }
-  if (!fail)
-    for (int32_t i = 0; i < n; ++i)
-      memcpy(L->ids + L->off[i], tb[towner[i]].ids + tstart[i],
-             sizeof(int32_t) * (size_t)(L->off[i + 1] - L->off[i]));
-  if (tb)
-    for (int t = 0; t < nthr; ++t) pm_idbuf_free(&tb[t]);
-  free(tb), free(tstart), free(towner);
-  if (fail) {
-    nblist_free(L);
-    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  }
-  return PM_OK;
-}
-
-/* Greedy colouring of the movable particles in index order: two movable particles get different
- * colours when either lies in the other's list. Returns the number of colours (or -1 when out
- * of memory); colour[i] = -1 for fixed particles. */
-static int32_t colour_particles(const psys_sys *s, const nblist *L, int32_t *colour) {
-  const int32_t n = s->n;
-  /* the transpose: who lists i */
-  int64_t *roff = calloc((size_t)n + 1, sizeof(int64_t));
-  int32_t *rids = malloc(sizeof(int32_t) * (size_t)(L->off[n] + 1));
-  int32_t *stamp = NULL;
-  int32_t ncol = 0, cap = 64;
-  if (!roff || !rids) goto oom;
-  for (int32_t i = 0; i < n; ++i)
-    for (int64_t q = L->off[i]; q < L->off[i + 1]; ++q) roff[L->ids[q] + 1]++;
-  for (int32_t i = 0; i < n; ++i) roff[i + 1] += roff[i];
+  const int frames = s->p.frame_tol > 0;
+  double *cpu = calloc((size_t)nthr * 3, sizeof(double)); /* energy, surface, step (sampled) */
+  if (!cpu) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  /* For each particle, in one parallel loop (one barrier): E_i, its gradient and Hessian, the
+   * Newton step, then Algorithm 1's trials -- a particle on a closed-form cell to the end at
+   * once, the others up to their next point to evaluate. A slot reads only its own particle and
+   * the points of other colours, which no slot of this chunk writes. */
+  double t0 = pm_seconds();
+  int slow = 0;
+#pragma omp parallel num_threads(nthr) if (m > 256) reduction(| : slow)
   {
-    int64_t *fill = malloc(sizeof(int64_t) * ((size_t)n + 1));
-    if (!fill) goto oom;
-    memcpy(fill, roff, sizeof(int64_t) * ((size_t)n + 1));
-    for (int32_t i = 0; i < n; ++i)
-      for (int64_t q = L->off[i]; q < L->off[i + 1]; ++q) rids[fill[L->ids[q]]++] = i;
-    free(fill);
-  }
-  stamp = malloc(sizeof(int32_t) * (size_t)cap);
-  if (!stamp) goto oom;
-  for (int32_t c = 0; c < cap; ++c) stamp[c] = -1;
-  for (int32_t i = 0; i < n; ++i) {
-    colour[i] = -1;
-    if (s->fixed[i]) continue;
-    for (int64_t q = L->off[i]; q < L->off[i + 1]; ++q) {
-      int32_t c = L->ids[q] < i ? colour[L->ids[q]] : -1;
-      if (c >= 0) stamp[c] = i;
-    }
-    for (int64_t q = roff[i]; q < roff[i + 1]; ++q) {
-      int32_t c = rids[q] < i ? colour[rids[q]] : -1;
-      if (c >= 0) stamp[c] = i;
-    }
-    int32_t c = 0;
-    while (c < cap && stamp[c] == i) ++c;
-    if (c == cap) {
-      int32_t *ns = realloc(stamp, sizeof(int32_t) * 2 * (size_t)cap);
-      if (!ns) goto oom;
-      stamp = ns;
-      for (int32_t k = cap; k < 2 * cap; ++k) stamp[k] = -1;
-      cap *= 2;
-    }
-    colour[i] = c;
-    if (c + 1 > ncol) ncol = c + 1;
-  }
-  free(roff), free(rids), free(stamp);
-  return ncol;
-oom:
-  free(roff), free(rids), free(stamp);
-  return -1;
-}
-
-/* Algorithm 1 for the m particles in B->idx against the current positions; the accepted steps
- * are written to the system at once (the particles of one colour never see each other). */
-static pm_status step_block(psys_sys *s, const nblist *L, block *B, int32_t m, double *moved,
-                            pm_error *err) {
-#pragma omp parallel for num_threads(s->threads) schedule(dynamic, 32) if (m > 256)
-  for (int32_t k = 0; k < m; ++k) {
-    const int32_t i = B->idx[k];
-    const double *xi = &s->xyz[3 * i];
-    const int32_t *ids = L->ids + L->off[i];
-    const int32_t nn = (int32_t)(L->off[i + 1] - L->off[i]);
-    double grad[3], hess[7];
-    B->e0[k] = psys_particle_energy(s, i, xi, ids, nn, grad, hess);
-    pm_v3_scale(&s->force[3 * i], grad, -1.0); /* eq. 8: the velocity that repels */
-    B->lam[k] = s->lambda[i];
-    B->acc[k] = 0;
-    B->st[k] = ST_DONE;
-    if (s->dim[i] == PM_FACE && s->chain_off)
-      s->bdist[i] = psys_boundary_distance(s, i, xi, ids, nn);
-    if (B->e0[k] > 0 && newton_step(s, i, &s->force[3 * i], hess, &B->dir[3 * k]))
-      B->st[k] = ST_PENDING;
-  }
-  /* Algorithm 1's retries, all pending particles of the block per round. */
-  for (int round = 0; round < 64; ++round) {
-    int any = 0;
-    for (int32_t k = 0; k < m && !any; ++k) any = B->st[k] == ST_PENDING;
-    if (!any) break;
-#pragma omp parallel for num_threads(s->threads) schedule(dynamic, 32) if (m > 256)
-    for (int32_t k = 0; k < m; ++k)
-      if (B->st[k] == ST_PENDING) trial(s, B, k, B->idx[k]);
-    batch_eval(s, B, m);
-#pragma omp parallel for num_threads(s->threads) schedule(dynamic, 32) if (m > 256)
+#ifdef _OPENMP
+    const int tid = omp_get_thread_num();
+#else
+    const int tid = 0;
+#endif
+#pragma omp for schedule(dynamic, 32)
     for (int32_t k = 0; k < m; ++k) {
-      if (B->st[k] != ST_PENDING) continue;
       const int32_t i = B->idx[k];
-      const int32_t *ids = L->ids + L->off[i];
-      const int32_t nn = (int32_t)(L->off[i + 1] - L->off[i]);
-      B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], ids, nn, NULL, NULL);
-      int off_boundary = 1;
-      if (s->dim[i] == PM_FACE && s->chain_off) {
-        /* a face particle does not step onto its face's boundary (see the file comment) */
-        B->bd[k] = psys_boundary_distance(s, i, &B->tx[3 * k], ids, nn);
-        if (B->bd[k] < PSYS_BOUNDARY_CLEARANCE * s->sigma[i] && B->bd[k] < s->bdist[i])
-          off_boundary = 0;
+      const int timed = k % TSAMPLE == 0, is_slow = slow_cell(s, i);
+      double te = timed ? pm_seconds() : 0;
+      const psys_list *l = psys_nb(s, i);
+      double grad[3], hess[7];
+      B->e0[k] = psys_particle_energy(s, i, &s->xyz[3 * i], l->ids, l->n, grad, hess);
+      pm_v3_scale(&s->force[3 * i], grad, -1.0); /* eq. 8: the velocity that repels */
+      B->lam[k] = s->lambda[i];
+      B->acc[k] = 0, B->tframe[k] = 0;
+      B->st[k] = ST_DONE;
+      if (s->dim[i] == PM_FACE && s->chain_off)
+        s->bdist[i] = psys_boundary_distance(s, i, &s->xyz[3 * i], l->ids, l->n);
+      if (B->e0[k] > 0 && newton_step(s, i, &s->force[3 * i], hess, &B->dir[3 * k])) {
+        B->st[k] = ST_PENDING;
+        near_candidates(s, B, k, i, l);
       }
-      if (B->en[k] < B->e0[k] && off_boundary) {
-        B->acc[k] = 1, B->st[k] = ST_DONE; /* Algorithm 1: accept */
-      } else if (B->lam[k] <= s->p.lambda_min) {
-        B->st[k] = ST_DONE; /* lines 10-11: skip */
-      } else {
-        B->lam[k] /= 10; /* line 13 */
+      if (timed) cpu[3 * tid] += pm_seconds() - te;
+      while (B->st[k] == ST_PENDING) {
+        double ta = timed ? pm_seconds() : 0;
+        if (!trial_par(s, B, k, i)) {
+          B->st[k] = ST_DONE; /* clipped to where it stands: nothing to try */
+          break;
+        }
+        if (is_slow) {
+          B->st[k] = ST_EVAL, slow = 1;
+          if (timed) cpu[3 * tid + 1] += pm_seconds() - ta;
+          break;
+        }
+        trial_eval(s, B, k, i);
+        double tb = timed ? pm_seconds() : 0;
+        trial_check(s, B, k, i);
+        if (timed) cpu[3 * tid + 1] += tb - ta, cpu[3 * tid + 2] += pm_seconds() - tb;
       }
     }
   }
+  double t1;
+  {
+    const psys_step ks[3] = {PSYS_T_ENERGY, PSYS_T_SURFACE, PSYS_T_STEP};
+    double sum[3] = {0, 0, 0};
+    for (int t = 0; t < nthr; ++t)
+      for (int q = 0; q < 3; ++q) sum[q] += cpu[3 * t + q];
+    t1 = pm_seconds();
+    psys_clock_split(s, t1 - t0, 3, ks, sum);
+  }
+  /* the particles on gmsh faces, in rounds */
+  for (int round = 0; slow && round < 64; ++round) {
+    t0 = pm_seconds();
+    const int32_t ne = batch_eval(s, B, m, frames ? 0 : 1);
+    t1 = pm_seconds();
+    psys_clock_add(s, PSYS_T_SURFACE, t1 - t0);
+    slow = 0;
+    /* only the slots just evaluated (a round's evaluation is serial under gmsh's lock; later
+     * rounds hold few slots, too few to pay for waking the threads) */
+#pragma omp parallel for num_threads(nthr) schedule(dynamic, 32) if (ne > 2048) reduction(| : slow)
+    for (int32_t q = 0; q < ne; ++q) {
+      const int32_t k = (int32_t)(B->keys[q] & 0xffffffffu);
+      const int32_t i = B->idx[k];
+      trial_check(s, B, k, i);
+      if (B->st[k] != ST_PENDING) continue;
+      if (trial_par(s, B, k, i))
+        B->st[k] = ST_EVAL, slow = 1;
+      else
+        B->st[k] = ST_DONE;
+    }
+    psys_clock_add(s, PSYS_T_STEP, pm_seconds() - t1);
+  }
+  /* new frames where an accepted particle on a gmsh face has moved frame_tol sigma from its
+   * last one */
+  t0 = pm_seconds();
+  int refresh = 0;
   for (int32_t k = 0; k < m; ++k) {
     const int32_t i = B->idx[k];
+    if (!B->acc[k] || B->tframe[k]) continue;
+    const double lim = s->p.frame_tol * s->sigma[i];
+    if (!(psys_d2(&B->tx[3 * k], &s->fxyz[3 * i]) < lim * lim)) B->st[k] = ST_EVAL, refresh = 1;
+  }
+  if (refresh) batch_eval(s, B, m, 1);
+  /* write the accepted steps */
+#pragma omp parallel for num_threads(nthr) schedule(static) if (m > 4096)
+  for (int32_t k = 0; k < m; ++k) {
+    const int32_t i = B->idx[k];
+    B->moved[k] = 0;
     if (B->acc[k]) {
-      moved[i] = pm_v3_dist(&B->tx[3 * k], &s->xyz[3 * i]);
+      B->moved[k] = sqrt(psys_d2(&B->tx[3 * k], &s->xyz[3 * i]));
       memcpy(&s->par[2 * i], &B->tp[2 * k], 2 * sizeof(double));
-      memcpy(&s->xyz[3 * i], &B->tx[3 * k], 3 * sizeof(double));
-      memcpy(&s->deriv[6 * i], &B->td[6 * k], 6 * sizeof(double));
+      psys_set_xyz(s, i, &B->tx[3 * k]);
+      if (B->tframe[k]) {
+        memcpy(&s->deriv[6 * i], &B->td[6 * k], 6 * sizeof(double));
+        memcpy(&s->fxyz[3 * i], &B->tx[3 * k], 3 * sizeof(double));
+      }
       s->energy[i] = B->en[k];
       if (s->dim[i] == PM_FACE && s->chain_off) s->bdist[i] = B->bd[k];
       double l = B->lam[k] * s->p.lambda_grow;
       s->lambda[i] = l < s->p.lambda_max ? l : s->p.lambda_max;
-      pm_status st = pm_grid_move(s->grid, i, &s->xyz[3 * i], s->sigma[i], err);
-      if (st) return st;
     } else {
       s->energy[i] = B->e0[k];
       s->lambda[i] = B->lam[k];
     }
   }
+  psys_clock_add(s, PSYS_T_SURFACE, pm_seconds() - t0);
+  free(cpu);
   return PM_OK;
+}
+
+/* Greedy colouring of the movable particles in index order: two movable particles get different
+ * colours when they conflict (see the file comment). Returns the number of colours (-1: out of
+ * memory); colour[i] = -1 for fixed particles. */
+static int32_t colour_particles(const psys_sys *s, int32_t *colour) {
+  const int32_t n = s->n;
+  const double reach = 1 + s->p.step_max;
+  int32_t ncol = 0, cap = 64;
+  int32_t *stamp = malloc(sizeof(int32_t) * (size_t)cap);
+  if (!stamp) return -1;
+  for (int32_t c = 0; c < cap; ++c) stamp[c] = -1;
+  for (int32_t i = 0; i < n; ++i) {
+    colour[i] = -1;
+    if (s->fixed[i]) continue;
+    const psys_list *l = psys_nb(s, i);
+    const double *xi = &s->xs[4 * i];
+    for (int32_t q = 0; q < l->n && l->ids[q] < i; ++q) {
+      const int32_t j = l->ids[q];
+      const int32_t c = colour[j];
+      if (c < 0) continue;
+      const double *xj = &s->xs[4 * j];
+      const double r = reach * (xi[3] > xj[3] ? xi[3] : xj[3]);
+      if (psys_d2(xi, xj) < r * r) stamp[c] = i;
+    }
+    int32_t c = 0;
+    while (c < cap && stamp[c] == i) ++c;
+    if (c == cap) {
+      int32_t *ns = realloc(stamp, sizeof(int32_t) * 2 * (size_t)cap);
+      if (!ns) {
+        free(stamp);
+        return -1;
+      }
+      stamp = ns;
+      for (int32_t q = cap; q < 2 * cap; ++q) stamp[q] = -1;
+      cap *= 2;
+    }
+    colour[i] = c;
+    if (c + 1 > ncol) ncol = c + 1;
+  }
+  free(stamp);
+  return ncol;
 }
 
 pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err) {
   const int32_t n = s->n;
   memset(info, 0, sizeof *info);
-  nblist L = {0};
   int32_t *colour = malloc(sizeof(int32_t) * ((size_t)n + 1));
+  int32_t *order = malloc(sizeof(int32_t) * ((size_t)n + 1));
   double *moved = calloc((size_t)n + 1, sizeof(double));
-  block *B = malloc(sizeof *B);
+  chunk B;
+  memset(&B, 0, sizeof B);
   pm_status st = PM_OK;
-  if (!colour || !moved || !B) {
+  if (!colour || !order || !moved) {
     st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto out;
   }
-  if ((st = nblist_build(s, &L, err))) goto out;
-  int32_t ncol = colour_particles(s, &L, colour);
+  if ((st = psys_nbr_update(s, err))) goto out; /* timed as the neighbour structure's */
+  double t0 = pm_seconds();
+  int32_t ncol = colour_particles(s, colour);
   if (ncol < 0) {
     st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto out;
   }
-  /* Colour by colour, in index order within a colour, blocks of BLOCK particles. */
-  for (int32_t c = 0; c < ncol; ++c) {
-    int32_t m = 0;
-    for (int32_t i = 0; i <= n; ++i) {
-      if (i < n && colour[i] == c) B->idx[m++] = i;
-      if (m == BLOCK || (i == n && m > 0)) {
-        if ((st = step_block(s, &L, B, m, moved, err))) goto out;
-        m = 0;
-      }
-    }
+  /* the particles colour by colour, in index order within a colour (a counting sort) */
+  int32_t *start = calloc((size_t)ncol + 2, sizeof(int32_t));
+  if (!start) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
   }
+  for (int32_t i = 0; i < n; ++i)
+    if (colour[i] >= 0) start[colour[i] + 2]++;
+  for (int32_t c = 0; c < ncol; ++c) start[c + 2] += start[c + 1];
+  for (int32_t i = 0; i < n; ++i)
+    if (colour[i] >= 0) order[start[colour[i] + 1]++] = i;
+  int32_t largest = 0;
+  for (int32_t c = 0; c < ncol; ++c)
+    if (start[c + 1] - start[c] > largest) largest = start[c + 1] - start[c];
+  psys_clock_add(s, PSYS_T_NEIGHBOURS, pm_seconds() - t0);
+  if (largest > 0 && chunk_alloc(&B, largest < CHUNK ? largest : CHUNK)) {
+    free(start);
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+  for (int32_t c = 0; c < ncol && !st; ++c)
+    for (int32_t a = start[c]; a < start[c + 1] && !st; a += B.cap) {
+      const int32_t m = start[c + 1] - a < B.cap ? start[c + 1] - a : B.cap;
+      memcpy(B.idx, order + a, sizeof(int32_t) * (size_t)m);
+      st = step_chunk(s, &B, m, err);
+      for (int32_t k = 0; k < m; ++k) moved[B.idx[k]] = B.moved[k];
+    }
+  free(start);
+  if (st) goto out;
   /* The fixed particles' energies, for the trace and the population rules. */
+  t0 = pm_seconds();
 #pragma omp parallel for num_threads(s->threads) schedule(dynamic, 64) if (n > 512)
   for (int32_t i = 0; i < n; ++i) {
     if (!s->fixed[i]) continue;
     double grad[3];
-    s->energy[i] = psys_particle_energy(s, i, &s->xyz[3 * i], L.ids + L.off[i],
-                                        (int32_t)(L.off[i + 1] - L.off[i]), grad, NULL);
+    const psys_list *l = psys_nb(s, i);
+    s->energy[i] = psys_particle_energy(s, i, &s->xyz[3 * i], l->ids, l->n, grad, NULL);
     pm_v3_scale(&s->force[3 * i], grad, -1.0);
   }
+  psys_clock_add(s, PSYS_T_ENERGY, pm_seconds() - t0);
   double sum_move = 0, sum_rel = 0, sum_e = 0;
   for (int32_t i = 0; i < n; ++i) {
     sum_e += s->energy[i];
@@ -441,7 +561,7 @@ pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err) {
     info->mean_rel = sum_rel / info->movable;
   }
 out:
-  nblist_free(&L);
-  free(B), free(colour), free(moved);
+  chunk_free(&B);
+  free(colour), free(order), free(moved);
   return st;
 }

@@ -1,5 +1,8 @@
 /* The psys parameter table: one description per field of psys_params drives its default,
- * `--set`, `--help` and the range check (params.h). Defaults live here and nowhere else. */
+ * `--set`, `--help` and the range check (params.h). Defaults live here and nowhere else.
+ * Where a default changes the method of papers/001, its source says "differs from 001" and gives
+ * in parentheses the value that restores the paper's behaviour; "001 is silent" marks a choice
+ * the paper leaves open. */
 #include <math.h>
 #include <stddef.h>
 
@@ -28,10 +31,10 @@ static const pm_param_desc desc[] = {
      "001 eq. 12 (default: ours)", NULL},
     {"sigma_grow", D, F(sigma_grow), 1.5, 1, 100, PM_RANGE_LO_OPEN, "",
      "largest factor by which a particle's sigma may rise in one update (bounds the gap search)",
-     "ours (001 is silent)", NULL},
+     "ours (001 is silent; no cap, the paper's reading: 100)", NULL},
     {"kappa_refresh", D, F(kappa_refresh), 0.25, 0, 100, PM_RANGE_CLOSED, "sigma",
      "re-evaluate a particle's curvature once it moved this far (0: every update)",
-     "ours (001 is silent)", NULL},
+     "ours; differs from 001, which evaluates it at every update (0)", NULL},
     {"lambda_init", D, F(lambda_init), 1.0, 0, 100, PM_RANGE_LO_OPEN, "",
      "initial step scale lambda_i (step = lambda_i x the tangent Newton step of E_i)",
      "001 Alg. 1, sec. 3 (Newton-Raphson)", NULL},
@@ -41,10 +44,17 @@ static const pm_param_desc desc[] = {
      "cap of lambda_i (1: a full Newton step)", "ours (001 is silent)", NULL},
     {"lambda_grow", D, F(lambda_grow), 2.0, 1, 100, PM_RANGE_CLOSED, "",
      "lambda_i is multiplied by this after an accepted step (1: never grows)",
-     "ours (001 only divides by 10)", NULL},
+     "ours; differs from 001 Alg. 1, which only divides by 10 (1)", NULL},
+    {"pair_sigma", I, F(pair_sigma), 0, 0, 1, PM_RANGE_CLOSED, "",
+     "sigma_ij of a pair in eq. 1-2: 0 = max(sigma_i, sigma_j), 1 = their mean",
+     "001 eq. 1 (0); 1 is ours", NULL},
     {"step_max", D, F(step_max), 0.5, 0, 1, PM_RANGE_LO_OPEN, "sigma",
-     "longest world-space step of a particle (eq. 2 diverges as r -> 0)", "ours (001 is silent)",
-     NULL},
+     "longest world-space step of a particle (eq. 2 diverges as r -> 0)",
+     "ours (001 is silent: no cap; 1 is the loosest allowed)", NULL},
+    {"frame_tol", D, F(frame_tol), 0.05, 0, 10, PM_RANGE_CLOSED, "sigma",
+     "faces evaluated by gmsh: an accepted particle keeps its surface derivatives until it has "
+     "moved this far from where they were evaluated (0: new ones at every trial point)",
+     "ours; differs from 001 eq. 7-9, which take them at the particle (0)", NULL},
     {"split_ratio", D, F(split_ratio), 0.35, 0, 100, PM_RANGE_LO_OPEN, "",
      "split when E_i (1 + eps) < split_ratio E_ideal", "001 eq. 4", NULL},
     {"delete_ratio", D, F(delete_ratio), 1.75, 0, 100, PM_RANGE_LO_OPEN, "",
@@ -52,12 +62,17 @@ static const pm_param_desc desc[] = {
     {"ring_curve", D, F(ring_curve), 0.7, 0.5, 6, PM_RANGE_CLOSED, "",
      "E_ideal of curve particles is sigma ring_curve E(beta) (6: eq. 6 as printed, the hexagonal "
      "one-ring of a face; 0.7 gives the curves the faces' spacing)",
-     "001 eq. 6 (value for curves: ours)", NULL},
+     "001 eq. 6; differs from it on curves (as printed: 6)", NULL},
     {"delete_grace", I, F(delete_grace), 3, 0, 1000, PM_RANGE_CLOSED, "iterations",
      "particles around a split or a delete are not deleted for this many iterations",
-     "ours (001 is silent)", NULL},
+     "ours; differs from 001, which has no grace (0)", NULL},
     {"seeds_per_face", I, F(seeds_per_face), 8, 1, 100000, PM_RANGE_CLOSED, "",
      "k: random particles seeded per face at the start of phase 3", "001 sec. 4.1", NULL},
+    {"seeding", I, F(seeding), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "phase 3's seeds: 0 = seeds_per_face random particles per face (the paper), 1 = each face "
+     "filled by a front in its field from its boundary, a hexagonal lattice along the curves",
+     "ours, after 001 sec. 5.2.1's 'bootstrap initial samplings'; differs from 001 sec. 4.1 "
+     "(0)", NULL},
     {"pop_tol", D, F(pop_tol), 0.005, 0, 1, PM_RANGE_CLOSED, "",
      "annealing starts once the particle count moved by at most max(2, pop_tol n) over 10 "
      "iterations",
@@ -72,8 +87,20 @@ static const pm_param_desc desc[] = {
     {"move_tol", D, F(move_tol), 2e-3, 0, 1, PM_RANGE_LO_OPEN, "sigma",
      "a phase ends when population control is off and the mean move is below this",
      "001 sec. 4.1 ('change ... below some threshold'; value ours)", NULL},
+    {"move_tol_faces", D, F(move_tol_faces), 0, 0, 1, PM_RANGE_CLOSED, "sigma",
+     "phase 3 (the faces) ends when the mean move is below this instead (0: move_tol)",
+     "001 sec. 4.1 ('change ... below some threshold'; value ours)", NULL},
     {"hold_sigma", I, F(hold_sigma), 1, 0, 1, PM_RANGE_CLOSED, "",
-     "1: in phase 3, sigma is no longer updated once population control is off", "ours", NULL},
+     "1: in phase 3, sigma is no longer updated once population control is off",
+     "ours; differs from 001, which updates sigma at every iteration (0)", NULL},
+    {"max_memory_gb", D, F(max_memory_gb), 0, 0, 1e6, PM_RANGE_CLOSED, "GB",
+     "memory cap of the particle system, checked before the run (estimated count) and before "
+     "its arrays grow (0: the physical memory)",
+     "ours", NULL},
+    {"hungry_curves", I, F(hungry_curves), 0, 0, 1, PM_RANGE_CLOSED, "",
+     "1: a curve particle below half the split threshold keeps population control on, like a "
+     "face particle (0: faces only; curves are grown by halving their gaps)",
+     "ours (001 has no hungry rule: the end of a phase is ours, see psys_phases.c)", NULL},
     {"max_iter", I, F(max_iter), 1500, 1, 10000000, PM_RANGE_CLOSED, "iterations",
      "iteration cap of each phase", "ours", NULL},
     {"edge_per_sigma", D, F(edge_per_sigma), 0.66, 0.05, 2, PM_RANGE_CLOSED, "",

@@ -19,6 +19,12 @@
  * every few iterations; on a model with many curves the global count settles long before a long
  * curve is filled, and annealing then froze the curve with empty ends (the bottle's thread
  * helices: a third of each left empty, the faces along them folded over; see test_psys_phases).
+ * Curves are since filled by halving their gaps (psys_population.c), which no count can miss,
+ * while the random bias keeps making a few curve particles hungry around each delete at any
+ * time: counted, they held population control on until anneal_after in nearly every phase 1 and
+ * 2 (featuretype.step: 3 to 26 hungry at any iteration after the count had settled at iteration
+ * 10; 95 and 164 iterations). So only face particles count as hungry (hungry_curves = 0; 1 counts
+ * curves too).
  * Population control ends at the latest after anneal_after (150) iterations; then the annealing
  * weight a of psys_population.c is multiplied by anneal_rate (0.75) every iteration,
  * and once it falls below anneal_off (0.02, about 14 iterations) splits and deletes stop for
@@ -28,7 +34,15 @@
  * from 0.607 to 0.597 (120 -> 324 iterations in all), of synth_sphere.brep from 0.612 to 0.610;
  * on the graded fields of synth_box_hole, synth_cone, cube_fillet, screw, t20_component8 and
  * bearing it moved by 0.004 at most, for 1.3 to 6 times the iterations, measured with
- * ring_curve = 1.5.)
+ * ring_curve = 1.5.) Phase 3 can be given its own tolerance, move_tol_faces (0: move_tol), since
+ * the curves of phases 1-2 need not settle further for the faces to: phase 2 of
+ * t20_component8.step does not reach 5e-4 in 1500 iterations. On a uniform field the relaxation
+ * keeps improving the lattice long after 2e-3 (case:sphere --size 0.038, 10134 nodes: median
+ * R / l_min 0.605 after 49 phase-3 iterations, 0.594 with move_tol_faces = 5e-4 after 292, 0.591
+ * with 1e-4 after 1181; lattice defects 22% -> 12% -> 10% of the triangles), but on the graded
+ * inferred field of t20_component8.step it moves the median from 0.659 to 0.656 (1e-3, 95
+ * iterations) and 0.655 (5e-4, 150), and on case:qi1 --size 0.05, filled by the bootstrap fronts,
+ * from 0.5878 to 0.5895 (3e-4): the default stays move_tol.
  * Phase 3 holds sigma once population control is off (hold_sigma = 1, the default; 0 keeps
  * updating it). The field was inferred while the particles moved, and the count followed it; with
  * the count fixed, what is left is relaxing the packing in that field. Updated further, the field
@@ -120,6 +134,83 @@ pm_status psys_seed_face(psys_sys *s, int32_t f, int k, pm_error *err) {
   return PM_OK;
 }
 
+/* One front per face (in parallel), the particles appended in face order; a face the front
+ * leaves empty (too small for a row) gets seeds_per_face random ones. */
+static pm_status fronts(psys_sys *s, const psys_hint *hint, pm_error *err) {
+  const int32_t nf = s->model->count[PM_FACE];
+  double **uv = calloc((size_t)nf + 1, sizeof(double *));
+  double **sg = calloc((size_t)nf + 1, sizeof(double *));
+  int32_t *cnt = calloc((size_t)nf + 1, sizeof(int32_t));
+  pm_status *fst = calloc((size_t)nf + 1, sizeof(pm_status));
+  pm_error *ferr = calloc((size_t)nf + 1, sizeof(pm_error));
+  pm_status st = PM_OK;
+  if (!uv || !sg || !cnt || !fst || !ferr) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+#pragma omp parallel for num_threads(s->threads) schedule(dynamic, 1)
+  for (int32_t f = 0; f < nf; ++f)
+    if (s->face_on[f]) fst[f] = psys_seed_front(s, f, hint, &uv[f], &sg[f], &cnt[f], &ferr[f]);
+  for (int32_t f = 0; f < nf && !st; ++f) {
+    if (!s->face_on[f]) continue;
+    if (fst[f]) {
+      if (err) *err = ferr[f];
+      st = fst[f];
+      break;
+    }
+    for (int32_t k = 0; k < cnt[f] && !st; ++k)
+      st = psys_add(s, PM_FACE, f, &uv[f][2 * k], sg[f][k], NULL, err);
+    if (!st && cnt[f] == 0) st = psys_seed_face(s, f, s->p.seeds_per_face, err);
+  }
+out:
+  for (int32_t f = 0; f < nf && uv; ++f) free(uv[f]), free(sg[f]);
+  free(uv), free(sg), free(cnt), free(fst), free(ferr);
+  return st;
+}
+
+/* Phase 3's seeds: k random particles per face (seeding = 0, section 4.1), or the bootstrap
+ * fronts of psys_seed.c (seeding = 1): a first front per face, one sizing update of its
+ * particles (the gap across walls, the Lipschitz closure over the model), and a second front
+ * with that field as its hint. */
+static pm_status seed_faces(psys_sys *s, pm_error *err) {
+  const int32_t nf = s->model->count[PM_FACE];
+  if (s->p.seeding == 0) {
+    for (int32_t f = 0; f < nf; ++f) {
+      if (!s->face_on[f]) continue;
+      pm_status st = psys_seed_face(s, f, s->p.seeds_per_face, err);
+      if (st) return st;
+    }
+    return PM_OK;
+  }
+  const int32_t n0 = s->n;
+  pm_status st = fronts(s, NULL, err);
+  if (st || s->size) return st; /* a given field: the first front had it already */
+  if ((st = psys_sigma_update(s, err))) return st;
+  psys_hint hint = {NULL, NULL, NULL};
+  const int32_t m = s->n - n0;
+  double *hx = malloc(sizeof(double) * 3 * ((size_t)m + 1));
+  double *hs = malloc(sizeof(double) * ((size_t)m + 1));
+  uint8_t *dead = calloc((size_t)s->n + 1, 1);
+  if (!hx || !hs || !dead) {
+    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    goto out;
+  }
+  if ((st = pm_grid_create(1e-2 * s->sigma_min, &hint.grid, err))) goto out;
+  for (int32_t k = 0; k < m && !st; ++k) {
+    memcpy(&hx[3 * k], &s->xyz[3 * (n0 + k)], 3 * sizeof(double));
+    hs[k] = s->sigma[n0 + k];
+    dead[n0 + k] = 1;
+    st = pm_grid_insert(hint.grid, k, &hx[3 * k], 0, err);
+  }
+  hint.xyz = hx, hint.sigma = hs;
+  if (!st) st = psys_compact(s, dead, err);
+  if (!st) st = fronts(s, &hint, err);
+out:
+  pm_grid_destroy(hint.grid);
+  free(hx), free(hs), free(dead);
+  return st;
+}
+
 /* ---- observation -------------------------------------------------------------------------- */
 
 static const char *const trace_cols[] = {"iteration", "phase",      "particles", "energy",
@@ -152,6 +243,7 @@ static pm_status observe(psys_sys *s, const psys_observer *obs, const psys_move_
 /* ---- one phase -------------------------------------------------------------------------------- */
 
 #define POP_WINDOW 10
+#define REORDER_FRACTION 0.25
 
 pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psys_observer *obs,
                          psys_phase_report *rep, pm_error *err) {
@@ -159,6 +251,8 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
   memset(rep, 0, sizeof *rep);
   pm_status st = PM_OK;
   s->phase = phase;
+  psys_nbr_reset(s); /* the gap relation and the list radii change with the phase */
+  double tc = pm_seconds();
   if (phase == 1) {
     s->gap_curves = s->gap_faces = 0;
     if (s->n == 0 && (st = psys_seed_curves(s, err))) return st;
@@ -177,22 +271,35 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
     free(s->face_on);
     if (!(s->face_on = calloc((size_t)nf + 1, 1)))
       return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    for (int32_t f = 0; f < nf; ++f) {
-      s->face_on[f] = !faces || faces[f];
-      if (s->face_on[f] && (st = psys_seed_face(s, f, s->p.seeds_per_face, err))) return st;
-    }
+    for (int32_t f = 0; f < nf; ++f) s->face_on[f] = !faces || faces[f];
+    if ((st = seed_faces(s, err))) return st;
   }
+  psys_clock_add(s, PSYS_T_SEEDING, pm_seconds() - tc);
+  const double move_tol =
+      phase == 3 && s->p.move_tol_faces > 0 ? s->p.move_tol_faces : s->p.move_tol;
   double a = 1;
   int pop_on = 1;
   int32_t hist[POP_WINDOW]; /* particle counts of the last POP_WINDOW iterations */
   for (int64_t it = 0;; ++it) {
     psys_move_info mi;
     int32_t sp = 0, de = 0;
+    /* particles added since the last spatial ordering sit at the end of the arrays, far from
+     * their neighbours in memory: order again once they are a quarter of all (psys_reorder) */
+    if ((double)(s->next_serial - s->ordered_serial) > REORDER_FRACTION * s->n) {
+      tc = pm_seconds();
+      if ((st = psys_reorder(s, err))) return st;
+      psys_clock_add(s, PSYS_T_NEIGHBOURS, pm_seconds() - tc);
+    }
     const int held = phase == 3 && !pop_on && s->p.hold_sigma && !s->unsized;
     if (!held && (st = psys_sigma_update(s, err))) return st;
     if ((st = psys_move_pass(s, &mi, err))) return st;
+    tc = pm_seconds();
+    /* the population's own time: the neighbour structure's work in it is counted as such */
+    const double nbr0 = s->tstep[phase - 1][PSYS_T_NEIGHBOURS];
     const int32_t hungry = pop_on && a == 1 ? psys_hungry_count(s) : 0; /* fresh energies */
     if (pop_on && (st = psys_population_pass(s, a, &sp, &de, err))) return st;
+    psys_clock_add(s, PSYS_T_POPULATION,
+                   pm_seconds() - tc - (s->tstep[phase - 1][PSYS_T_NEIGHBOURS] - nbr0));
     rep->iterations = it + 1;
     /* the count POP_WINDOW iterations ago, then this one in its place */
     int32_t then = it >= POP_WINDOW ? hist[it % POP_WINDOW] : -1;
@@ -209,7 +316,7 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
         a *= s->p.anneal_rate;
         if (a < s->p.anneal_off) pop_on = 0;
       }
-    } else if (mi.mean_rel < s->p.move_tol) {
+    } else if (mi.mean_rel < move_tol) {
       done = 1, rep->converged = 1;
     }
     if (mi.movable == 0 && sp == 0 && de == 0 && s->n > 0) {

@@ -116,25 +116,50 @@ static void split_direction(const psys_sys *s, int32_t i, double dir[3]) {
   for (int k = 0; k < 3; ++k) dir[k] = cos(th) * e1[k] + sin(th) * e2[k];
 }
 
-/* The energy a particle of radius sigma on the cell of key ki would have at x among the present
- * particles. */
-static pm_status probe_energy(const psys_sys *s, int32_t ki, const double x[3], double sigma,
-                              pm_idbuf *buf, double *e, pm_error *err) {
-  pm_status st = pm_grid_query_mutual(s->grid, x, sigma, buf, err);
+/* The state of one population pass: the particles deleted so far, and the children added so far
+ * (not in the neighbour lists yet: they live in a grid of their own until the pass ends). */
+typedef struct pass {
+  const uint8_t *dead;  /* [n0 + children] */
+  int32_t n0;           /* particles before the pass (all in the neighbour lists) */
+  pm_grid *kids;        /* the children of this pass, id = index, radius sigma */
+  pm_idbuf buf;         /* scratch */
+  int32_t *ids;         /* scratch: candidates */
+  int32_t cap;
+} pass;
+
+/* The particles within max(sigma, sigma_j) of x for a point x near particle i (within beta
+ * sigma_i, psys_nbr.c): i, its listed neighbours and the children of this pass, alive, sorted. */
+static pm_status around(psys_sys *s, pass *P, int32_t i, const double x[3], double sigma,
+                        int32_t *m, pm_error *err) {
+  const psys_list *l = psys_nb(s, i);
+  pm_status st = pm_grid_query_mutual(P->kids, x, sigma, &P->buf, err);
   if (st) return st;
-  double sum = 0;
-  for (int32_t q = 0; q < buf->n; ++q) {
-    int32_t j = buf->ids[q];
-    if (!psys_interacts(s, ki, j)) continue;
-    double sij = sigma > s->sigma[j] ? sigma : s->sigma[j];
-    sum += psys_pair_energy(pm_v3_dist(x, &s->xyz[3 * j]), sij);
+  const int32_t need = l->n + 1 + P->buf.n;
+  if (need > P->cap) {
+    int32_t *ids = realloc(P->ids, sizeof(int32_t) * (size_t)need);
+    if (!ids) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    P->ids = ids, P->cap = need;
   }
-  *e = sum;
+  int32_t n = 0;
+  int self = 0;
+  for (int32_t q = 0; q <= l->n; ++q) {
+    const int32_t j = q < l->n ? l->ids[q] : INT32_MAX;
+    if (!self && i < j) { /* i in its place among its neighbours */
+      self = 1;
+      if (!P->dead[i]) P->ids[n++] = i;
+    }
+    if (q == l->n || P->dead[j]) continue;
+    const double sj = sigma > s->sigma[j] ? sigma : s->sigma[j];
+    if (psys_d2(x, &s->xyz[3 * j]) < sj * sj) P->ids[n++] = j;
+  }
+  for (int32_t q = 0; q < P->buf.n; ++q)
+    if (!P->dead[P->buf.ids[q]]) P->ids[n++] = P->buf.ids[q]; /* all above n0: still sorted */
+  *m = n;
   return PM_OK;
 }
 
 /* Split particle i; *child = -1 when there was no room. */
-static pm_status split(psys_sys *s, int32_t i, pm_idbuf *buf, int32_t *child, pm_error *err) {
+static pm_status split(psys_sys *s, pass *P, int32_t i, int32_t *child, pm_error *err) {
   *child = -1;
   const pm_cell *c = pm_model_cell(s->model, s->dim[i], s->cell[i]);
   double dir[3], e1[3], e2[3], nrm[3];
@@ -151,6 +176,7 @@ static pm_status split(psys_sys *s, int32_t i, pm_idbuf *buf, int32_t *child, pm
       ndir = 6;
     }
   }
+  const int32_t ki = psys_key(s, s->dim[i], s->cell[i]);
   const double sigma = s->sigma[i], dists[2] = {PSYS_BETA * sigma, 0.6 * PSYS_BETA * sigma};
   double best_e = INFINITY, best_par[2] = {0, 0};
   for (int k = 0; k < ndir; ++k) {
@@ -162,30 +188,35 @@ static pm_status split(psys_sys *s, int32_t i, pm_idbuf *buf, int32_t *child, pm
       for (int q = 0; q < 3; ++q) dk[q] = cos(th) * e1[q] + sin(th) * e2[q];
     }
     for (int h = 0; h < 2; ++h) {
-      double dx[3], np[2] = {s->par[2 * i], s->par[2 * i + 1]}, x[3], e;
+      double dx[3], np[2] = {s->par[2 * i], s->par[2 * i + 1]}, x[3];
       pm_v3_scale(dx, dk, dists[h]);
       pm_cell_displace(c, &s->par[2 * i], dx, np);
       pm_cell_point(c, np, x);
       /* a child much closer than intended sits against the cell's boundary: no room there */
       if (pm_v3_dist(x, &s->xyz[3 * i]) < 0.5 * dists[h]) continue;
-      pm_status st = probe_energy(s, psys_key(s, s->dim[i], s->cell[i]), x, sigma, buf, &e, err);
+      /* the energy a particle of radius sigma on i's cell would have at x */
+      int32_t m;
+      pm_status st = around(s, P, i, x, sigma, &m, err);
       if (st) return st;
+      const double e = psys_energy_at(s, -1, ki, sigma, x, P->ids, m, NULL, NULL);
       if (e < best_e) best_e = e, best_par[0] = np[0], best_par[1] = np[1];
     }
   }
   if (best_e == INFINITY) return PM_OK;
-  return psys_add_child(s, i, best_par, child, err);
+  pm_status st = psys_add_child(s, i, best_par, child, err);
+  if (!st) st = pm_grid_insert(P->kids, *child, &s->xyz[3 * *child], s->sigma[*child], err);
+  return st;
 }
 
 /* Flag every particle within sigma_i of particle i's point (mutual relation) in mark[], and give
  * it the grace period. */
-static pm_status mark_around(psys_sys *s, int32_t i, uint8_t *mark, pm_idbuf *buf,
-                             pm_error *err) {
-  pm_status st = pm_grid_query_mutual(s->grid, &s->xyz[3 * i], s->sigma[i], buf, err);
+static pm_status mark_around(psys_sys *s, pass *P, int32_t i, uint8_t *mark, pm_error *err) {
+  int32_t m;
+  pm_status st = around(s, P, i, &s->xyz[3 * i], s->sigma[i], &m, err);
   if (st) return st;
-  for (int32_t q = 0; q < buf->n; ++q) {
-    mark[buf->ids[q]] = 1;
-    s->grace[buf->ids[q]] = s->iter + 1 + s->p.delete_grace;
+  for (int32_t q = 0; q < m; ++q) {
+    mark[P->ids[q]] = 1;
+    s->grace[P->ids[q]] = s->iter + 1 + s->p.delete_grace;
   }
   return PM_OK;
 }
@@ -284,7 +315,8 @@ static double ideal_energy_of(const psys_sys *s, int32_t i) {
 int32_t psys_hungry_count(const psys_sys *s) {
   int32_t n = 0;
   for (int32_t i = 0; i < s->n; ++i)
-    n += !s->fixed[i] && s->energy[i] < 0.5 * s->p.split_ratio * ideal_energy_of(s, i);
+    n += !s->fixed[i] && (s->dim[i] == PM_FACE || s->p.hungry_curves) &&
+         s->energy[i] < 0.5 * s->p.split_ratio * ideal_energy_of(s, i);
   return n;
 }
 
@@ -292,18 +324,24 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
                                pm_error *err) {
   *splits = *deletes = 0;
   if (!(a > 0)) return PM_OK;
+  pm_status st = psys_nbr_update(s, err);
+  if (st) return st;
   const int32_t n0 = s->n;
   /* marks cover the children too: at most one per particle */
   uint8_t *mark = calloc(2 * (size_t)n0 + 1, 1);
   uint8_t *dead = calloc(2 * (size_t)n0 + 1, 1);
-  pm_idbuf buf = PM_IDBUF_INIT;
-  pm_status st = PM_OK;
+  pass P;
+  memset(&P, 0, sizeof P);
+  P.dead = dead, P.n0 = n0;
   const int32_t nc = s->model->count[PM_CURVE], ncell = nc + s->model->count[PM_FACE];
   int32_t *count = calloc((size_t)ncell + 1, sizeof(int32_t)); /* particles per curve, face */
   if (!mark || !dead || !count) {
     st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto out;
   }
+  if ((st = pm_grid_create(s->size ? 1e-6 * s->model->diagonal : 1e-2 * s->sigma_min, &P.kids,
+                           err)))
+    goto out;
   for (int32_t i = 0; i < n0; ++i)
     if (s->dim[i] > PM_VERTEX) count[(s->dim[i] == PM_FACE ? nc : 0) + s->cell[i]]++;
   for (int32_t i = 0; i < n0; ++i) {
@@ -316,15 +354,14 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
     if (on_boundary) {
       const int32_t kc = nc + s->cell[i];
       count[kc]--;
-      if ((st = mark_around(s, i, mark, &buf, err))) goto out;
+      if ((st = mark_around(s, &P, i, mark, err))) goto out;
       dead[i] = 1;
-      if ((st = pm_grid_remove(s->grid, i, err))) goto out;
       (*deletes)++;
     } else if (es < s->p.split_ratio * a * eid) { /* eq. 4 */
       int32_t child;
-      if ((st = split(s, i, &buf, &child, err))) goto out;
+      if ((st = split(s, &P, i, &child, err))) goto out;
       if (child < 0) continue;
-      if ((st = mark_around(s, i, mark, &buf, err))) goto out;
+      if ((st = mark_around(s, &P, i, mark, err))) goto out;
       mark[child] = 1;
       s->grace[child] = s->iter + 1 + s->p.delete_grace;
       (*splits)++;
@@ -332,16 +369,12 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
       const int32_t kc = (s->dim[i] == PM_FACE ? nc : 0) + s->cell[i];
       if (count[kc] == 1 && s->extent[kc] > 2 * PSYS_BETA * s->sigma[i]) continue;
       count[kc]--;
-      if ((st = mark_around(s, i, mark, &buf, err))) goto out;
+      if ((st = mark_around(s, &P, i, mark, err))) goto out;
       dead[i] = 1;
-      if ((st = pm_grid_remove(s->grid, i, err))) goto out;
       (*deletes)++;
     }
   }
-  if (*deletes) {
-    /* psys_compact refiles the grid from the survivors (the removed ones are gone already). */
-    if ((st = psys_compact(s, dead, err))) goto out;
-  }
+  if (*deletes && (st = psys_compact(s, dead, err))) goto out;
   {
     int32_t added = 0;
     if ((st = refill(s, &added, err))) goto out;
@@ -351,7 +384,9 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
   s->splits_total += *splits;
   s->deletes_total += *deletes;
 out:
-  pm_idbuf_free(&buf);
+  pm_grid_destroy(P.kids);
+  pm_idbuf_free(&P.buf);
+  free(P.ids);
   free(mark), free(dead), free(count);
   return st;
 }

@@ -52,7 +52,63 @@ double psys_pair_d2energy(double r, double sigma);
 /* eq. 6: E_ideal = sigma 6 E(beta) with E the energy of unit sigma. */
 double psys_ideal_energy(double sigma);
 
+/* ---- time per step (the time_s.psys.* keys of --stats) ------------------------------------ */
+
+/* The steps of an iteration whose wall time is kept, per phase. Where one parallel loop does the
+ * work of several steps, its wall time is split between them in proportion to the time each
+ * took on the threads (psys_clock_split). */
+typedef enum psys_step {
+  PSYS_T_NEIGHBOURS = 0, /* neighbour search, colouring, upkeep of the neighbour structures */
+  PSYS_T_ENERGY,         /* E_i, its gradient and Hessian at the particles (eq. 1-2, 8) */
+  PSYS_T_STEP,           /* the tangent Newton step, the energy check of trial points, the
+                            boundary-distance rule (Algorithm 1) */
+  PSYS_T_SURFACE,        /* parameter steps (eq. 7, 9-10), surface and curve evaluation */
+  PSYS_T_CURVATURE,      /* sizing: the curvature bound (section 3.1) */
+  PSYS_T_GAP,            /* sizing: the gap size */
+  PSYS_T_LIPSCHITZ,      /* sizing: the Lipschitz closure (eq. 14-15) and sigma's commit */
+  PSYS_T_FIELD,          /* sizing: a given size field's values (instead of the three above) */
+  PSYS_T_POPULATION,     /* splits, deletes, refills (eq. 3-6) */
+  PSYS_T_SEEDING,        /* seeding at the start of a phase */
+  PSYS_T_COUNT
+} psys_step;
+
+/* The key of each step under time_s.psys (and time_s.psys.phaseK). */
+extern const char *const psys_step_names[PSYS_T_COUNT];
+
 /* ---- the system (psys_system.c) --------------------------------------------------------- */
+
+/* A growable sorted list of particle indices (a neighbour or gap list, psys_nbr.c). */
+typedef struct psys_list {
+  int32_t n, cap;
+  int32_t *ids; /* [cap] owned, increasing */
+} psys_list;
+
+/* One kind of list of the neighbour structure (psys_nbr.c): for every particle that holds one,
+ * the particles j with |x0_i - x0_j| < f max(s0_i, s0_j) that the kind's relation admits, where
+ * x0_i and s0_i are particle i's point and sigma when its list was made. */
+typedef struct psys_vl {
+  double f;           /* list radius over s0 */
+  double move, grow;  /* budget: a list is made again once its particle moved move s0 from x0
+                         or its sigma rose above (1 + grow) s0 */
+  int on;             /* the lists are kept */
+  int32_t n;          /* particles 0 .. n-1 are listed; later ones are new */
+  pm_grid *grid;      /* (x0_i, f s0_i) of the listed particles, id = index */
+  double *x0;         /* [3 cap] */
+  double *s0;         /* [cap] */
+  psys_list *l;       /* [cap] the lists (empty for a particle that holds none) */
+  uint8_t *mark;      /* [cap] scratch */
+  int64_t renewed;    /* lists made again one by one, all updates */
+  int64_t rebuilds;   /* updates that made every list again */
+} psys_vl;
+
+/* The neighbour structure: the neighbour lists (every particle) and the gap lists (the particles
+ * the gap size applies to), kept valid as particles move, sigma changes and the population
+ * changes, by making again only the lists of the particles that left their budget. */
+typedef struct psys_nbr {
+  psys_vl nb, gp;
+  int rebuild;        /* 1: rebuild every list at the next update (a phase changed) */
+  int always;         /* 1: rebuild every list at every update (tests: results must not change) */
+} psys_nbr;
 
 typedef struct psys_sys {
   const pm_model *model;   /* borrowed */
@@ -61,6 +117,7 @@ typedef struct psys_sys {
   uint64_t seed;
   int threads;
   int64_t max_particles;   /* PM_ERR_LIMIT beyond */
+  double max_bytes;        /* the memory cap (max_memory_gb, or the physical memory) */
   double kappa_min, kappa_max; /* resolved (the 0 defaults made absolute) */
   double sigma_min, sigma_max; /* eq. 12-13 */
 
@@ -70,16 +127,17 @@ typedef struct psys_sys {
   int32_t *cell;           /* cell index in its dimension */
   double *par;             /* [2 cap] t or (u, v) */
   double *xyz;             /* [3 cap] */
-  double *deriv;           /* [6 cap] first derivatives at par: C' (curves), Su and Sv (faces) */
+  double *xs;              /* [4 cap] x, y, z, sigma again, packed for the loops over
+                              neighbours (one cache line per neighbour); written with xyz and
+                              sigma by psys_set_point / psys_set_sigma and the creation code */
+  double *deriv;           /* [6 cap] first derivatives: C' (curves), Su and Sv (faces), at fxyz */
+  double *fxyz;            /* [3 cap] where deriv was evaluated (frame_tol, psys_move.c) */
   double *sigma;           /* ball radius sigma_i */
   double *lambda;          /* Algorithm 1's step scale lambda_i */
   double *energy;          /* E_i at the last move pass */
   double *force;           /* [3 cap] the descent direction -dE_i/dx_i at the last move pass */
   double *sig_curv;        /* the curvature bound clamp(1 / (s_kappa kappa), sigma_min, sigma_max) */
   double *kxyz;            /* [3 cap] where sig_curv was evaluated */
-  double *gap;             /* the gap size found by the last search (a lower bound when the
-                              search found nothing: its radius), < 0 before any */
-  double *gxyz;            /* [3 cap] where that search was made */
   double *bdist;           /* phase 3: a face particle's distance to its face's boundary
                               polylines after the last move pass (INFINITY when far) */
   uint64_t *serial;        /* creation number: names the particle's random streams */
@@ -87,10 +145,10 @@ typedef struct psys_sys {
   uint8_t *fixed;          /* 1: does not move (vertices; curves and vertices in phase 3) */
   uint8_t *frozen;         /* 1: sigma is not updated (curves and vertices in phase 3) */
   uint64_t next_serial;
+  uint64_t ordered_serial; /* next_serial at the last psys_reorder */
   int unsized;             /* 1: a particle took its curvature bound for sigma, not updated yet */
 
-  pm_grid *grid;           /* every particle, radius sigma, id = index */
-  pm_grid *bgrid;          /* phase 3: the frozen particles only (psys_sizing.c) */
+  psys_nbr nbr;            /* the neighbour structure */
 
   /* cell adjacency: cells of dimension 0..2 numbered key = koff[dim] + index */
   int32_t koff[3];
@@ -116,12 +174,11 @@ typedef struct psys_sys {
   int gap_faces;           /* sigma_tau on face particles (phase 3) */
   int64_t iter;            /* iterations run so far, all phases (random streams) */
   int32_t splits_total, deletes_total;
+  double tstep[3][PSYS_T_COUNT]; /* wall seconds per phase and step (psys_step) */
 
   /* scratch of the sigma update */
-  double *target;          /* [cap] */
-  int64_t nedge, cap_edge;
-  int32_t *edge_a, *edge_b;
-  double *edge_r;
+  double *target;          /* [cap] the bounds of eq. 11 before the Lipschitz closure */
+  double *key;             /* [cap] the closed field */
 } psys_sys;
 
 /* A system on model m with parameters p (copied, must have passed psys_params_check), a given
@@ -130,6 +187,20 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
                           uint64_t seed, int threads, int64_t max_particles, psys_sys **out,
                           pm_error *err);
 void psys_sys_destroy(psys_sys *s);
+
+/* The memory a particle takes at most, all structures counted (arrays of the system, neighbour
+ * and gap lists, the lists' grids, the scratch of an iteration), with room for the doubling of
+ * the arrays: measured at 1.7 kB per particle on case:sphere with 95535 particles
+ * (bench_psys throughput, peak resident memory less the program's before the run), rounded up. */
+#define PSYS_BYTES_PER_PARTICLE 2048.0
+
+/* Estimated particles on the curves and the faces for the given field (for the inferred field:
+ * at its largest sigma, a lower bound of what it will need). */
+void psys_estimate_count(const psys_sys *s, double *curves, double *faces);
+
+/* Before any particle is placed: PM_ERR_LIMIT when the estimate exceeds the particle cap or the
+ * memory cap, naming the cap and the size that would fit. */
+pm_status psys_check_caps(const psys_sys *s, pm_error *err);
 
 /* Add a particle on cell (dim, cell) at par (curves: t, faces: (u, v); vertices: ignored) with
  * radius sigma (<= 0: the field's value there). Evaluates its point and derivatives, its
@@ -142,11 +213,61 @@ pm_status psys_add(psys_sys *s, int dim, int32_t cell, const double *par, double
 pm_status psys_add_child(psys_sys *s, int32_t parent, const double *par, int32_t *index,
                          pm_error *err);
 
-/* Remove the particles flagged in dead[n] (order of the others kept) and refile the grid. */
+/* Remove the particles flagged in dead[n] (order of the others kept; their lists follow). */
 pm_status psys_compact(psys_sys *s, const uint8_t *dead, pm_error *err);
 
-/* Set particle i's sigma (and its grid radius). */
-pm_status psys_set_sigma(psys_sys *s, int32_t i, double sigma, pm_error *err);
+/* Renumber the movable particles (all in phases 1-2, those after the frozen ones in phase 3) in
+ * the Morton order of their points, so that particles near in space are near in memory: the
+ * loops over neighbours read one cache line per neighbour, which for particles numbered in the
+ * order splits created them is a miss nearly every time. A permutation of the same particles:
+ * serial numbers, hence random streams, go with them, and so do the neighbour lists. */
+pm_status psys_reorder(psys_sys *s, pm_error *err);
+
+/* Set particle i's sigma. */
+static inline void psys_set_sigma(psys_sys *s, int32_t i, double sigma) {
+  s->sigma[i] = sigma;
+  s->xs[4 * i + 3] = sigma;
+}
+
+/* Set particle i's point. */
+static inline void psys_set_xyz(psys_sys *s, int32_t i, const double x[3]) {
+  for (int k = 0; k < 3; ++k) s->xyz[3 * i + k] = x[k], s->xs[4 * i + k] = x[k];
+}
+
+/* Squared distance between two points, computed the one way every relation of the system uses
+ * (so that a pair tested from either side, or from a list and from a grid, gives one answer). */
+static inline double psys_d2(const double *a, const double *b) {
+  double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+/* ---- the neighbour structure (psys_nbr.c) ----------------------------------------------- */
+
+/* The lists of particle i. */
+static inline const psys_list *psys_nb(const psys_sys *s, int32_t i) { return &s->nbr.nb.l[i]; }
+static inline const psys_list *psys_gp(const psys_sys *s, int32_t i) { return &s->nbr.gp.l[i]; }
+
+pm_status psys_nbr_init(psys_sys *s, pm_error *err);
+void psys_nbr_free(psys_sys *s);
+/* Room for cap particles. */
+pm_status psys_nbr_reserve(psys_sys *s, int32_t cap, pm_error *err);
+/* Make every list valid for the current particles, points and sigma: lists of new particles,
+ * of particles that left their budget, and the entries of the others that these change. */
+pm_status psys_nbr_update(psys_sys *s, pm_error *err);
+/* After psys_compact: particle i became map[i] (-1: gone), n_old particles before. */
+pm_status psys_nbr_compact(psys_sys *s, const int32_t *map, int32_t n_old, pm_error *err);
+/* After psys_reorder: the particle at lo + k was perm[k] (k < m), the others kept their index. */
+pm_status psys_nbr_permute(psys_sys *s, int32_t lo, int32_t m, const int32_t *perm,
+                           pm_error *err);
+/* A phase changed (the gap relation, the radii): every list is made again at the next update. */
+void psys_nbr_reset(psys_sys *s);
+/* Whether the lists hold every pair they must (PM_ERR_INTERNAL naming the first missing or
+ * extra pair): against a brute-force scan over all pairs, O(n^2), for tests. */
+pm_status psys_nbr_check(const psys_sys *s, pm_error *err);
+/* Whether the gap applies to particle i now (it then has a gp list). */
+int psys_gap_active(const psys_sys *s, int32_t i);
+/* Whether particle j may bound the gap of particle i (cells only; see psys_sizing.c). */
+int psys_gap_pair(const psys_sys *s, int32_t i, int32_t j);
 
 /* Cell keys and relations. */
 static inline int32_t psys_key(const psys_sys *s, int dim, int32_t cell) {
@@ -165,6 +286,15 @@ static inline int psys_interacts(const psys_sys *s, int32_t ki, int32_t j) {
   return kj == ki || psys_adjacent(s, ki, kj);
 }
 
+/* Add wall seconds to step k of the current phase. */
+static inline void psys_clock_add(psys_sys *s, psys_step k, double seconds) {
+  s->tstep[(s->phase >= 1 && s->phase <= 3 ? s->phase : 1) - 1][k] += seconds;
+}
+
+/* Split the wall time `wall` of a parallel loop between the m steps ks[] in proportion to the
+ * seconds cpu[] each took summed over the threads. */
+void psys_clock_split(psys_sys *s, double wall, int m, const psys_step *ks, const double *cpu);
+
 /* The random number in [0, 1) that particle i draws for `purpose` at the current iteration. */
 double psys_random(const psys_sys *s, int32_t i, int purpose);
 
@@ -177,13 +307,17 @@ double psys_random(const psys_sys *s, int32_t i, int purpose);
 double psys_curvature_sigma(const psys_sys *s, int dim, int32_t cell, const double *par,
                             const double xyz[3]);
 
-/* The gap distance of particle i (before s_tau), from the particles within radius rq of it: see
- * psys_sizing.c for the rules. INFINITY when none applies. */
-double psys_gap_distance(const psys_sys *s, int32_t i, double rq);
+/* The gap distance of particle i (before s_tau) from the particles within R_i = sigma_grow
+ * sigma_i / s_tau of it (psys_sizing.c for the rules), from its gap list; INFINITY when none
+ * applies within R_i. */
+double psys_gap_distance(const psys_sys *s, int32_t i);
+
+/* 1 when cell kb lies in the closure of cell ka. */
+int psys_in_closure(const psys_sys *s, int32_t ka, int32_t kb);
 
 /* Phase 3: the distance from point x to the boundary polylines (chains) of the face of particle
- * i near the frozen particles among ids[m]; INFINITY when none is near (or i is not on a face,
- * or there are no chains). */
+ * i near the frozen particles among ids[m] (sorted) within max((1 + step_max) sigma_i, sigma_j)
+ * of particle i; INFINITY when none is near (or i is not on a face, or there are no chains). */
 double psys_boundary_distance(const psys_sys *s, int32_t i, const double x[3], const int32_t *ids,
                               int32_t m);
 
@@ -205,6 +339,11 @@ pm_status psys_build_chains(psys_sys *s, pm_error *err);
  * eq. 15 over the neighbour pairs, or d / edge_per_sigma of the given field). */
 pm_status psys_sigma_update(psys_sys *s, pm_error *err);
 
+/* The sigma that psys_sigma_update would set, computed from scratch: gap candidates and
+ * Lipschitz pairs from a fresh grid of the particles, the closure by Dijkstra over every
+ * particle. out[n]. The reference the incremental update is tested against. */
+pm_status psys_sigma_reference(const psys_sys *s, double *out, pm_error *err);
+
 /* ---- movement (psys_move.c) ------------------------------------------------------------- */
 
 typedef struct psys_move_info {
@@ -216,12 +355,21 @@ typedef struct psys_move_info {
   int32_t colours;   /* colour classes of the sweep */
 } psys_move_info;
 
-/* Energy of particle i at point x (its own or a trial point) against the current positions of
- * its candidate neighbours ids[m] (sorted; i itself skipped); grad (may be NULL) receives
- * dE_i/dx_i; hess (may be NULL) the Hessian d2E_i/dx_i2 as xx, xy, xz, yy, yz, zz and, in
- * hess[6], the sum of the pairs' d2E/dr2 (psys_move.c's Newton step). */
-double psys_particle_energy(const psys_sys *s, int32_t i, const double x[3], const int32_t *ids,
-                            int32_t m, double grad[3], double hess[7]);
+/* Energy of a particle of radius si on the cell of key ki at point x against the current
+ * positions of the candidates ids[m] (sorted; `self` skipped, -1 for none): the pairs with
+ * |x - x_j| < max(si, sigma_j) (eq. 1 with sigma_ij = max); grad (may be NULL) receives
+ * dE/dx; hess (may be NULL) the Hessian as xx, xy, xz, yy, yz, zz and, in hess[6], the sum of the
+ * pairs' d2E/dr2 (psys_move.c's Newton step). */
+double psys_energy_at(const psys_sys *s, int32_t self, int32_t ki, double si, const double x[3],
+                      const int32_t *ids, int32_t m, double grad[3], double hess[7]);
+
+/* The same for particle i itself (its radius and cell) at x: its own point or a trial point. */
+static inline double psys_particle_energy(const psys_sys *s, int32_t i, const double x[3],
+                                          const int32_t *ids, int32_t m, double grad[3],
+                                          double hess[7]) {
+  return psys_energy_at(s, i, s->koff[s->dim[i]] + s->cell[i], s->sigma[i], x, ids, m, grad,
+                        hess);
+}
 
 /* Step 2: Algorithm 1 for every movable particle (a coloured Gauss-Seidel sweep, see above);
  * energies and forces of every particle are refreshed. */
@@ -236,7 +384,8 @@ pm_status psys_population_pass(psys_sys *s, double a, int32_t *splits, int32_t *
                                pm_error *err);
 
 /* The movable particles that eq. 4 splits whatever their eps: E_i below half the split threshold
- * (a front of particles still growing into an empty stretch of its cell). */
+ * (a front of particles still growing into an empty stretch of its cell); face particles only
+ * unless hungry_curves (psys_phases.c). */
 int32_t psys_hungry_count(const psys_sys *s);
 
 /* ---- phases (psys_phases.c) ------------------------------------------------------------- */
@@ -259,6 +408,19 @@ pm_status psys_seed_curves(psys_sys *s, pm_error *err);
 
 /* Seed phase 3 on face f: k random points of its trimmed region. */
 pm_status psys_seed_face(psys_sys *s, int32_t f, int k, pm_error *err);
+
+/* Bootstrap seeding of face f (psys_seed.c): the (u, v) and sigma of the particles an advancing
+ * front in the face's field places, from the frozen particles of its boundary; with a hint (may
+ * be NULL), sigma at most hint sigma + L r from the hint's points. Reads the
+ * system only (faces may be seeded in parallel). out_uv[2 count], out_sigma[count] malloc'd,
+ * the caller's to free (NULL when count is 0). */
+typedef struct psys_hint {
+  pm_grid *grid;        /* the points, id = index */
+  const double *xyz;    /* [3 n] */
+  const double *sigma;  /* [n] */
+} psys_hint;
+pm_status psys_seed_front(const psys_sys *s, int32_t f, const psys_hint *hint, double **out_uv,
+                          double **out_sigma, int32_t *count, pm_error *err);
 
 /* Run one phase (1, 2 or 3: sets the flags, fixes and freezes what the phase holds still) until
  * it converges or reaches the cap. Phase 3 seeds only the faces with faces[f] != 0 (NULL: all). */

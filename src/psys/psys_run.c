@@ -23,12 +23,11 @@ static void connect_params(const psys_params *p, int volume, int64_t max_nodes,
 }
 
 static pm_status add_stats(pm_stats *st, const psys_sys *s, const psys_phase_report rep[3],
-                           double t_connect, pm_error *err) {
+                           pm_error *err) {
   if (!st) return PM_OK;
   static const char *const names[3] = {"phase1", "phase2", "phase3"};
   pm_status r = PM_OK;
   for (int k = 0; k < 3 && !r; ++k) r = pm_stats_set_time(st, names[k], rep[k].seconds, err);
-  if (!r) r = pm_stats_set_time(st, "connect", t_connect, err);
   char key[64];
   for (int k = 0; k < 3 && !r; ++k) {
     snprintf(key, sizeof key, "psys.iterations.%s", names[k]);
@@ -39,51 +38,127 @@ static pm_status add_stats(pm_stats *st, const psys_sys *s, const psys_phase_rep
   if (!r) r = pm_stats_add_number(st, "psys.sigma_max", s->sigma_max, err);
   if (!r) r = pm_stats_add_number(st, "psys.splits", s->splits_total, err);
   if (!r) r = pm_stats_add_number(st, "psys.deletes", s->deletes_total, err);
+  /* the neighbour structure's work: lists made again one by one, updates that made all */
+  if (!r) r = pm_stats_add_number(st, "psys.lists.neighbour_renewed", (double)s->nbr.nb.renewed, err);
+  if (!r) r = pm_stats_add_number(st, "psys.lists.neighbour_rebuilds", (double)s->nbr.nb.rebuilds, err);
+  if (!r) r = pm_stats_add_number(st, "psys.lists.gap_renewed", (double)s->nbr.gp.renewed, err);
+  if (!r) r = pm_stats_add_number(st, "psys.lists.gap_rebuilds", (double)s->nbr.gp.rebuilds, err);
+  /* time per step, under time_s: psys.STEP over all phases, psys.phaseK.STEP per phase */
+  for (int k = 0; k < PSYS_T_COUNT && !r; ++k) {
+    double sum = 0;
+    for (int ph = 0; ph < 3; ++ph) sum += s->tstep[ph][k];
+    snprintf(key, sizeof key, "psys.%s", psys_step_names[k]);
+    r = pm_stats_set_time(st, key, sum, err);
+    for (int ph = 0; ph < 3 && !r; ++ph) {
+      snprintf(key, sizeof key, "psys.%s.%s", names[ph], psys_step_names[k]);
+      r = pm_stats_set_time(st, key, s->tstep[ph][k], err);
+    }
+  }
   return r;
 }
 
-static pm_status run(const pm_run_input *in, const void *params, pm_run_output *out,
-                     pm_error *err) {
-  const psys_params *p = params;
+/* The particles' sigma as an edge-length field sampled on the connected mesh's nodes and
+ * triangles (tets left out: the field is the surface's): each node takes the sigma of the nearest
+ * particle, which is itself for every particle; the connection may add nodes (vertices without a
+ * particle, closed curves with fewer than two, tet nodes) and drops none of ours. The particles'
+ * points and sigma are copies (xyz[3 n], sigma[n]), taken before the system was freed. */
+static pm_status field_of(const pm_model *model, double edge_per_sigma, int32_t n,
+                          const double *xyz, const double *sigma, const pm_mesh *mesh,
+                          pm_sizing **out, pm_error *err) {
+  double *val = malloc(sizeof(double) * ((size_t)mesh->nnode + 1));
+  if (!val) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  pm_grid *g = NULL;
+  pm_status st = pm_grid_create(1e-6 * model->diagonal, &g, err);
+  for (int32_t i = 0; i < n && !st; ++i) st = pm_grid_insert(g, i, &xyz[3 * i], 0, err);
+  for (int32_t k = 0; k < mesh->nnode && !st; ++k) {
+    int32_t j = pm_grid_nearest(g, &mesh->xyz[3 * k], NULL);
+    if (j < 0)
+      st = pm_error_setf(err, PM_ERR_INTERNAL, "psys: no particle left for the sampled field");
+    else
+      val[k] = sigma[j] * edge_per_sigma; /* sigma -> edge length (the calibration) */
+  }
+  if (!st) {
+    pm_mesh surface = *mesh; /* a view without the tets: pm_sizing_sampled copies what it uses */
+    surface.ntet = 0;
+    st = pm_sizing_sampled(&surface, val, out, err);
+  }
+  pm_grid_destroy(g);
+  free(val);
+  return st;
+}
+
+pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_run_output *out,
+                              pm_sizing **field, pm_error *err) {
   out->mesh = NULL;
   out->iterations = 0;
   out->stop_reason[0] = '\0';
+  if (field) *field = NULL;
   if (!in || !in->model) return pm_error_setf(err, PM_ERR_ARG, "psys: no model");
   psys_sys *s = NULL;
   pm_mesh *mesh = NULL;
+  double *fxyz = NULL, *fsig = NULL; /* the field's copies of the particles */
   int64_t cap = in->max_nodes > 0 ? in->max_nodes : PM_DEFAULT_MAX_NODES;
-  /* A given field is measured against the cap before the first particle: splitting towards a
-   * field far beyond it would otherwise run for hours before the count reached the cap. (The
-   * inferred field follows the model's own features and is held by the count check alone.) */
-  pm_status st = PM_OK;
-  if (in->size && (st = pm_node_budget_check(in->model, in->size, cap, "node cap", "psys", err)))
+  /* The caps before the first particle: psys_check_caps measures the field, given or inferred,
+   * against the node cap and the memory cap and names the size that fits; a given field is also
+   * measured by the rule every method shares (node_budget.h). */
+  pm_status st = psys_sys_create(in->model, p, in->size, in->seed, in->threads, cap, &s, err);
+  if (!st) st = psys_check_caps(s, err);
+  if (!st && in->size)
+    st = pm_node_budget_check(in->model, in->size, cap, "node cap", "psys", err);
+  if (st) {
+    psys_sys_destroy(s);
     return st;
-  st = psys_sys_create(in->model, p, in->size, in->seed, in->threads, cap, &s, err);
-  if (st) return st;
+  }
   psys_observer obs = {in->trace, in->frames};
   psys_phase_report rep[3];
   if ((st = psys_optimize(s, &obs, rep, err))) goto fail;
   for (int k = 0; k < 3; ++k) out->iterations += rep[k].iterations;
   if ((st = psys_to_mesh(s, &mesh, err))) goto fail;
-  pm_connect_params cp;
-  connect_params(p, in->volume, in->max_nodes, &cp);
-  double t0 = pm_seconds();
-  pm_connect_report crep;
-  if ((st = pm_connect(in->model, mesh, &cp, &crep, err))) goto fail;
-  double t_connect = pm_seconds() - t0;
   int all = rep[0].converged && rep[1].converged && rep[2].converged;
   snprintf(out->stop_reason, sizeof out->stop_reason,
            "%s: phases 1-3 ran %lld, %lld, %lld iterations%s", all ? "converged" : "max_iter",
            (long long)rep[0].iterations, (long long)rep[1].iterations,
            (long long)rep[2].iterations, all ? "" : " (a phase reached max_iter)");
-  if ((st = add_stats(out->stats, s, rep, t_connect, err))) goto fail;
+  if ((st = add_stats(out->stats, s, rep, err))) goto fail;
+  /* The particles are final: the system (its arrays, the neighbour and gap lists and their
+   * grids) is freed before the connection, whose own peak (CDT, flips, the tets) then does not
+   * come on top of it -- nor the tet step's child process, which shares the parent's resident
+   * pages. The field keeps copies of the points and sigma. */
+  const int32_t n = s->n;
+  const double eps = s->p.edge_per_sigma;
+  if (field) {
+    fxyz = malloc(sizeof(double) * 3 * ((size_t)n + 1));
+    fsig = malloc(sizeof(double) * ((size_t)n + 1));
+    if (!fxyz || !fsig) {
+      st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+      goto fail;
+    }
+    memcpy(fxyz, s->xyz, sizeof(double) * 3 * (size_t)n);
+    memcpy(fsig, s->sigma, sizeof(double) * (size_t)n);
+  }
   psys_sys_destroy(s);
+  s = NULL;
+  pm_connect_params cp;
+  connect_params(p, in->volume, in->max_nodes, &cp);
+  double t0 = pm_seconds();
+  pm_connect_report crep;
+  if ((st = pm_connect(in->model, mesh, &cp, &crep, err))) goto fail;
+  if (out->stats && (st = pm_stats_set_time(out->stats, "connect", pm_seconds() - t0, err)))
+    goto fail;
+  if (field && (st = field_of(in->model, eps, n, fxyz, fsig, mesh, field, err))) goto fail;
+  free(fxyz), free(fsig);
   out->mesh = mesh;
   return PM_OK;
 fail:
+  free(fxyz), free(fsig);
   pm_mesh_destroy(mesh);
   psys_sys_destroy(s);
   return st;
+}
+
+static pm_status run(const pm_run_input *in, const void *params, pm_run_output *out,
+                     pm_error *err) {
+  return psys_run_with_field(in, params, out, NULL, err);
 }
 
 /* The default field as a pm_sizing a caller can scale (--target-nodes): the inferred one. */
@@ -111,38 +186,13 @@ pm_status psys_infer_size(const pm_model *m, const psys_params *p, uint64_t seed
   *out = NULL;
   psys_params def;
   if (!p) psys_params_init(&def), p = &def;
-  psys_sys *s = NULL;
-  pm_mesh *mesh = NULL;
-  double *val = NULL;
-  pm_status st = psys_sys_create(m, p, NULL, seed, threads, PM_DEFAULT_MAX_NODES, &s, err);
-  if (st) return st;
-  psys_phase_report rep[3];
-  if ((st = psys_optimize(s, NULL, rep, err))) goto out;
-  if ((st = psys_to_mesh(s, &mesh, err))) goto out;
-  pm_connect_params cp;
-  connect_params(p, 0, 0, &cp);
-  if ((st = pm_connect(m, mesh, &cp, NULL, err))) goto out;
-  /* The connection may add nodes (vertices without a particle, closed curves with fewer than
-   * two) and drops none of ours inside their cells: each node takes the sigma of the nearest
-   * particle, which is itself for every particle. */
-  val = malloc(sizeof(double) * ((size_t)mesh->nnode + 1));
-  if (!val) {
-    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    goto out;
-  }
-  for (int32_t k = 0; k < mesh->nnode; ++k) {
-    int32_t j = pm_grid_nearest(s->grid, &mesh->xyz[3 * k], NULL);
-    if (j < 0) {
-      st = pm_error_setf(err, PM_ERR_INTERNAL, "psys: no particle left for the sampled field");
-      goto out;
-    }
-    val[k] = s->sigma[j] * p->edge_per_sigma; /* sigma -> edge length (the calibration) */
-  }
-  st = pm_sizing_sampled(mesh, val, out, err);
-out:
-  free(val);
-  pm_mesh_destroy(mesh);
-  psys_sys_destroy(s);
+  pm_run_input in;
+  memset(&in, 0, sizeof in);
+  in.model = m, in.seed = seed, in.threads = threads, in.max_nodes = PM_DEFAULT_MAX_NODES;
+  pm_run_output ro;
+  memset(&ro, 0, sizeof ro);
+  pm_status st = psys_run_with_field(&in, p, &ro, out, err);
+  pm_mesh_destroy(ro.mesh);
   if (st) pm_error_prefix(err, "psys sizing inference");
   return st;
 }

@@ -36,9 +36,19 @@
  *
  * Growth. A particle's sigma may rise by at most sigma_grow (1.5) per update (ours; the paper is
  * silent). Falls are immediate. This bounds the radius within which the gap and the Lipschitz
- * pairs have to be searched. The gap search, the widest, runs every third update where the last
- * gap found (less what the particle moved since) cannot constrain sigma, and every update where
- * the gap is, or may become, active.
+ * pairs have to be searched: the gap of particle i among the particles within R_i = sigma_grow
+ * sigma_i / s_tau (a farther one cannot bring s_tau x gap below sigma_grow sigma_i), the
+ * Lipschitz pairs among those within sigma_grow max(sigma_i, sigma_j).
+ *
+ * Incremental update. Both searches read the lists of the neighbour structure (psys_nbr.c),
+ * which are kept valid as particles move and sigma changes, instead of searching a grid: the gap
+ * from the particle's gap list (the particles of cells that can make a gap for it), the
+ * Lipschitz pairs from its neighbour list; each filters its list with the current points and
+ * sigma, so the field is exactly the one a search from scratch gives at every update. The closure
+ * starts from a parallel pass in which each particle takes the lowest pair term of its
+ * neighbours' bounds; only the particles that pass lowered enter Dijkstra's heap (see
+ * lipschitz_lists). psys_sigma_reference computes the same field from scratch (a fresh grid,
+ * Dijkstra over every particle); the tests hold the two to 1e-12.
  *
  * Gap size (section 3.1 "Gap Size", section 4.2, Algorithm 2). Phase 2, vertex and curve
  * particles: the gap of particle i is the distance to the nearest particle j on another cell
@@ -67,6 +77,7 @@
 #include <omp.h>
 #endif
 
+#include "common/clock.h"
 #include "common/vec3.h"
 #include "psys/psys_private.h"
 
@@ -139,28 +150,23 @@ double psys_curvature_sigma(const psys_sys *s, int dim, int32_t cell, const doub
 
 /* ---- candidates around a particle ---------------------------------------------------------- */
 
+/* Candidates of a gap: ids and squared distances. */
 typedef struct cand {
   int32_t n, cap;
   int32_t *id;
   double *d2;
-  int oom;
 } cand;
 
-static int cand_collect(int32_t id, double d2, void *user) {
-  cand *c = user;
-  if (c->n == c->cap) {
-    int32_t cap = c->cap ? 2 * c->cap : 64;
-    int32_t *id2 = realloc(c->id, sizeof(int32_t) * (size_t)cap);
-    if (id2) c->id = id2;
-    double *dd = realloc(c->d2, sizeof(double) * (size_t)cap);
-    if (dd) c->d2 = dd;
-    if (!id2 || !dd) {
-      c->oom = 1;
-      return 1;
-    }
-    c->cap = cap;
-  }
-  c->id[c->n] = id, c->d2[c->n] = d2, c->n++;
+static int cand_reserve(cand *c, int32_t cap) {
+  if (cap <= c->cap) return 0;
+  int32_t nc = c->cap ? 2 * c->cap : 64;
+  if (nc < cap) nc = cap;
+  int32_t *id = realloc(c->id, sizeof(int32_t) * (size_t)nc);
+  if (id) c->id = id;
+  double *d2 = realloc(c->d2, sizeof(double) * (size_t)nc);
+  if (d2) c->d2 = d2;
+  if (!id || !d2) return -1;
+  c->cap = nc;
   return 0;
 }
 
@@ -170,18 +176,6 @@ static void cand_free(cand *c) {
 }
 
 /* ---- gap size ------------------------------------------------------------------------------ */
-
-/* Whether the gap applies to particle i now. */
-static int gap_active(const psys_sys *s, int32_t i) {
-  if (s->size || s->frozen[i]) return 0;
-  return s->dim[i] <= PM_CURVE ? s->gap_curves : s->gap_faces;
-}
-
-/* The radius of the Lipschitz pairs searched around particle i: sigma_grow sigma_i, the largest
- * radius sigma_i can reach in this update. */
-static double update_radius(const psys_sys *s, int32_t i) {
-  return s->p.sigma_grow * s->sigma[i];
-}
 
 /* A tiny memo of relations between the particle's cell and the few other cells around it. */
 typedef struct memo {
@@ -198,7 +192,7 @@ static int memo_touch(const psys_sys *s, memo *m, int32_t ka, int32_t kb) {
   return v;
 }
 
-static int in_closure(const psys_sys *s, int32_t ka, int32_t kb) {
+int psys_in_closure(const psys_sys *s, int32_t ka, int32_t kb) {
   /* kb in the closure of ka */
   const int32_t *v = s->clo + s->clo_off[ka];
   int32_t lo = 0, hi = s->clo_off[ka + 1] - s->clo_off[ka];
@@ -288,18 +282,24 @@ double psys_boundary_distance(const psys_sys *s, int32_t i, const double x[3], c
   double best = INFINITY;
   if (s->dim[i] != PM_FACE || !s->chain_off) return best;
   const int32_t ki = psys_key(s, PM_FACE, s->cell[i]);
+  /* the frozen particles j with |x_i - x_j| < max((1 + step_max) sigma_i, sigma_j), wherever x
+   * is: the ones a step of i can come near (whatever else the list holds) */
+  const double ri = (1 + s->p.step_max) * s->sigma[i];
   for (int32_t q = 0; q < m; ++q) {
     int32_t j = ids[q];
-    if (j >= s->nfrozen || s->dim[j] == PM_FACE) continue;
+    if (j >= s->nfrozen) break; /* the frozen particles come first: 0 .. nfrozen-1, ids sorted */
+    if (s->dim[j] == PM_FACE) continue;
+    const double rj = ri > s->sigma[j] ? ri : s->sigma[j];
+    if (!(psys_d2(&s->xyz[3 * i], &s->xyz[3 * j]) < rj * rj)) continue;
     if (s->dim[j] == PM_CURVE) {
-      if (in_closure(s, ki, psys_key(s, PM_CURVE, s->cell[j])))
+      if (psys_in_closure(s, ki, psys_key(s, PM_CURVE, s->cell[j])))
         best = fmin(best, chain_distance(s, s->cell[j], j, x));
     } else {
       const pm_cell *v = pm_model_cell(s->model, PM_VERTEX, s->cell[j]);
-      if (!in_closure(s, ki, psys_key(s, PM_VERTEX, s->cell[j]))) continue;
+      if (!psys_in_closure(s, ki, psys_key(s, PM_VERTEX, s->cell[j]))) continue;
       best = fmin(best, pm_v3_dist(x, &s->xyz[3 * j]));
       for (int32_t u = 0; u < v->nup; ++u)
-        if (in_closure(s, ki, psys_key(s, PM_CURVE, v->up[u])))
+        if (psys_in_closure(s, ki, psys_key(s, PM_CURVE, v->up[u])))
           best = fmin(best, chain_distance(s, v->up[u], j, x));
     }
   }
@@ -373,13 +373,7 @@ pm_status psys_build_chains(psys_sys *s, pm_error *err) {
   for (int32_t i = 0; i < s->n; ++i) s->chain_pos[i] = -1;
   for (int32_t k = 0; k < s->chain_off[nc]; ++k)
     if (s->dim[s->chain[k]] == PM_CURVE) s->chain_pos[s->chain[k]] = k;
-  /* the frozen particles alone, for the faces' gap searches */
-  pm_grid_destroy(s->bgrid);
-  s->bgrid = NULL;
-  st = pm_grid_create(s->size ? 1e-6 * m->diagonal : 1e-2 * s->sigma_min, &s->bgrid, err);
-  for (int32_t i = 0; i < s->n && !st; ++i)
-    st = pm_grid_insert(s->bgrid, i, &s->xyz[3 * i], s->sigma[i], err);
-  return st;
+  return PM_OK;
 }
 
 enum { GAP_BOUNDARY = 1, GAP_OTHER = 2 };
@@ -415,7 +409,7 @@ static double gap_from(const psys_sys *s, int32_t i, const cand *c, int parts) {
     int32_t kj = psys_key(s, s->dim[j], s->cell[j]);
     if (kj == ki) continue;
     const double d2 = c->d2[q];
-    if (s->dim[j] < PM_FACE && in_closure(s, ki, kj)) {
+    if (s->dim[j] < PM_FACE && psys_in_closure(s, ki, kj)) {
       add_cell(bk, bnear, bd2, &nb, MAXC, kj, j, d2);
       /* a vertex particle also stands for the curves of the face that end there: a curve
        * without particles of its own is known by its end vertices only */
@@ -423,7 +417,7 @@ static double gap_from(const psys_sys *s, int32_t i, const cand *c, int parts) {
         const pm_cell *v = pm_model_cell(s->model, PM_VERTEX, s->cell[j]);
         for (int32_t u = 0; u < v->nup; ++u) {
           int32_t kc = psys_key(s, PM_CURVE, v->up[u]);
-          if (in_closure(s, ki, kc)) add_cell(bk, bnear, bd2, &nb, MAXC, kc, j, INFINITY);
+          if (psys_in_closure(s, ki, kc)) add_cell(bk, bnear, bd2, &nb, MAXC, kc, j, INFINITY);
         }
       }
     } else if ((parts & GAP_OTHER) && d2 < other2 && !memo_touch(s, &mt, ki, kj)) {
@@ -453,43 +447,38 @@ static double gap_from(const psys_sys *s, int32_t i, const cand *c, int parts) {
   return fmin(width, sqrt(other2));
 }
 
-double psys_gap_distance(const psys_sys *s, int32_t i, double rq) {
-  cand c = {0};
-  pm_grid_visit(s->grid, &s->xyz[3 * i], rq, PM_GRID_BALL, cand_collect, &c);
-  double g = c.oom ? INFINITY : gap_from(s, i, &c, GAP_BOUNDARY | GAP_OTHER);
-  cand_free(&c);
-  return g;
+/* The radius R_i within which the gap of particle i is looked for: sigma_grow sigma_i / s_tau (a
+ * farther particle cannot bring s_tau x gap below the largest sigma_i may reach in this update,
+ * sigma_grow sigma_i). */
+static double gap_radius(const psys_sys *s, int32_t i) {
+  return s->p.sigma_grow * s->sigma[i] / s->p.s_tau;
 }
 
-/* ---- the update ------------------------------------------------------------------------------ */
-
-typedef struct ebuf {
-  int64_t n, cap;
-  int32_t *a, *b;
-  double *r;
-  int oom;
-} ebuf;
-
-static void ebuf_push(ebuf *e, int32_t a, int32_t b, double r) {
-  if (e->oom) return;
-  if (e->n == e->cap) {
-    int64_t cap = e->cap ? 2 * e->cap : 1024;
-    int32_t *na = realloc(e->a, sizeof(int32_t) * (size_t)cap);
-    if (na) e->a = na;
-    int32_t *nb = realloc(e->b, sizeof(int32_t) * (size_t)cap);
-    if (nb) e->b = nb;
-    double *nr = realloc(e->r, sizeof(double) * (size_t)cap);
-    if (nr) e->r = nr;
-    if (!na || !nb || !nr) {
-      e->oom = 1;
-      return;
-    }
-    e->cap = cap;
+/* The gap of particle i from the candidates ids[m] (sorted): those within R_i, in id order. */
+static double gap_of(const psys_sys *s, int32_t i, const int32_t *ids, int32_t m, cand *c) {
+  const double R = gap_radius(s, i), R2 = R * R;
+  if (cand_reserve(c, m)) return -1;
+  c->n = 0;
+  const double *xi = &s->xyz[3 * i];
+  for (int32_t q = 0; q < m; ++q) {
+    const double d2 = psys_d2(&s->xyz[3 * ids[q]], xi);
+    if (d2 <= R2 && ids[q] != i) c->id[c->n] = ids[q], c->d2[c->n++] = d2;
   }
-  e->a[e->n] = a, e->b[e->n] = b, e->r[e->n] = r, e->n++;
+  return gap_from(s, i, c, GAP_BOUNDARY | GAP_OTHER);
 }
 
-/* Binary min-heap of particle indices keyed by key[], with positions for decrease-key. */
+double psys_gap_distance(const psys_sys *s, int32_t i) {
+  cand c = {0};
+  const psys_list *l = psys_gp(s, i);
+  double g = gap_of(s, i, l->ids, l->n, &c);
+  cand_free(&c);
+  return g < 0 ? INFINITY : g;
+}
+
+/* ---- the Lipschitz closure ----------------------------------------------------------------- */
+
+/* Binary min-heap of particle indices keyed by key[] (ties: the lower index), with positions for
+ * decrease-key; pos[v] = -1 when v is not in the heap. */
 typedef struct heap {
   int32_t n;
   int32_t *h, *pos;
@@ -523,70 +512,93 @@ static void heap_down(heap *H, int32_t k) {
   H->h[k] = x, H->pos[x] = k;
 }
 
-/* The Lipschitz closure: key[] holds the bounds on entry and the closed field on return. */
-static pm_status lipschitz_closure(psys_sys *s, double *key, const int32_t *ea, const int32_t *eb,
-                                   const double *er, int64_t ne, pm_error *err) {
+static void heap_push_or_lower(heap *H, int32_t v) {
+  if (H->pos[v] < 0) H->h[H->n] = v, H->pos[v] = H->n, H->n++;
+  heap_up(H, H->pos[v]);
+}
+
+static int32_t heap_pop(heap *H) {
+  int32_t u = H->h[0];
+  H->pos[u] = -1;
+  H->h[0] = H->h[--H->n];
+  if (H->n) H->pos[H->h[0]] = 0, heap_down(H, 0);
+  return u;
+}
+
+/* The pair term of eq. 15 for pair distance r from the neighbour's value k: k + L r, but at least
+ * r (the ball of the particle may stop short of the neighbour; see the file comment). */
+static inline double lip_term(double k, double L, double r) {
+  double c = k + L * r;
+  return c < r ? r : c;
+}
+
+/* Whether the pair (i, j) takes part in the Lipschitz closure: |x_i - x_j| < sigma_grow
+ * max(sigma_i, sigma_j), with the sigma of before the update; *r receives the distance. */
+static inline int lip_pair(const psys_sys *s, int32_t i, int32_t j, double *r) {
+  const double *xi = &s->xs[4 * i], *xj = &s->xs[4 * j];
+  const double m = s->p.sigma_grow * (xi[3] > xj[3] ? xi[3] : xj[3]);
+  const double d2 = psys_d2(xi, xj);
+  /* r < m, decided on d2 first where it is clear (the square root only near the edge and
+   * inside: sqrt is correctly rounded, so r < m and d2 < m^2 differ only within an ulp) */
+  if (d2 > m * m * (1 + 1e-12)) return 0;
+  *r = sqrt(d2);
+  return *r < m;
+}
+
+/* The closure from the bounds b[] (target) into key[], over the neighbour lists. A particle
+ * whose bound no neighbour's bound lowers (the first, parallel pass) keeps it unless a lowered
+ * neighbour lowers it later; the lowered ones are settled by Dijkstra's label setting in order of
+ * their value. Every pair term is non-decreasing in the neighbour's value and at least that
+ * value, so a particle popped from the heap is final, and the result is the unique largest
+ * solution -- the same, to the bit, as Dijkstra over every particle (psys_sigma_reference). */
+static pm_status lipschitz_lists(psys_sys *s, const double *b, double *key, pm_error *err) {
   const int32_t n = s->n;
   const double L = s->p.lipschitz;
-  int64_t *off = calloc((size_t)n + 1, sizeof(int64_t));
-  int32_t *adj = malloc(sizeof(int32_t) * (size_t)(2 * ne + 1));
-  double *adr = malloc(sizeof(double) * (size_t)(2 * ne + 1));
+#pragma omp parallel for num_threads(s->threads) schedule(dynamic, 256) if (n > 2048)
+  for (int32_t i = 0; i < n; ++i) {
+    double k = b[i];
+    if (!s->frozen[i]) {
+      const psys_list *l = psys_nb(s, i);
+      for (int32_t q = 0; q < l->n; ++q) {
+        const int32_t j = l->ids[q];
+        double r;
+        if (!lip_pair(s, i, j, &r)) continue;
+        const double c = lip_term(b[j], L, r);
+        if (c < k) k = c;
+      }
+    }
+    key[i] = k;
+  }
   int32_t *h = malloc(sizeof(int32_t) * ((size_t)n + 1));
   int32_t *pos = malloc(sizeof(int32_t) * ((size_t)n + 1));
-  uint8_t *done = calloc((size_t)n + 1, 1);
-  pm_status st = PM_OK;
-  if (!off || !adj || !adr || !h || !pos || !done) {
-    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    goto out;
+  if (!h || !pos) {
+    free(h), free(pos);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
-  for (int64_t e = 0; e < ne; ++e) off[ea[e] + 1]++, off[eb[e] + 1]++;
-  for (int32_t i = 0; i < n; ++i) off[i + 1] += off[i];
-  {
-    int64_t *fill = malloc(sizeof(int64_t) * ((size_t)n + 1));
-    if (!fill) {
-      st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-      goto out;
-    }
-    memcpy(fill, off, sizeof(int64_t) * ((size_t)n + 1));
-    for (int64_t e = 0; e < ne; ++e) {
-      adj[fill[ea[e]]] = eb[e], adr[fill[ea[e]]++] = er[e];
-      adj[fill[eb[e]]] = ea[e], adr[fill[eb[e]]++] = er[e];
-    }
-    free(fill);
-  }
-  heap H = {n, h, pos, key};
-  for (int32_t i = 0; i < n; ++i) h[i] = i, pos[i] = i;
-  for (int32_t k = n / 2 - 1; k >= 0; --k) heap_down(&H, k);
+  heap H = {0, h, pos, key};
+  for (int32_t i = 0; i < n; ++i) pos[i] = -1;
+  for (int32_t i = 0; i < n; ++i)
+    if (key[i] < b[i]) h[H.n] = i, pos[i] = H.n, H.n++;
+  for (int32_t k = H.n / 2 - 1; k >= 0; --k) heap_down(&H, k);
   while (H.n > 0) {
-    int32_t u = H.h[0];
-    H.h[0] = H.h[--H.n];
-    if (H.n) H.pos[H.h[0]] = 0, heap_down(&H, 0);
-    done[u] = 1;
-    for (int64_t q = off[u]; q < off[u + 1]; ++q) {
-      int32_t v = adj[q];
-      if (done[v] || s->frozen[v]) continue;
-      /* eq. 15 for the pair, unless v's ball stops short of u (see the file comment) */
-      double r = adr[q], c = key[u] + L * r;
-      if (c < r) c = r;
+    const int32_t u = heap_pop(&H);
+    const psys_list *l = psys_nb(s, u);
+    for (int32_t q = 0; q < l->n; ++q) {
+      const int32_t v = l->ids[q];
+      double r;
+      if (s->frozen[v] || !lip_pair(s, u, v, &r)) continue;
+      const double c = lip_term(key[u], L, r);
       if (c < key[v]) {
         key[v] = c;
-        heap_up(&H, pos[v]);
+        heap_push_or_lower(&H, v);
       }
     }
   }
-out:
-  free(off), free(adj), free(adr), free(h), free(pos), free(done);
-  return st;
-}
-
-static pm_status commit(psys_sys *s, const double *sig, pm_error *err) {
-  for (int32_t i = 0; i < s->n; ++i) {
-    if (s->frozen[i] || sig[i] == s->sigma[i]) continue;
-    pm_status st = psys_set_sigma(s, i, sig[i], err);
-    if (st) return st;
-  }
+  free(h), free(pos);
   return PM_OK;
 }
+
+/* ---- the update ------------------------------------------------------------------------------ */
 
 /* The given field: sigma = d(x) / edge_per_sigma. */
 static pm_status update_given(psys_sys *s, pm_error *err) {
@@ -613,165 +625,194 @@ static pm_status update_given(psys_sys *s, pm_error *err) {
                          "size field is %g at (%g, %g, %g): it must be finite and > 0",
                          pm_sizing_eval(s->size, x), x[0], x[1], x[2]);
   }
-  return commit(s, s->target, err);
+  for (int32_t i = 0; i < n; ++i)
+    if (!s->frozen[i]) psys_set_sigma(s, i, s->target[i]);
+  return PM_OK;
+}
+
+/* Whether particle i's curvature bound is due again: it moved kappa_refresh sigma since. */
+static int curvature_due(const psys_sys *s, int32_t i) {
+  if (s->dim[i] == PM_VERTEX) return 0;
+  const double lim = s->p.kappa_refresh * s->sigma[i];
+  return psys_d2(&s->xyz[3 * i], &s->kxyz[3 * i]) > lim * lim || s->p.kappa_refresh == 0;
+}
+
+/* The bound of eq. 11 before the Lipschitz term (curvature, limits, growth, gap G). */
+static double bound_of(const psys_sys *s, int32_t i, double sig_curv, double G) {
+  const double tmax = s->p.sigma_grow * s->sigma[i];
+  double T = fmin(s->sigma_max, sig_curv);
+  if (G < INFINITY) T = fmin(T, s->p.s_tau * G);
+  T = fmin(T, tmax);
+  return fmax(T, s->sigma_min);
 }
 
 pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
-  if (s->size) return update_given(s, err);
-  const int32_t n = s->n;
-  const double g = s->p.sigma_grow;
-  int oom = 0;
-  int nthr = s->threads;
-  ebuf *eb = calloc((size_t)nthr, sizeof(ebuf));
-  double *key = malloc(sizeof(double) * ((size_t)n + 1));
-  if (!eb || !key) {
-    free(eb), free(key);
-    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  double t0 = pm_seconds();
+  if (s->size) {
+    pm_status st = update_given(s, err);
+    psys_clock_add(s, PSYS_T_FIELD, pm_seconds() - t0);
+    return st;
   }
-#pragma omp parallel num_threads(nthr)
+  const int32_t n = s->n;
+  pm_status st = psys_nbr_update(s, err); /* timed as the neighbour structure's */
+  if (st) return st;
+  double t1 = pm_seconds();
+  /* the curvature bounds, re-evaluated once a particle has moved kappa_refresh sigma */
+#pragma omp parallel for num_threads(s->threads) schedule(dynamic, 64) if (n > 512)
+  for (int32_t i = 0; i < n; ++i) {
+    if (s->frozen[i] || !curvature_due(s, i)) continue;
+    const double *xi = &s->xyz[3 * i];
+    s->sig_curv[i] = psys_curvature_sigma(s, s->dim[i], s->cell[i], &s->par[2 * i], xi);
+    pm_v3_copy(&s->kxyz[3 * i], xi);
+  }
+  t0 = pm_seconds();
+  psys_clock_add(s, PSYS_T_CURVATURE, t0 - t1);
+  /* the bounds with the gap (eq. 11 but sigma_L) */
+  int oom = 0;
+#pragma omp parallel num_threads(s->threads) if (n > 512)
   {
-#ifdef _OPENMP
-    ebuf *e = &eb[omp_get_thread_num()];
-#else
-    ebuf *e = &eb[0];
-#endif
     cand c = {0};
 #pragma omp for schedule(dynamic, 64)
     for (int32_t i = 0; i < n; ++i) {
-      const double *xi = &s->xyz[3 * i];
       if (s->frozen[i]) {
         s->target[i] = s->sigma[i];
         continue;
       }
-      /* the curvature bound, re-evaluated once the particle has moved kappa_refresh sigma */
-      double moved2 = pm_v3_dist2(xi, &s->kxyz[3 * i]);
-      double lim = s->p.kappa_refresh * s->sigma[i];
-      if (s->dim[i] != PM_VERTEX && (moved2 > lim * lim || s->p.kappa_refresh == 0)) {
-        s->sig_curv[i] = psys_curvature_sigma(s, s->dim[i], s->cell[i], &s->par[2 * i], xi);
-        pm_v3_copy(&s->kxyz[3 * i], xi);
-      }
-      double T = fmin(s->sigma_max, s->sig_curv[i]);
-      const double tmax = g * s->sigma[i];
-      if (gap_active(s, i)) {
-        const double R = tmax / s->p.s_tau;
-        double moved = pm_v3_dist(xi, &s->gxyz[3 * i]);
-        double G = INFINITY;
-        int fail = 0;
-        if (s->dim[i] == PM_FACE && s->bgrid) {
-          /* Phase 3, faces. The frozen particles (curves and vertices) never move: the width
-           * through the face and the frozen cells that share no vertex with it are searched in
-           * their own, sparse grid at every update. The particles of other faces (across a thin
-           * wall) are searched in the main grid, with radius tmax / s_tau, every third update
-           * (staggered by serial number) or once the particle moved a quarter sigma; in between,
-           * the last distance found less the distance moved since bounds that gap from below
-           * (the distance to a set is 1-Lipschitz), and new particles across the wall are seen
-           * with a delay of at most two updates. */
-          c.n = 0;
-          pm_grid_visit(s->bgrid, xi, R, PM_GRID_BALL, cand_collect, &c);
-          fail |= c.oom;
-          if (!fail) G = gap_from(s, i, &c, GAP_BOUNDARY | GAP_OTHER);
-          if (s->gap[i] < 0 || moved > 0.25 * s->sigma[i] ||
-              (s->serial[i] + (uint64_t)s->iter) % 3 == 0) {
-            c.n = 0;
-            pm_grid_visit(s->grid, xi, R, PM_GRID_BALL, cand_collect, &c);
-            fail |= c.oom;
-            double Go = fail ? INFINITY : gap_from(s, i, &c, GAP_OTHER);
-            s->gap[i] = Go < R ? Go : R;
-            pm_v3_copy(&s->gxyz[3 * i], xi);
-            G = fmin(G, Go);
-          } else {
-            G = fmin(G, s->gap[i] - moved);
-          }
-        } else if (s->gap[i] < 0 || s->p.s_tau * (s->gap[i] - 2 * moved) < tmax ||
-                   (s->serial[i] + (uint64_t)s->iter) % 3 == 0) {
-          /* Curves and vertices (phase 2): the gap search (radius tmax / s_tau: a farther
-           * particle cannot bring s_tau x gap below tmax) is redone every third update
-           * (staggered by serial number), and at once where the last gap found, less twice the
-           * distance the particle moved since, could constrain sigma. Between searches new
-           * particles on other cells, or their moves, may shorten the gap unseen for at most
-           * two updates; a phase ends only after quiet iterations, when the searches have
-           * caught up. */
-          c.n = 0;
-          pm_grid_visit(s->grid, xi, R, PM_GRID_BALL, cand_collect, &c);
-          fail |= c.oom;
-          G = fail ? INFINITY : gap_from(s, i, &c, GAP_BOUNDARY | GAP_OTHER);
-          s->gap[i] = G < R ? G : R;
-          pm_v3_copy(&s->gxyz[3 * i], xi);
-        }
-        if (fail) {
+      double G = INFINITY;
+      if (psys_gap_active(s, i)) {
+        const psys_list *l = psys_gp(s, i);
+        G = gap_of(s, i, l->ids, l->n, &c);
+        if (G < 0) {
 #pragma omp atomic write
           oom = 1;
-          continue;
+          G = INFINITY;
         }
-        T = fmin(T, s->p.s_tau * G);
       }
-      c.n = 0;
-      pm_grid_visit(s->grid, xi, update_radius(s, i), PM_GRID_MUTUAL, cand_collect, &c);
-      if (c.oom) {
-#pragma omp atomic write
-        oom = 1;
-        continue;
-      }
-      T = fmin(T, tmax);
-      T = fmax(T, s->sigma_min);
-      s->target[i] = T;
-      /* Lipschitz pairs: each unordered pair once (from the lower index, or from the one whose
-       * search found the other alone); frozen particles do not search. */
-      for (int32_t q = 0; q < c.n; ++q) {
-        int32_t j = c.id[q];
-        if (j == i) continue;
-        double sj = s->sigma[j], si = s->sigma[i];
-        double r = sqrt(c.d2[q]);
-        if (!(r < g * (si > sj ? si : sj))) continue;
-        int keep = s->frozen[j] || j > i;
-        if (!keep) {
-          double R = update_radius(s, j);
-          if (si > R) R = si;
-          keep = !(c.d2[q] < R * R * (1 - 1e-12)); /* j's search does not reach i */
-        }
-        if (keep) ebuf_push(e, i, j, r);
-      }
+      s->target[i] = bound_of(s, i, s->sig_curv[i], G);
     }
     cand_free(&c);
   }
+  if (oom) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  t1 = pm_seconds();
+  psys_clock_add(s, PSYS_T_GAP, t1 - t0);
+  /* the Lipschitz closure (eq. 14-15), then the new sigma */
+  if ((st = lipschitz_lists(s, s->target, s->key, err))) return st;
+  for (int32_t i = 0; i < n; ++i)
+    if (!s->frozen[i]) psys_set_sigma(s, i, s->key[i]);
+  s->unsized = 0;
+  psys_clock_add(s, PSYS_T_LIPSCHITZ, pm_seconds() - t1);
+  return PM_OK;
+}
+
+/* ---- the reference: everything from scratch --------------------------------------------------- */
+
+/* Dijkstra over every particle, pairs given as an edge list (the closure as first written). */
+static pm_status lipschitz_all(const psys_sys *s, double *key, const int32_t *ea, const int32_t *eb,
+                               const double *er, int64_t ne, pm_error *err) {
+  const int32_t n = s->n;
+  const double L = s->p.lipschitz;
+  int64_t *off = calloc((size_t)n + 1, sizeof(int64_t));
+  int32_t *adj = malloc(sizeof(int32_t) * (size_t)(2 * ne + 1));
+  double *adr = malloc(sizeof(double) * (size_t)(2 * ne + 1));
+  int32_t *h = malloc(sizeof(int32_t) * ((size_t)n + 1));
+  int32_t *pos = malloc(sizeof(int32_t) * ((size_t)n + 1));
+  uint8_t *done = calloc((size_t)n + 1, 1);
+  int64_t *fill = malloc(sizeof(int64_t) * ((size_t)n + 1));
   pm_status st = PM_OK;
-  int64_t ne = 0;
-  for (int t = 0; t < nthr; ++t) {
-    if (eb[t].oom) oom = 1;
-    ne += eb[t].n;
-  }
-  if (oom) {
+  if (!off || !adj || !adr || !h || !pos || !done || !fill) {
     st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto out;
   }
-  {
-    int32_t *ea = malloc(sizeof(int32_t) * (size_t)(ne + 1));
-    int32_t *ebb = malloc(sizeof(int32_t) * (size_t)(ne + 1));
-    double *er = malloc(sizeof(double) * (size_t)(ne + 1));
-    if (!ea || !ebb || !er) {
-      free(ea), free(ebb), free(er);
-      st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-      goto out;
+  for (int64_t e = 0; e < ne; ++e) off[ea[e] + 1]++, off[eb[e] + 1]++;
+  for (int32_t i = 0; i < n; ++i) off[i + 1] += off[i];
+  memcpy(fill, off, sizeof(int64_t) * ((size_t)n + 1));
+  for (int64_t e = 0; e < ne; ++e) {
+    adj[fill[ea[e]]] = eb[e], adr[fill[ea[e]]++] = er[e];
+    adj[fill[eb[e]]] = ea[e], adr[fill[eb[e]]++] = er[e];
+  }
+  heap H = {n, h, pos, key};
+  for (int32_t i = 0; i < n; ++i) h[i] = i, pos[i] = i;
+  for (int32_t k = n / 2 - 1; k >= 0; --k) heap_down(&H, k);
+  while (H.n > 0) {
+    int32_t u = heap_pop(&H);
+    done[u] = 1;
+    for (int64_t q = off[u]; q < off[u + 1]; ++q) {
+      int32_t v = adj[q];
+      if (done[v] || s->frozen[v]) continue;
+      double c = lip_term(key[u], L, adr[q]);
+      if (c < key[v]) key[v] = c, heap_up(&H, pos[v]);
     }
-    int64_t k = 0;
-    for (int t = 0; t < nthr; ++t) {
-      if (!eb[t].n) continue;
-      memcpy(ea + k, eb[t].a, sizeof(int32_t) * (size_t)eb[t].n);
-      memcpy(ebb + k, eb[t].b, sizeof(int32_t) * (size_t)eb[t].n);
-      memcpy(er + k, eb[t].r, sizeof(double) * (size_t)eb[t].n);
-      k += eb[t].n;
-    }
-    for (int32_t i = 0; i < n; ++i) key[i] = s->target[i];
-    /* Dijkstra's result is the unique largest fixpoint below the bounds (rounding is monotone),
-     * so the order of the pairs, which depends on the threads, does not change it. */
-    st = lipschitz_closure(s, key, ea, ebb, er, ne, err);
-    free(ea), free(ebb), free(er);
-    if (!st) st = commit(s, key, err);
-    if (!st) s->unsized = 0;
   }
 out:
-  for (int t = 0; t < nthr; ++t) free(eb[t].a), free(eb[t].b), free(eb[t].r);
-  free(eb);
-  free(key);
+  free(off), free(adj), free(adr), free(h), free(pos), free(done), free(fill);
+  return st;
+}
+
+pm_status psys_sigma_reference(const psys_sys *s, double *out, pm_error *err) {
+  const int32_t n = s->n;
+  if (s->size) {
+    for (int32_t i = 0; i < n; ++i) {
+      double d = pm_sizing_eval(s->size, &s->xyz[3 * i]);
+      out[i] = s->frozen[i] ? s->sigma[i] : d / s->p.edge_per_sigma;
+    }
+    return PM_OK;
+  }
+  pm_grid *g = NULL;
+  pm_idbuf q = PM_IDBUF_INIT;
+  cand c = {0};
+  int32_t *ea = NULL, *eb = NULL;
+  double *er = NULL;
+  int64_t ne = 0, cap = 0;
+  /* the particles with radius sigma_grow sigma: a MUTUAL query then finds exactly the pairs of
+   * the closure, a BALL query the gap's candidates */
+  pm_status st = pm_grid_create(1e-2 * s->sigma_min, &g, err);
+  for (int32_t i = 0; i < n && !st; ++i)
+    st = pm_grid_insert(g, i, &s->xyz[3 * i], s->p.sigma_grow * s->sigma[i], err);
+  for (int32_t i = 0; i < n && !st; ++i) {
+    if (s->frozen[i]) {
+      out[i] = s->sigma[i];
+      continue;
+    }
+    double kc = s->sig_curv[i];
+    if (curvature_due(s, i))
+      kc = psys_curvature_sigma(s, s->dim[i], s->cell[i], &s->par[2 * i], &s->xyz[3 * i]);
+    double G = INFINITY;
+    if (psys_gap_active(s, i)) {
+      if ((st = pm_grid_query(g, &s->xyz[3 * i], gap_radius(s, i), PM_GRID_BALL, &q, err))) break;
+      G = gap_of(s, i, q.ids, q.n, &c);
+      if (G < 0) st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    }
+    out[i] = bound_of(s, i, kc, G);
+  }
+  /* every pair with |x_i - x_j| < sigma_grow max(sigma_i, sigma_j), once */
+  for (int32_t i = 0; i < n && !st; ++i) {
+    if ((st = pm_grid_query(g, &s->xyz[3 * i], s->p.sigma_grow * s->sigma[i], PM_GRID_MUTUAL, &q,
+                            err)))
+      break;
+    for (int32_t k = 0; k < q.n; ++k) {
+      const int32_t j = q.ids[k];
+      double r;
+      if (j <= i || !lip_pair(s, i, j, &r)) continue;
+      if (ne == cap) {
+        cap = cap ? 2 * cap : 1024;
+        int32_t *na = realloc(ea, sizeof(int32_t) * (size_t)cap);
+        if (na) ea = na;
+        int32_t *nb = realloc(eb, sizeof(int32_t) * (size_t)cap);
+        if (nb) eb = nb;
+        double *nr = realloc(er, sizeof(double) * (size_t)cap);
+        if (nr) er = nr;
+        if (!na || !nb || !nr) {
+          st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+          break;
+        }
+      }
+      ea[ne] = i, eb[ne] = j, er[ne++] = r;
+    }
+  }
+  if (!st) st = lipschitz_all(s, out, ea, eb, er, ne, err);
+  free(ea), free(eb), free(er);
+  cand_free(&c);
+  pm_idbuf_free(&q);
+  pm_grid_destroy(g);
   return st;
 }

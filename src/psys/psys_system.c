@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "common/geom_cad.h"
 #include "common/rng.h"
@@ -115,6 +116,18 @@ int psys_touch(const psys_sys *s, int32_t ka, int32_t kb) {
   return 0;
 }
 
+/* ---- time per step ---------------------------------------------------------------------- */
+
+const char *const psys_step_names[PSYS_T_COUNT] = {
+    "neighbours", "energy", "step", "surface", "sizing.curvature", "sizing.gap",
+    "sizing.lipschitz", "sizing.field", "population", "seeding"};
+
+void psys_clock_split(psys_sys *s, double wall, int m, const psys_step *ks, const double *cpu) {
+  double sum = 0;
+  for (int k = 0; k < m; ++k) sum += cpu[k];
+  for (int k = 0; k < m; ++k) psys_clock_add(s, ks[k], sum > 0 ? wall * cpu[k] / sum : wall / m);
+}
+
 /* ---- random streams ----------------------------------------------------------------------- */
 
 static uint64_t mix64(uint64_t x) {
@@ -152,6 +165,12 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
   s->seed = seed;
   s->threads = threads > 0 ? threads : 1;
   s->max_particles = max_particles > 0 ? max_particles : INT32_MAX;
+  if (p->max_memory_gb > 0) {
+    s->max_bytes = p->max_memory_gb * 1e9;
+  } else {
+    long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
+    s->max_bytes = pages > 0 && size > 0 ? (double)pages * (double)size : INFINITY;
+  }
   /* kappa_min / kappa_max default to 5 and 500 over the model diagonal (ours: the paper leaves
    * them to the user): sigma_max = diagonal / (5 s_kappa) = diagonal / 10 gives edges of about
    * 1/17 of the diagonal on flat parts, like the built-in cases' default sizes, and sigma_min =
@@ -200,9 +219,7 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
     double d[3] = {b[3] - b[0], b[4] - b[1], b[5] - b[2]};
     s->extent[m->count[1] + f] = pm_v3_norm(d);
   }
-  /* The grid's smallest distinguished radius: a hundredth of the smallest sigma expected. */
-  double hmin = size ? 1e-6 * m->diagonal : 1e-2 * s->sigma_min;
-  if ((st = pm_grid_create(hmin, &s->grid, err))) {
+  if ((st = psys_nbr_init(s, err))) {
     psys_sys_destroy(s);
     return st;
   }
@@ -213,15 +230,15 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
 
 void psys_sys_destroy(psys_sys *s) {
   if (!s) return;
-  free(s->dim), free(s->cell), free(s->par), free(s->xyz), free(s->deriv);
-  free(s->sigma), free(s->lambda), free(s->energy), free(s->force);
-  free(s->sig_curv), free(s->kxyz), free(s->gap), free(s->gxyz), free(s->bdist), free(s->serial), free(s->grace), free(s->fixed), free(s->frozen);
+  psys_nbr_free(s);
+  free(s->dim), free(s->cell), free(s->par), free(s->xyz), free(s->xs), free(s->deriv);
+  free(s->fxyz), free(s->sigma), free(s->lambda), free(s->energy), free(s->force);
+  free(s->sig_curv), free(s->kxyz), free(s->bdist), free(s->serial), free(s->grace);
+  free(s->fixed), free(s->frozen);
   free(s->clo_off), free(s->clo), free(s->vert_off), free(s->vert);
   free(s->corner), free(s->slow_face), free(s->extent);
   free(s->chain_off), free(s->chain), free(s->chain_pos), free(s->vpart), free(s->face_on);
-  free(s->target), free(s->edge_a), free(s->edge_b), free(s->edge_r);
-  pm_grid_destroy(s->grid);
-  pm_grid_destroy(s->bgrid);
+  free(s->target), free(s->key);
   free(s);
 }
 
@@ -236,25 +253,28 @@ static int reserve(psys_sys *s, int32_t need) {
   if (need <= s->cap) return 0;
   int32_t cap = s->cap ? s->cap : 256;
   while (cap < need) cap = cap > INT32_MAX / 2 ? INT32_MAX : 2 * cap;
+  if (cap > s->max_particles && need <= s->max_particles) cap = (int32_t)s->max_particles;
   GROW(dim, int8_t, 1);
   GROW(cell, int32_t, 1);
   GROW(par, double, 2);
   GROW(xyz, double, 3);
+  GROW(xs, double, 4);
   GROW(deriv, double, 6);
+  GROW(fxyz, double, 3);
   GROW(sigma, double, 1);
   GROW(lambda, double, 1);
   GROW(energy, double, 1);
   GROW(force, double, 3);
   GROW(sig_curv, double, 1);
   GROW(kxyz, double, 3);
-  GROW(gap, double, 1);
-  GROW(gxyz, double, 3);
   GROW(bdist, double, 1);
   GROW(serial, uint64_t, 1);
   GROW(grace, int64_t, 1);
   GROW(fixed, uint8_t, 1);
   GROW(frozen, uint8_t, 1);
   GROW(target, double, 1);
+  GROW(key, double, 1);
+  if (psys_nbr_reserve(s, cap, NULL)) return -1;
   s->cap = cap;
   return 0;
 }
@@ -264,6 +284,8 @@ static void eval_point(psys_sys *s, int32_t i) {
   const pm_cell *c = pm_model_cell(s->model, s->dim[i], s->cell[i]);
   double *x = &s->xyz[3 * i], *d = &s->deriv[6 * i];
   memset(d, 0, 6 * sizeof(double));
+  /* the frame (deriv) is evaluated where the point is */
+  double *fx = &s->fxyz[3 * i];
   if (c->dim == PM_VERTEX) {
     pm_v3_copy(x, c->xyz);
   } else if (c->dim == PM_CURVE) {
@@ -275,6 +297,8 @@ static void eval_point(psys_sys *s, int32_t i) {
     pm_face_eval(c, &s->par[2 * i], 1, &fp);
     pm_v3_copy(x, fp.p), pm_v3_copy(d, fp.su), pm_v3_copy(d + 3, fp.sv);
   }
+  pm_v3_copy(fx, x);
+  for (int k = 0; k < 3; ++k) s->xs[4 * i + k] = x[k];
 }
 
 /* The given field's sigma at x, or an error naming the point. */
@@ -294,6 +318,15 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
     return pm_error_setf(err, PM_ERR_LIMIT,
                          "psys: the particle count would exceed the node cap of %lld",
                          (long long)s->max_particles);
+  if (s->n + 1 > s->cap) {
+    /* the memory the arrays are about to take, checked before they grow */
+    const double bytes = PSYS_BYTES_PER_PARTICLE * 2.0 * (s->cap ? s->cap : 128);
+    if (bytes > s->max_bytes)
+      return pm_error_setf(err, PM_ERR_LIMIT,
+                           "psys: %d particles would take about %.2g GB, above the memory cap of "
+                           "%.2g GB (max_memory_gb)",
+                           (int)(2 * s->cap), bytes / 1e9, s->max_bytes / 1e9);
+  }
   if (reserve(s, s->n + 1)) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   int32_t i = s->n;
   s->dim[i] = (int8_t)dim;
@@ -307,13 +340,9 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
      * the child is within a sigma, and both are refreshed as it moves away (psys_sizing.c). */
     s->sig_curv[i] = s->sig_curv[parent];
     pm_v3_copy(&s->kxyz[3 * i], &s->kxyz[3 * parent]);
-    s->gap[i] = s->gap[parent];
-    pm_v3_copy(&s->gxyz[3 * i], &s->gxyz[3 * parent]);
   } else {
     s->sig_curv[i] = s->size ? 0 : psys_curvature_sigma(s, dim, cell, &s->par[2 * i], x);
     pm_v3_copy(&s->kxyz[3 * i], x);
-    s->gap[i] = -1;
-    pm_v3_copy(&s->gxyz[3 * i], x);
   }
   if (!(sigma > 0)) {
     if (s->size) {
@@ -324,7 +353,7 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
       s->unsized = 1;
     }
   }
-  s->sigma[i] = sigma;
+  psys_set_sigma(s, i, sigma);
   s->lambda[i] = s->p.lambda_init;
   s->energy[i] = 0;
   pm_v3_zero(&s->force[3 * i]);
@@ -334,8 +363,6 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
   s->fixed[i] = dim == PM_VERTEX;
   s->frozen[i] = 0;
   s->target[i] = sigma;
-  pm_status st = pm_grid_insert(s->grid, i, x, sigma, err);
-  if (st) return st;
   s->n++;
   if (index) *index = i;
   return PM_OK;
@@ -353,26 +380,28 @@ pm_status psys_add_child(psys_sys *s, int32_t parent, const double *par, int32_t
   return add_core(s, s->dim[parent], s->cell[parent], par, s->sigma[parent], parent, index, err);
 }
 
-pm_status psys_set_sigma(psys_sys *s, int32_t i, double sigma, pm_error *err) {
-  s->sigma[i] = sigma;
-  return pm_grid_move(s->grid, i, &s->xyz[3 * i], sigma, err);
-}
-
 pm_status psys_compact(psys_sys *s, const uint8_t *dead, pm_error *err) {
+  const int32_t n_old = s->n;
+  int32_t *map = malloc(sizeof(int32_t) * ((size_t)n_old + 1));
+  if (!map) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   int32_t n = 0;
-  for (int32_t i = 0; i < s->n; ++i) {
-    if (dead[i]) continue;
+  for (int32_t i = 0; i < n_old; ++i) {
+    if (dead[i]) {
+      map[i] = -1;
+      continue;
+    }
+    map[i] = n;
     if (n != i) {
       s->dim[n] = s->dim[i], s->cell[n] = s->cell[i];
       memcpy(&s->par[2 * n], &s->par[2 * i], 2 * sizeof(double));
       memcpy(&s->xyz[3 * n], &s->xyz[3 * i], 3 * sizeof(double));
+      memcpy(&s->xs[4 * n], &s->xs[4 * i], 4 * sizeof(double));
       memcpy(&s->deriv[6 * n], &s->deriv[6 * i], 6 * sizeof(double));
+      memcpy(&s->fxyz[3 * n], &s->fxyz[3 * i], 3 * sizeof(double));
       s->sigma[n] = s->sigma[i], s->lambda[n] = s->lambda[i], s->energy[n] = s->energy[i];
       memcpy(&s->force[3 * n], &s->force[3 * i], 3 * sizeof(double));
       s->sig_curv[n] = s->sig_curv[i];
       memcpy(&s->kxyz[3 * n], &s->kxyz[3 * i], 3 * sizeof(double));
-      s->gap[n] = s->gap[i];
-      memcpy(&s->gxyz[3 * n], &s->gxyz[3 * i], 3 * sizeof(double));
       s->serial[n] = s->serial[i], s->fixed[n] = s->fixed[i], s->frozen[n] = s->frozen[i];
       s->grace[n] = s->grace[i];
       s->bdist[n] = s->bdist[i];
@@ -381,11 +410,177 @@ pm_status psys_compact(psys_sys *s, const uint8_t *dead, pm_error *err) {
     ++n;
   }
   s->n = n;
-  /* Indices changed: refile every particle (ids are indices). */
-  pm_grid_clear(s->grid);
-  for (int32_t i = 0; i < n; ++i) {
-    pm_status st = pm_grid_insert(s->grid, i, &s->xyz[3 * i], s->sigma[i], err);
-    if (st) return st;
-  }
-  return PM_OK;
+  pm_status st = psys_nbr_compact(s, map, n_old, err);
+  free(map);
+  return st;
 }
+
+/* ---- spatial order --------------------------------------------------------------------------- */
+
+/* Interleave the low 21 bits of x, y, z (Morton order). */
+static uint64_t spread21(uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+typedef struct mkey {
+  uint64_t key;
+  int32_t i;
+} mkey;
+
+static int cmp_mkey(const void *a, const void *b) {
+  const mkey *x = a, *y = b;
+  if (x->key != y->key) return x->key < y->key ? -1 : 1;
+  return (x->i > y->i) - (x->i < y->i);
+}
+
+/* a[lo + k] := a[perm[k]] for k < m, elements of `size` bytes, through `tmp`. */
+static void permute(void *a, size_t size, int32_t lo, int32_t m, const int32_t *perm, void *tmp) {
+  char *c = a, *t = tmp;
+  for (int32_t k = 0; k < m; ++k) memcpy(t + size * (size_t)k, c + size * (size_t)perm[k], size);
+  memcpy(c + size * (size_t)lo, t, size * (size_t)m);
+}
+
+pm_status psys_reorder(psys_sys *s, pm_error *err) {
+  const int32_t lo = s->phase == 3 ? s->nfrozen : 0, m = s->n - lo;
+  s->ordered_serial = s->next_serial;
+  if (m < 2) return PM_OK;
+  mkey *k = malloc(sizeof(mkey) * (size_t)m);
+  int32_t *perm = malloc(sizeof(int32_t) * (size_t)m);
+  void *tmp = malloc(sizeof(double) * 6 * (size_t)m);
+  if (!k || !perm || !tmp) {
+    free(k), free(perm), free(tmp);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  const double *b = s->model->box;
+  double ext = fmax(fmax(b[3] - b[0], b[4] - b[1]), b[5] - b[2]);
+  const double scale = ext > 0 ? 2097151.0 / ext : 0;
+  for (int32_t q = 0; q < m; ++q) {
+    const double *x = &s->xyz[3 * (lo + q)];
+    uint64_t c[3];
+    for (int a = 0; a < 3; ++a) {
+      double t = (x[a] - b[a]) * scale;
+      c[a] = t <= 0 ? 0 : (t >= 2097151.0 ? 2097151 : (uint64_t)t);
+    }
+    k[q].key = spread21(c[0]) | spread21(c[1]) << 1 | spread21(c[2]) << 2;
+    k[q].i = lo + q;
+  }
+  qsort(k, (size_t)m, sizeof(mkey), cmp_mkey);
+  for (int32_t q = 0; q < m; ++q) perm[q] = k[q].i;
+  free(k);
+#define PERMUTE(arr, n_per) permute(s->arr, sizeof(*s->arr) * (n_per), lo, m, perm, tmp)
+  /* arrays of several values per particle are permuted as blocks of that many */
+  permute(s->dim, 1, lo, m, perm, tmp);
+  PERMUTE(cell, 1);
+  PERMUTE(par, 2);
+  PERMUTE(xyz, 3);
+  PERMUTE(xs, 4);
+  PERMUTE(deriv, 6);
+  PERMUTE(fxyz, 3);
+  PERMUTE(sigma, 1);
+  PERMUTE(lambda, 1);
+  PERMUTE(energy, 1);
+  PERMUTE(force, 3);
+  PERMUTE(sig_curv, 1);
+  PERMUTE(kxyz, 3);
+  PERMUTE(bdist, 1);
+  PERMUTE(serial, 1);
+  PERMUTE(grace, 1);
+  PERMUTE(fixed, 1);
+  PERMUTE(frozen, 1);
+  PERMUTE(target, 1);
+#undef PERMUTE
+  pm_status st = psys_nbr_permute(s, lo, m, perm, err);
+  free(perm), free(tmp);
+  return st;
+}
+
+/* ---- caps ------------------------------------------------------------------------------------ */
+
+/* Edge length of the field at x: the given field, or the largest the inferred one allows. */
+static double edge_at(const psys_sys *s, const double x[3]) {
+  return s->size ? pm_sizing_eval(s->size, x) : s->sigma_max * s->p.edge_per_sigma;
+}
+
+void psys_estimate_count(const psys_sys *s, double *curves, double *faces) {
+  const pm_model *m = s->model;
+  double nc = 0, nf = 0;
+  /* curves: the integral of 1 / d over the arc length, by 64 chords */
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+    if (cv->degenerate) continue;
+    double prev[3];
+    for (int k = 0; k <= 64; ++k) {
+      double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * k / 64.0, x[3], mid[3];
+      pm_cell_point(cv, &t, x);
+      if (k) {
+        for (int a = 0; a < 3; ++a) mid[a] = 0.5 * (x[a] + prev[a]);
+        nc += pm_v3_dist(prev, x) / edge_at(s, mid);
+      }
+      pm_v3_copy(prev, x);
+    }
+  }
+  /* faces: the integral of 1 / (sqrt(3)/2 d^2), the area of a node of the hexagonal lattice, by
+   * the midpoint rule on a 24 x 24 grid of the parameter box (points inside the trim) */
+  enum { G = 24 };
+  double uv[2 * G * G];
+  pm_face_point fp[G * G];
+  for (int32_t f = 0; f < m->count[PM_FACE]; ++f) {
+    const pm_cell *c = pm_model_cell(m, PM_FACE, f);
+    const double du = (c->hi[0] - c->lo[0]) / G, dv = (c->hi[1] - c->lo[1]) / G;
+    for (int a = 0; a < G; ++a)
+      for (int b = 0; b < G; ++b)
+        uv[2 * (a * G + b)] = c->lo[0] + (a + 0.5) * du, uv[2 * (a * G + b) + 1] = c->lo[1] + (b + 0.5) * dv;
+    pm_face_eval_many(c, G * G, uv, 1, fp);
+    for (int k = 0; k < G * G; ++k) {
+      if (!pm_face_inside(c, &uv[2 * k])) continue;
+      double n[3];
+      pm_v3_cross(n, fp[k].su, fp[k].sv);
+      const double d = edge_at(s, fp[k].p);
+      nf += pm_v3_norm(n) * du * dv / (0.8660254037844386 * d * d);
+    }
+  }
+  *curves = nc, *faces = nf;
+}
+
+pm_status psys_check_caps(const psys_sys *s, pm_error *err) {
+  double nc, nf;
+  psys_estimate_count(s, &nc, &nf);
+  const double n = nc + nf + s->model->count[PM_VERTEX];
+  const double cap_n = (double)s->max_particles;
+  const double cap_m = s->max_bytes / PSYS_BYTES_PER_PARTICLE;
+  const double cap = cap_n < cap_m ? cap_n : cap_m;
+  if (!(n > cap)) return PM_OK;
+  /* the factor c on the field that fits: nf / c^2 + nc / c = cap */
+  const double c = (nc + sqrt(nc * nc + 4 * cap * nf)) / (2 * cap);
+  char what[128];
+  if (cap_n <= cap_m)
+    snprintf(what, sizeof what, "the particle cap of %.0f (--max-nodes)", cap_n);
+  else
+    snprintf(what, sizeof what, "the %.0f particles that fit the memory cap of %.2g GB "
+             "(max_memory_gb)", cap_m, s->max_bytes / 1e9);
+  if (!s->size)
+    return pm_error_setf(err, PM_ERR_LIMIT,
+                         "psys: even at its largest sigma the inferred field needs about %.3g "
+                         "particles, above %s; a kappa_min %.3g times smaller fits",
+                         n, what, c);
+  /* a constant field reads back as a number: name the size that fits */
+  const char *text = pm_sizing_describe(s->size);
+  char *end = NULL;
+  const double d = text ? strtod(text, &end) : 0;
+  if (end && end != text && *end == '\0' && d > 0)
+    return pm_error_setf(err, PM_ERR_LIMIT,
+                         "psys: size %g needs about %.3g particles (curves %.3g, faces %.3g), "
+                         "above %s; a size of at least %.3g fits",
+                         d, n, nc, nf, what, c * d * (1 + 1e-3));
+  return pm_error_setf(err, PM_ERR_LIMIT,
+                       "psys: the size field needs about %.3g particles (curves %.3g, faces %.3g), "
+                       "above %s; the field multiplied by at least %.3g fits",
+                       n, nc, nf, what, c * (1 + 1e-3));
+}
+

@@ -335,6 +335,50 @@ static void known_answers(void **state) {
   pm_grid_destroy(g);
 }
 
+/* Renumbering: ids shift as when an array is compacted; queries and validation follow; a bad
+ * map (a point without a new id, two points with the same) is refused and changes nothing. */
+static void renumber(void **state) {
+  (void)state;
+  pm_grid *g = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_grid_create(1e-6, &g, &e), e);
+  for (int32_t i = 0; i < 6; ++i) {
+    double x[3] = {(double)i, 0, 0};
+    PM_ASSERT_OK(pm_grid_insert(g, i, x, 0.5 + 0.1 * i, &e), e);
+  }
+  PM_ASSERT_OK(pm_grid_remove(g, 1, &e), e);
+  PM_ASSERT_OK(pm_grid_remove(g, 4, &e), e);
+  const int32_t bad1[6] = {0, -1, 1, -1, -1, 3}; /* point 3 has none */
+  assert_int_equal(pm_grid_renumber(g, 6, bad1, &e), PM_ERR_ARG);
+  const int32_t bad2[6] = {0, -1, 1, 1, -1, 3}; /* 2 and 3 both become 1 */
+  assert_int_equal(pm_grid_renumber(g, 6, bad2, &e), PM_ERR_ARG);
+  PM_ASSERT_OK(pm_grid_validate(g, &e), e);
+  const int32_t map[6] = {0, -1, 1, 2, -1, 3};
+  PM_ASSERT_OK(pm_grid_renumber(g, 6, map, &e), e);
+  PM_ASSERT_OK(pm_grid_validate(g, &e), e);
+  assert_int_equal(pm_grid_count(g), 4);
+  double got[3], r;
+  assert_int_equal(pm_grid_get(g, 3, got, &r), 1); /* the old point 5 */
+  PM_ASSERT_NEAR(got[0], 5, 0);
+  PM_ASSERT_NEAR(r, 1.0, 1e-15);
+  assert_int_equal(pm_grid_get(g, 4, got, &r), 0);
+  pm_idbuf b = PM_IDBUF_INIT;
+  double x[3] = {2.5, 0, 0};
+  PM_ASSERT_OK(pm_grid_query_ball(g, x, 0.6, &b, &e), e); /* old 2 and 3 */
+  assert_int_equal(b.n, 2);
+  assert_int_equal(b.ids[0], 1);
+  assert_int_equal(b.ids[1], 2);
+  /* a new point at a freed id, then one beyond the old ids */
+  PM_ASSERT_OK(pm_grid_insert(g, 4, x, 0.1, &e), e);
+  const int32_t up[5] = {10, 11, 12, 13, 14};
+  PM_ASSERT_OK(pm_grid_renumber(g, 5, up, &e), e);
+  PM_ASSERT_OK(pm_grid_validate(g, &e), e);
+  assert_int_equal(pm_grid_get(g, 14, got, &r), 1);
+  PM_ASSERT_NEAR(r, 0.1, 0);
+  pm_idbuf_free(&b);
+  pm_grid_destroy(g);
+}
+
 static int count_fn(int32_t id, double d2, void *user) {
   (void)d2;
   int32_t *c = user;
@@ -534,6 +578,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(empty_grid),
       cmocka_unit_test(known_answers),
+      cmocka_unit_test(renumber),
       cmocka_unit_test(duplicate_positions),
       cmocka_unit_test(visit_and_stop),
       cmocka_unit_test(bad_input),

@@ -86,6 +86,15 @@ static void json_keys_and_values(void **state) {
   assert_int_equal(pm_stats_set_time(&s, "relax.force.x", 1, &e), PM_ERR_ARG);
   assert_int_equal(pm_stats_set_time(&s, "relax.", 1, &e), PM_ERR_ARG);
   assert_int_equal(pm_stats_set_time(&s, "total.x", 1, &e), PM_ERR_ARG);
+  /* dotted timings nest under time_s; a name and its dotted extension cannot both be set */
+  PM_ASSERT_OK(pm_stats_set_time(&s, "m.energy", 0.5, &e), e);
+  PM_ASSERT_OK(pm_stats_set_time(&s, "m.phase3.energy", 0.375, &e), e);
+  assert_int_equal(pm_stats_set_time(&s, "place.x", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_set_time(&s, "m", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_set_time(&s, "m.energy.x", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_set_time(&s, "total.x", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_set_time(&s, "a..b", 1, &e), PM_ERR_ARG);
+  assert_int_equal(pm_stats_set_time(&s, "a.", 1, &e), PM_ERR_ARG);
   char *text = NULL;
   PM_ASSERT_OK(pm_stats_to_json(&s, &text, &e), e);
   cJSON *root = cJSON_Parse(text);
@@ -105,6 +114,8 @@ static void json_keys_and_values(void **state) {
   assert_true(at(root, "time_s.connect")->valuedouble == 0.0625);
   assert_true(at(root, "time_s.relax.force")->valuedouble == 0.5);
   assert_true(at(root, "time_s.relax.lists")->valuedouble == 0.125);
+  assert_true(at(root, "time_s.m.energy")->valuedouble == 0.5);
+  assert_true(at(root, "time_s.m.phase3.energy")->valuedouble == 0.375);
   static const char *const sums[] = {"tri.radius_ratio", "tri.aspect_ratio", "tri.min_angle_deg",
                                      "tri.max_angle_deg", "tet.radius_ratio", "tet.aspect_ratio",
                                      "tet.min_dihedral_deg"};
@@ -174,6 +185,7 @@ static void flatten_and_csv(void **state) {
   s.problems[0] = strdup("zero-area triangles: 1 (first: triangle 3, area 0)");
   s.problems[1] = strdup("duplicate \"nodes\"");
   s.nproblem = 2;
+  PM_ASSERT_OK(pm_stats_set_time(&s, "m.energy", 0.5, &e), e);
   pm_stats_flat f;
   PM_ASSERT_OK(pm_stats_flatten(&s, &f, &e), e);
   const pm_stats_item *it = pm_stats_flat_find(&f, "tri.radius_ratio.mean");
@@ -187,6 +199,8 @@ static void flatten_and_csv(void **state) {
                       "zero-area triangles: 1 (first: triangle 3, area 0) | duplicate \"nodes\"");
   assert_non_null(pm_stats_flat_find(&f, "shells.0.euler"));
   assert_non_null(pm_stats_flat_find(&f, "time_s.place"));
+  it = pm_stats_flat_find(&f, "time_s.m.energy");
+  assert_true(it && !it->is_text && it->num == 0.5);
   assert_string_equal(f.item[0].key, "method"); /* document order */
 
   /* The same from the JSON text. */

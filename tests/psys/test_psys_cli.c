@@ -184,6 +184,26 @@ static void parameters_and_errors(void **state) {
   pm_test_cli_error(dir, args, 1, "cap");
   char *left = pm_test_slurp(msh);
   assert_null(left); /* no half-written mesh */
+  /* caps before growth: a size far too small is refused from the estimated particle count,
+   * before any particle is placed, naming the cap and the size that fits: case:qi3 is a 6 x 6
+   * square, so about 36 / (sqrt(3)/2 d^2) particles, and a cap of 10^6 fits d = 0.00645 */
+  snprintf(args, sizeof args,
+           "mesh case:qi3 --method psys --size 1e-12 --max-nodes 1000000 -o '%s'", msh);
+  pm_test_cli_error(dir, args, 1, "--max-nodes");
+  char *out2 = NULL, *err2 = NULL;
+  assert_int_equal(pm_test_cli(dir, args, &out2, &err2), 1);
+  assert_non_null(strstr(err2, "needs about"));
+  const char *fit = strstr(err2, "a size of at least ");
+  assert_non_null(fit);
+  double d = atof(fit + strlen("a size of at least "));
+  if (!(d > 0.0063 && d < 0.0067)) fail_msg("size that fits: %g, want about 0.00645", d);
+  free(out2), free(err2);
+  assert_null(pm_test_slurp(msh));
+  /* and the memory cap the same way */
+  snprintf(args, sizeof args,
+           "mesh case:qi3 --method psys --size 1e-5 --set max_memory_gb=0.1 -o '%s'", msh);
+  pm_test_cli_error(dir, args, 1, "max_memory_gb");
+  assert_null(pm_test_slurp(msh));
 }
 
 int main(void) {

@@ -105,6 +105,33 @@ static void particle_energy_gradient_hessian(void **state) {
   pm_model_destroy(m);
 }
 
+/* pair_sigma: sigma_ij is max(sigma_i, sigma_j) by default (eq. 1) and their mean with
+ * pair_sigma = 1; a pair beyond the mean and within the max interacts only by default. */
+static void pair_sigma_choice(void **state) {
+  (void)state;
+  pm_model *m = psys_test_square(4);
+  for (int mean = 0; mean < 2; ++mean) {
+    psys_params p;
+    psys_params_init(&p);
+    p.pair_sigma = mean;
+    psys_sys *s = psys_test_system(m, &p, 1);
+    pm_error e = {0};
+    int32_t ids[3];
+    const double uv[3][2] = {{1, 1}, {2.2, 1}, {1, 2.8}};
+    const double sg[3] = {1, 2, 2};
+    for (int k = 0; k < 3; ++k) PM_ASSERT_OK(psys_add(s, PM_FACE, 0, uv[k], sg[k], &ids[k], &e), e);
+    const int32_t others[2] = {ids[1], ids[2]};
+    /* particle 0 (sigma 1) against particles at 1.2 and 1.8, both of sigma 2 */
+    const double got = psys_particle_energy(s, ids[0], &s->xyz[3 * ids[0]], others, 2, NULL, NULL);
+    const double want = mean ? psys_pair_energy(1.2, 1.5)
+                             : psys_pair_energy(1.2, 2.0) + psys_pair_energy(1.8, 2.0);
+    assert_true(want > 0);
+    assert_true(fabs(got - want) <= 1e-12 * want);
+    psys_sys_destroy(s);
+  }
+  pm_model_destroy(m);
+}
+
 /* A hexagonal lattice at spacing beta sigma: every interior particle sees six neighbours at
  * beta sigma (its second ring lies at sigma, where the kernel vanishes), so its energy is
  * E_ideal (eq. 6) and its force zero: an Algorithm 1 sweep leaves it in place. */
@@ -170,8 +197,8 @@ static void perturbed_lattice_relaxes(void **state) {
     double par[2];
     pm_cell_displace(pm_model_cell(m, PM_FACE, 0), &s->par[2 * i], dx, par);
     s->par[2 * i] = par[0], s->par[2 * i + 1] = par[1];
-    s->xyz[3 * i] = par[0], s->xyz[3 * i + 1] = par[1];
-    PM_ASSERT_OK(pm_grid_move(s->grid, i, &s->xyz[3 * i], sigma, &e), e);
+    const double x[3] = {par[0], par[1], 0};
+    psys_set_xyz(s, i, x);
   }
   psys_move_info mi;
   /* Each accepted step lowers E_i with the others in place, hence the total (a sum over pairs)
@@ -194,6 +221,7 @@ int main(void) {
       cmocka_unit_test(pair_energy_values),
       cmocka_unit_test(pair_derivatives_match_finite_differences),
       cmocka_unit_test(particle_energy_gradient_hessian),
+      cmocka_unit_test(pair_sigma_choice),
       cmocka_unit_test(hexagonal_lattice_is_stationary),
       cmocka_unit_test(perturbed_lattice_relaxes),
   };

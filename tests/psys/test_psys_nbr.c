@@ -1,0 +1,111 @@
+/* The neighbour structure (psys_nbr.c): after random moves, sigma changes, additions, deletions
+ * and reorderings, an update leaves every neighbour and gap list holding exactly the pairs of
+ * its relation (psys_nbr_check, a brute-force scan over all pairs), whether it renewed a few lists
+ * or all of them; and a run's particles do not depend on how the lists were kept. */
+#include "test_psys_run_util.h"
+
+/* Move each movable particle with probability `share` by up to `far` sigma along its cell, and
+ * change its sigma by a random factor in [lo, hi]. */
+static void stir(psys_sys *s, pm_rng *r, double share, double far, double lo, double hi) {
+  for (int32_t i = 0; i < s->n; ++i) {
+    if (pm_rng_uniform(r) > share) continue;
+    if (!s->fixed[i]) {
+      const pm_cell *c = pm_model_cell(s->model, s->dim[i], s->cell[i]);
+      double dx[3], par[2] = {s->par[2 * i], s->par[2 * i + 1]}, x[3];
+      for (int k = 0; k < 3; ++k) dx[k] = pm_rng_range(r, -far, far) * s->sigma[i];
+      pm_cell_displace(c, &s->par[2 * i], dx, par);
+      pm_cell_point(c, par, x);
+      s->par[2 * i] = par[0], s->par[2 * i + 1] = par[1];
+      psys_set_xyz(s, i, x);
+    }
+    if (!s->frozen[i]) psys_set_sigma(s, i, s->sigma[i] * pm_rng_range(r, lo, hi));
+  }
+}
+
+static void check(psys_sys *s) {
+  pm_error e = {0};
+  PM_ASSERT_OK(psys_nbr_update(s, &e), e);
+  PM_ASSERT_OK(psys_nbr_check(s, &e), e);
+}
+
+/* Phase 3 on a box with a hole: face particles hold neighbour and gap lists, the frozen curve and
+ * vertex particles neighbour lists only. */
+static void lists_follow_random_changes(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:boxhole");
+  psys_params p;
+  psys_params_init(&p);
+  p.max_iter = 20;
+  psys_sys *s = psys_test_system(m, &p, 2);
+  pm_error e = {0};
+  psys_phase_report rep;
+  PM_ASSERT_OK(psys_run_phase(s, 1, NULL, NULL, &rep, &e), e);
+  PM_ASSERT_OK(psys_run_phase(s, 2, NULL, NULL, &rep, &e), e);
+  PM_ASSERT_OK(psys_run_phase(s, 3, NULL, NULL, &rep, &e), e);
+  assert_true(s->nbr.gp.on);
+  check(s);
+  pm_rng r;
+  pm_rng_init(&r, 5, 0);
+  const int64_t renewed0 = s->nbr.nb.renewed + s->nbr.gp.renewed;
+  for (int round = 0; round < 12; ++round) {
+    /* few particles (lists mended one by one) or many (all made again) */
+    stir(s, &r, round % 3 == 2 ? 0.6 : 0.05, 0.3, 0.8, 1.3);
+    check(s);
+    if (round % 4 == 1) {
+      /* deletions (compaction: every index after the first deleted one shifts) */
+      uint8_t *dead = calloc((size_t)s->n, 1);
+      for (int32_t i = s->nfrozen; i < s->n; ++i) dead[i] = pm_rng_uniform(&r) < 0.1;
+      PM_ASSERT_OK(psys_compact(s, dead, &e), e);
+      free(dead);
+      check(s);
+    }
+    if (round % 4 == 2) {
+      /* additions, then a reordering of the movable particles */
+      for (int k = 0; k < 30; ++k) {
+        const int32_t f = (int32_t)(pm_rng_uniform(&r) * m->count[PM_FACE]);
+        PM_ASSERT_OK(psys_seed_face(s, f, 1, &e), e);
+      }
+      check(s);
+      PM_ASSERT_OK(psys_reorder(s, &e), e);
+      check(s);
+    }
+  }
+  /* most rounds mended lists one by one */
+  assert_true(s->nbr.nb.renewed + s->nbr.gp.renewed > renewed0 + 100);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+}
+
+/* The particles of a run on model m (all three phases), with lists kept incrementally or made
+ * again at every update. */
+static psys_sys *optimize(const pm_model *m, int always) {
+  psys_sys *s = psys_test_system(m, NULL, 1);
+  s->nbr.always = always;
+  pm_error e = {0};
+  psys_phase_report rep[3];
+  PM_ASSERT_OK(psys_optimize(s, NULL, rep, &e), e);
+  return s;
+}
+
+/* The lists only choose candidates: every use filters them with the current points and sigma,
+ * so a run whose lists are made again at every update gives the same particles, to the bit. */
+static void lists_do_not_change_results(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:boxhole");
+  psys_sys *a = optimize(m, 0), *b = optimize(m, 1);
+  assert_true(a->nbr.nb.renewed > 1000);
+  assert_int_equal(b->nbr.nb.renewed, 0);
+  assert_int_equal(a->n, b->n);
+  assert_memory_equal(a->xyz, b->xyz, sizeof(double) * 3 * (size_t)a->n);
+  assert_memory_equal(a->sigma, b->sigma, sizeof(double) * (size_t)a->n);
+  psys_sys_destroy(a), psys_sys_destroy(b);
+  pm_model_destroy(m);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(lists_follow_random_changes),
+      cmocka_unit_test(lists_do_not_change_results),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
