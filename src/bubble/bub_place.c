@@ -56,25 +56,6 @@
 
 /* ---- curves ------------------------------------------------------------------------------- */
 
-/* 5-point Gauss-Legendre on [t1, t2], split in 4 (enough for the length of a segment of a
- * smooth curve to far better than the subdivision's own tolerance). */
-double bub_curve_length(const pm_cell *c, double t1, double t2) {
-  static const double gx[5] = {-0.9061798459386640, -0.5384693101056831, 0.0,
-                               0.5384693101056831, 0.9061798459386640};
-  static const double gw[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889,
-                               0.4786286704993665, 0.2369268850561891};
-  double len = 0, h = (t2 - t1) / 4;
-  for (int piece = 0; piece < 4; ++piece) {
-    double a = t1 + piece * h, mid = a + 0.5 * h;
-    for (int k = 0; k < 5; ++k) {
-      pm_curve_point cp;
-      pm_curve_eval(c, mid + 0.5 * h * gx[k], 1, &cp);
-      len += 0.5 * fabs(h) * gw[k] * pm_v3_norm(cp.d1);
-    }
-  }
-  return len;
-}
-
 typedef struct tvec {
   double *t;
   int32_t n, cap;
@@ -102,7 +83,7 @@ typedef struct curve_ctx {
 
 static void curve_split(curve_ctx *cx, double t1, double d1, double t2, double d2, int depth) {
   if (cx->st) return;
-  double len = bub_curve_length(cx->c, t1, t2);
+  double len = pm_curve_length(cx->c, t1, t2);
   if (!(cx->s->p.w1 * len > 0.5 * (d1 + d2)) || depth >= 40) return;
   double tm = 0.5 * (t1 + t2), xm[3], dm;
   pm_cell_point(cx->c, &tm, xm);

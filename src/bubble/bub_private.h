@@ -276,8 +276,6 @@ pm_status bub_place_curve(const bub_state *s, int32_t curve, double **t, int32_t
 pm_status bub_place_crowded(const bub_state *s, int kind, int32_t cell, const double x[3], double d,
                             pm_idbuf *buf, int *crowded, pm_error *err);
 
-/* Arc length of a curve between t1 and t2 (Gauss-Legendre). */
-double bub_curve_length(const pm_cell *c, double t1, double t2);
 
 /* ---- neighbour lists (bub_neighbors.c) ------------------------------------------------------ */
 

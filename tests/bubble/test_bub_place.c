@@ -38,7 +38,7 @@ static void curve_subdivision(void **state) {
   }
   /* Arc length of a straight side. */
   const pm_cell *c = pm_model_cell(m, PM_CURVE, 0);
-  PM_ASSERT_NEAR(bub_curve_length(c, c->lo[0], c->hi[0]), 10, 1e-12);
+  PM_ASSERT_NEAR(pm_curve_length(c, c->lo[0], c->hi[0]), 10, 1e-12);
   pm_sizing_destroy(size);
   pm_model_destroy(m);
 }
