@@ -11,7 +11,7 @@
  *   - a cone whose apex has a single face node near it (a pole fan of two triangles, the same
  *     triangle twice) is connected into a valid mesh by a repair node.
  */
-#include "cli/cli_run.h"
+#include "cli/cli_stats.h"
 
 #include <cjson/cJSON.h>
 #include <gmshc.h>
@@ -85,20 +85,7 @@ static cJSON *mesh_stats(const char *path, const char *method, const char *extra
   int rc = pm_test_cli(tmpdir, args, NULL, &err);
   if (rc != 0) fail_msg("packmesh %s: exit %d: %s", args, rc, err);
   free(err);
-  char *text = pm_test_slurp(stats);
-  assert_non_null(text);
-  cJSON *o = cJSON_Parse(text);
-  free(text);
-  assert_non_null(o);
-  return o;
-}
-
-static double stat_num(const cJSON *o, const char *a, const char *b, const char *c) {
-  const cJSON *x = cJSON_GetObjectItemCaseSensitive(o, a);
-  if (b) x = cJSON_GetObjectItemCaseSensitive(x, b);
-  if (c) x = cJSON_GetObjectItemCaseSensitive(x, c);
-  if (!cJSON_IsNumber(x)) fail_msg("stats key %s.%s.%s missing", a, b ? b : "", c ? c : "");
-  return x->valuedouble;
+  return pm_test_read_json(stats);
 }
 
 /* Valid, and no needle the geometry does not force. */
@@ -107,10 +94,10 @@ static void assert_valid_no_unforced(const cJSON *o, const char *what) {
     char *p = cJSON_PrintUnformatted(cJSON_GetObjectItemCaseSensitive(o, "problems"));
     fail_msg("%s: the checker rejects the mesh: %s", what, p);
   }
-  double unforced = stat_num(o, "tri", "needles", "unforced");
+  double unforced = pm_test_stat(o, "tri", "needles", "unforced");
   if (unforced != 0)
     fail_msg("%s: %g unforced needles (smallest angle %g)", what, unforced,
-             stat_num(o, "tri", "min_angle_deg", "min"));
+             pm_test_stat(o, "tri", "min_angle_deg", "min"));
 }
 
 /* ---- a cylinder whose inner loop crosses the seam twice ------------------------------------ */
@@ -333,8 +320,8 @@ static void sliver_face_gives_no_needle(void **state) {
   cJSON *o = mesh_stats(path, "bubble", NULL);
   assert_valid_no_unforced(o, "square and sliver, bubble");
   /* No needle at all: the strip has no corner sharper than 10 degrees. */
-  assert_true(stat_num(o, "tri", "needles", "count") == 0);
-  assert_true(stat_num(o, "tri", "min_angle_deg", "min") >= 10);
+  assert_true(pm_test_stat(o, "tri", "needles", "count") == 0);
+  assert_true(pm_test_stat(o, "tri", "min_angle_deg", "min") >= 10);
   cJSON_Delete(o);
 }
 

@@ -3,7 +3,7 @@
  * through the packmesh command: each run exits 0 with a mesh the checker accepts. The one file
  * gmsh itself cannot read (iges__model1.igs) gives one line naming the file and exit 1 for every
  * method. Long (a run of psys on the larger parts takes minutes): ctest -L long. */
-#include "cli/cli_run.h"
+#include "cli/cli_stats.h"
 
 #include <cjson/cJSON.h>
 
@@ -22,11 +22,7 @@ static void run_method(const char *dir, const char *method) {
   int rc = pm_test_cli(dir, args, NULL, &err);
   if (rc != 0) fail_msg("%s with %s: exit %d: %s", file_arg, method, rc, err);
   free(err);
-  char *text = pm_test_slurp(stats);
-  assert_non_null(text);
-  cJSON *o = cJSON_Parse(text);
-  free(text);
-  assert_non_null(o);
+  cJSON *o = pm_test_read_json(stats);
   const cJSON *valid = cJSON_GetObjectItemCaseSensitive(o, "valid");
   if (!cJSON_IsTrue(valid)) {
     char *p = cJSON_PrintUnformatted(cJSON_GetObjectItemCaseSensitive(o, "problems"));

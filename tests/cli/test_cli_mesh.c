@@ -6,26 +6,9 @@
 #include <cjson/cJSON.h>
 #include <sys/stat.h>
 
-#include "cli_run.h"
+#include "cli_stats.h"
 
 static char dir[256];
-
-static cJSON *read_json(const char *path) {
-  char *text = pm_test_slurp(path);
-  assert_non_null(text);
-  cJSON *j = cJSON_Parse(text);
-  free(text);
-  assert_non_null(j);
-  return j;
-}
-
-static double num(const cJSON *j, const char *a, const char *b, const char *c) {
-  const cJSON *x = cJSON_GetObjectItemCaseSensitive(j, a);
-  if (b) x = cJSON_GetObjectItemCaseSensitive(x, b);
-  if (c) x = cJSON_GetObjectItemCaseSensitive(x, c);
-  if (!cJSON_IsNumber(x)) fail_msg("stats key %s%s%s%s%s missing", a, b ? "." : "", b ? b : "", c ? "." : "", c ? c : "");
-  return x->valuedouble;
-}
 
 static int exists(const char *path) {
   struct stat st;
@@ -44,33 +27,33 @@ static void stats_keys_of_design(void **state) {
   assert_int_equal(pm_test_cli(dir, args, &out, NULL), 0);
   assert_non_null(strstr(out, "gmsh-frontal case:qi1"));
   free(out);
-  cJSON *j = read_json(js);
+  cJSON *j = pm_test_read_json(js);
   assert_string_equal(cJSON_GetObjectItemCaseSensitive(j, "method")->valuestring, "gmsh-frontal");
   assert_string_equal(cJSON_GetObjectItemCaseSensitive(j, "input")->valuestring, "case:qi1");
   assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "valid")));
   assert_true(cJSON_IsArray(cJSON_GetObjectItemCaseSensitive(j, "problems")));
   /* qi1: 8 units of area at d = 0.1 is about 8 / (sqrt(3)/4 0.01) / 2 ~ 924 nodes. */
-  double nodes = num(j, "nodes", NULL, NULL), tris = num(j, "triangles", NULL, NULL);
+  double nodes = pm_test_stat(j, "nodes", NULL, NULL), tris = pm_test_stat(j, "triangles", NULL, NULL);
   assert_true(nodes > 800 && nodes < 1100);
   assert_true(tris > 1.8 * nodes && tris < 2.1 * nodes);
-  assert_int_equal((int)num(j, "segments", NULL, NULL), 120); /* 12 units of boundary / 0.1 */
-  assert_int_equal((int)num(j, "tets", NULL, NULL), 0);
-  num(j, "iterations", NULL, NULL);
-  assert_true(num(j, "time_s", "total", NULL) >= 0);
+  assert_int_equal((int)pm_test_stat(j, "segments", NULL, NULL), 120); /* 12 units of boundary / 0.1 */
+  assert_int_equal((int)pm_test_stat(j, "tets", NULL, NULL), 0);
+  pm_test_stat(j, "iterations", NULL, NULL);
+  assert_true(pm_test_stat(j, "time_s", "total", NULL) >= 0);
   const char *summ[] = {"radius_ratio", "aspect_ratio", "min_angle_deg", "max_angle_deg"};
   const char *stat[] = {"min", "p25", "median", "p75", "max", "mean"};
   for (int a = 0; a < 4; ++a)
-    for (int b = 0; b < 6; ++b) num(cJSON_GetObjectItemCaseSensitive(j, "tri"), summ[a], stat[b], NULL);
-  assert_true(num(j, "tri", "radius_ratio", "mean") > 0.95);
-  num(j, "tri", "eps_t", NULL);
-  num(j, "tri", "eps_g", NULL);
+    for (int b = 0; b < 6; ++b) pm_test_stat(cJSON_GetObjectItemCaseSensitive(j, "tri"), summ[a], stat[b], NULL);
+  assert_true(pm_test_stat(j, "tri", "radius_ratio", "mean") > 0.95);
+  pm_test_stat(j, "tri", "eps_t", NULL);
+  pm_test_stat(j, "tri", "eps_g", NULL);
   /* Size conformity on a uniform field: mean edge / d near 1. */
-  double sr = num(j, "tri", "size_ratio", "mean");
+  double sr = pm_test_stat(j, "tri", "size_ratio", "mean");
   assert_true(fabs(sr - 1) < 0.1);
-  num(j, "tri", "size_ratio", "std");
+  pm_test_stat(j, "tri", "size_ratio", "std");
   /* A planar mesh of a planar domain: distance 0 to round-off. */
-  assert_true(num(j, "distance", "max", NULL) < 1e-9);
-  PM_ASSERT_NEAR(num(j, "distance", "bbox_diagonal", NULL), sqrt(20.0), 1e-12);
+  assert_true(pm_test_stat(j, "distance", "max", NULL) < 1e-9);
+  PM_ASSERT_NEAR(pm_test_stat(j, "distance", "bbox_diagonal", NULL), sqrt(20.0), 1e-12);
   cJSON_Delete(j);
   assert_true(exists(msh));
 
@@ -95,10 +78,10 @@ static void target_nodes_and_threads(void **state) {
   snprintf(js, sizeof js, "%s/t.json", dir);
   snprintf(args, sizeof args, "mesh case:qi3 --method gmsh-frontal --target-nodes 1500 -o '%s/t.msh' --stats '%s'", dir, js);
   assert_int_equal(pm_test_cli(dir, args, NULL, NULL), 0);
-  cJSON *j = read_json(js);
-  double n = num(j, "nodes", NULL, NULL);
+  cJSON *j = pm_test_read_json(js);
+  double n = pm_test_stat(j, "nodes", NULL, NULL);
   assert_true(fabs(n - 1500) <= 0.03 * 1500);
-  assert_true(num(j, "size_scale", NULL, NULL) < 1); /* more nodes than the case's own field */
+  assert_true(pm_test_stat(j, "size_scale", NULL, NULL) < 1); /* more nodes than the case's own field */
   cJSON_Delete(j);
   /* The same seed gives the identical mesh with one or two threads. */
   snprintf(a1, sizeof a1, "%s/t1.vtu", dir);

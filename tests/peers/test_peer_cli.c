@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include "cli/cli_stats.h"
 #include "common/gmsh_session.h"
 #include "common/mesh.h"
 #include "common/mesh_io.h"
@@ -76,27 +77,7 @@ static void need_peers(void) {
 static cJSON *read_json(const char *name) {
   char path[600];
   snprintf(path, sizeof path, "%s/%s", dir, name);
-  FILE *f = fopen(path, "rb");
-  assert_non_null(f);
-  fseek(f, 0, SEEK_END);
-  long n = ftell(f);
-  fseek(f, 0, SEEK_SET);
-  char *buf = malloc((size_t)n + 1);
-  assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-  buf[n] = '\0';
-  fclose(f);
-  cJSON *root = cJSON_Parse(buf);
-  free(buf);
-  assert_non_null(root);
-  return root;
-}
-
-static double num(const cJSON *root, const char *a, const char *b, const char *c) {
-  const cJSON *x = cJSON_GetObjectItem(root, a);
-  if (x && b) x = cJSON_GetObjectItem(x, b);
-  if (x && c) x = cJSON_GetObjectItem(x, c);
-  if (!x || !cJSON_IsNumber(x)) fail_msg("stats key %s.%s.%s missing", a, b ? b : "", c ? c : "");
-  return x->valuedouble;
+  return pm_test_read_json(path);
 }
 
 static int exists(const char *name) {
@@ -117,13 +98,13 @@ static void frontal_qi3(void **state) {
   cJSON *s = read_json("qi3.json");
   assert_string_equal(cJSON_GetObjectItem(s, "method")->valuestring, "gmsh-frontal");
   assert_true(cJSON_IsTrue(cJSON_GetObjectItem(s, "valid")));
-  PM_ASSERT_NEAR(num(s, "nodes", NULL, NULL), 736, 15);
-  PM_ASSERT_NEAR(num(s, "tri", "radius_ratio", "mean"), 0.967, 0.005);
-  PM_ASSERT_NEAR(num(s, "tri", "radius_ratio", "min"), 0.611, 0.03);
-  PM_ASSERT_NEAR(num(s, "tri", "min_angle_deg", "min"), 31.8, 1.0);
-  PM_ASSERT_NEAR(num(s, "tri", "size_ratio", "mean"), 1, 0.15);
-  assert_true(num(s, "time_s", "surface", NULL) >= 0);
-  assert_true(num(s, "distance", "max", NULL) < 1e-9);
+  PM_ASSERT_NEAR(pm_test_stat(s, "nodes", NULL, NULL), 736, 15);
+  PM_ASSERT_NEAR(pm_test_stat(s, "tri", "radius_ratio", "mean"), 0.967, 0.005);
+  PM_ASSERT_NEAR(pm_test_stat(s, "tri", "radius_ratio", "min"), 0.611, 0.03);
+  PM_ASSERT_NEAR(pm_test_stat(s, "tri", "min_angle_deg", "min"), 31.8, 1.0);
+  PM_ASSERT_NEAR(pm_test_stat(s, "tri", "size_ratio", "mean"), 1, 0.15);
+  assert_true(pm_test_stat(s, "time_s", "surface", NULL) >= 0);
+  assert_true(pm_test_stat(s, "distance", "max", NULL) < 1e-9);
   cJSON_Delete(s);
   /* The mesh file holds the same mesh, with its classification. */
   char path[600];
@@ -157,9 +138,9 @@ static void every_peer(void **state) {
     if (code) fail_msg("%s: exit %d: %s", runs[k][0], code, err);
     cJSON *s = read_json("m.json");
     assert_true(cJSON_IsTrue(cJSON_GetObjectItem(s, "valid")));
-    PM_ASSERT_NEAR(num(s, "nodes", NULL, NULL) / 985, 1, 0.15);
-    PM_ASSERT_NEAR(num(s, "tri", "size_ratio", "mean"), 1, 0.10);
-    assert_true(num(s, "tri", "min_angle_deg", "min") > 20);
+    PM_ASSERT_NEAR(pm_test_stat(s, "nodes", NULL, NULL) / 985, 1, 0.15);
+    PM_ASSERT_NEAR(pm_test_stat(s, "tri", "size_ratio", "mean"), 1, 0.10);
+    assert_true(pm_test_stat(s, "tri", "min_angle_deg", "min") > 20);
     cJSON_Delete(s);
     free(out), free(err);
   }
@@ -179,8 +160,8 @@ static void volumes(void **state) {
     if (code) fail_msg("exit %d: %s", code, err);
     cJSON *s = read_json("v.json");
     assert_true(cJSON_IsTrue(cJSON_GetObjectItem(s, "valid")));
-    assert_true(num(s, "tets", NULL, NULL) > 500);
-    assert_true(num(s, "tet", "radius_ratio", "min") > 0);
+    assert_true(pm_test_stat(s, "tets", NULL, NULL) > 500);
+    assert_true(pm_test_stat(s, "tet", "radius_ratio", "min") > 0);
     cJSON_Delete(s);
     free(out), free(err);
   }
@@ -198,7 +179,7 @@ static void cad_default_size(void **state) {
   if (code) fail_msg("exit %d: %s", code, err);
   cJSON *s = read_json("s.json");
   assert_true(cJSON_IsTrue(cJSON_GetObjectItem(s, "valid")));
-  assert_true(num(s, "triangles", NULL, NULL) > 1000);
+  assert_true(pm_test_stat(s, "triangles", NULL, NULL) > 1000);
   cJSON_Delete(s);
   free(out), free(err);
 }
@@ -212,7 +193,7 @@ static void target_nodes(void **state) {
                  &err);
   if (code) fail_msg("exit %d: %s", code, err);
   cJSON *s = read_json("t.json");
-  PM_ASSERT_NEAR(num(s, "nodes", NULL, NULL), 500, 0.05 * 500);
+  PM_ASSERT_NEAR(pm_test_stat(s, "nodes", NULL, NULL), 500, 0.05 * 500);
   cJSON_Delete(s);
   free(out), free(err);
 }
@@ -241,9 +222,9 @@ static void json_domain(void **state) {
     if (code) fail_msg("%s: exit %d: %s", methods[k], code, err);
     cJSON *st = read_json("h.json");
     assert_true(cJSON_IsTrue(cJSON_GetObjectItem(st, "valid")));
-    PM_ASSERT_NEAR(num(st, "tri", "size_ratio", "mean"), 1, 0.15);
+    PM_ASSERT_NEAR(pm_test_stat(st, "tri", "size_ratio", "mean"), 1, 0.15);
     /* Boundary nodes lie on the arcs: the two-sided distance is the chords' sag only. */
-    assert_true(num(st, "distance", "max", NULL) < 0.005);
+    assert_true(pm_test_stat(st, "distance", "max", NULL) < 0.005);
     cJSON_Delete(st);
     free(out), free(err);
   }
