@@ -536,6 +536,7 @@ static pm_status vl_permute(psys_sys *s, psys_vl *V, int32_t lo, int32_t m, cons
 #pragma omp parallel for num_threads(s->threads) schedule(dynamic, 256) if (n > 4096)
   for (int32_t i = 0; i < n; ++i) {
     psys_list *li = &V->l[i];
+    if (li->n == 0) continue; /* an empty list may have no array (qsort's argument is nonnull) */
     for (int32_t q = 0; q < li->n; ++q) li->ids[q] = inv[li->ids[q]];
     qsort(li->ids, (size_t)li->n, sizeof(int32_t), cmp_i32);
   }
