@@ -145,6 +145,11 @@ static const pm_param_desc desc[] = {
      "tets=bubbles: drop a volume bubble of each tet with a dihedral angle below this (a node "
      "at the centroid of one with surface corners only), tetrahedralize again (0 = off)",
      "our addition (bub_run.c)", NULL},
+    /* connection */
+    {"metric_flips", PM_PARAM_BOOL, F(metric_flips), 1, 0, 1, 0, "",
+     "connection: flip each face's parameter-space triangulation towards the Delaunay criterion "
+     "of the surface's local metric (0: 001 eq. 16's one affine map per face alone)",
+     "our addition (connect.c)", NULL},
     /* output */
     {"frame_every", PM_PARAM_INT, F(frame_every), 10, 1, 1000000, PM_RANGE_CLOSED, "steps",
      "--frames: one snapshot every this many steps", "-", NULL},

@@ -161,6 +161,11 @@ typedef struct bub_params {
                           to 10 rounds; bub_run.c); [0, 30], 0 = off, default 10 (our
                           addition: slivers are the weakness of Delaunay tets from well-spaced
                           points) */
+  /* ---- connection ---- */
+  int metric_flips; /* 1: the parameter-space triangulation of each face is flipped towards the
+                       Delaunay criterion of the surface's local metric before the 3D flips
+                       (connect.c, metric_flips); 0: the affine map of 001 eq. 16 alone;
+                       default 1 (our addition) */
   /* ---- output ---- */
   int frame_every;  /* --frames: a snapshot every this many steps; [1, 1e6], default 10 */
 } bub_params;

@@ -17,6 +17,7 @@
 void pm_connect_params_init(pm_connect_params *p) {
   memset(p, 0, sizeof *p);
   p->affine = 1;
+  p->metric_flips = 1;
   p->flips = PM_FLIP_DIAMETRIC;
   p->max_flips_per_tri = 20;
   p->volume = PM_VOLUME_NONE;
@@ -326,6 +327,7 @@ typedef struct face_out {
   int32_t ntri;
   int32_t *tri; /* [3*ntri] mesh nodes, oriented */
   int32_t pole, flips, cap_hit, curved;
+  int32_t metric_flips; /* parameter-plane flips under the local metric */
   double asp_before, asp_after; /* sums over the face's triangles (curved faces) */
   double max_before, max_after; /* maxima over them */
   int32_t degen_before, degen_after; /* degenerate triangles (left out of the sums) */
@@ -635,14 +637,15 @@ static int affine_scale(face_work *w, const pm_mesh *mesh, const pm_cdt_result *
   return 1;
 }
 
-/* Adjacency of the point-index triangulation: nbr and the constraint flags. */
-static pm_status build_adjacency(face_work *w, pm_error *err) {
+/* Adjacency of the triangulation (over nvert vertices: points or local nodes): nbr and the
+ * constraint flags. */
+static pm_status build_adjacency(face_work *w, int32_t nvert, pm_error *err) {
   w->nbr = malloc(sizeof(int32_t) * 3 * (size_t)(w->ntri ? w->ntri : 1));
   w->fixed = calloc(3 * (size_t)(w->ntri ? w->ntri : 1), 1);
   if (!w->nbr || !w->fixed) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   for (int32_t i = 0; i < 3 * w->ntri; ++i) w->nbr[i] = -1;
   pm_edges e = {0};
-  pm_status s = pm_edges_build(w->nloc, w->tri, w->ntri, 3, &e, err);
+  pm_status s = pm_edges_build(nvert, w->tri, w->ntri, 3, &e, err);
   if (s) return s;
   for (int64_t k = 0; k < e.nedge; ++k) {
     if (e.off[k + 1] - e.off[k] != 2) continue;
@@ -718,6 +721,35 @@ static int acceptable(const face_work *w, const pm_mesh *mesh, int32_t a, int32_
   return 1;
 }
 
+/* Flip the edge (a, b) = (tri[t1][q1], tri[t1][q1 + 1]) shared by t1 = (a, b, c) and
+ * t2 = (b, a, d) (edge q2 of t2) to (c, d): t1 becomes (a, d, c), t2 becomes (b, c, d), and the
+ * neighbours and constraint flags follow. The outer edges of the pair are then edges 0 and 2 of
+ * t1 and t2. */
+static void flip_pair(face_work *w, int32_t t1, int q1, int32_t t2, int q2) {
+  int32_t a = w->tri[3 * t1 + q1], b = w->tri[3 * t1 + (q1 + 1) % 3], c = w->tri[3 * t1 + (q1 + 2) % 3];
+  int32_t d = w->tri[3 * t2 + (q2 + 2) % 3];
+  /* Neighbours across the outer edges: (b, c), (c, a) of t1 and (a, d), (d, b) of t2. */
+  int32_t n_bc = w->nbr[3 * t1 + (q1 + 1) % 3], n_ca = w->nbr[3 * t1 + (q1 + 2) % 3];
+  int32_t n_ad = w->nbr[3 * t2 + (q2 + 1) % 3], n_db = w->nbr[3 * t2 + (q2 + 2) % 3];
+  uint8_t f_bc = w->fixed[3 * t1 + (q1 + 1) % 3], f_ca = w->fixed[3 * t1 + (q1 + 2) % 3];
+  uint8_t f_ad = w->fixed[3 * t2 + (q2 + 1) % 3], f_db = w->fixed[3 * t2 + (q2 + 2) % 3];
+  /* t1 becomes (a, d, c), t2 becomes (b, c, d). */
+  int32_t T1[3] = {a, d, c}, T2[3] = {b, c, d};
+  int32_t N1[3] = {n_ad, t2, n_ca}, N2[3] = {n_bc, t1, n_db};
+  uint8_t F1[3] = {f_ad, 0, f_ca}, F2[3] = {f_bc, 0, f_db};
+  for (int q = 0; q < 3; ++q) {
+    w->tri[3 * t1 + q] = T1[q], w->nbr[3 * t1 + q] = N1[q], w->fixed[3 * t1 + q] = F1[q];
+    w->tri[3 * t2 + q] = T2[q], w->nbr[3 * t2 + q] = N2[q], w->fixed[3 * t2 + q] = F2[q];
+  }
+  /* Point the neighbours that changed sides back at the right triangle. */
+  if (n_ad >= 0)
+    for (int q = 0; q < 3; ++q)
+      if (w->nbr[3 * n_ad + q] == t2) w->nbr[3 * n_ad + q] = t1;
+  if (n_bc >= 0)
+    for (int q = 0; q < 3; ++q)
+      if (w->nbr[3 * n_bc + q] == t1) w->nbr[3 * n_bc + q] = t2;
+}
+
 /* Edge flips towards empty diametric balls (papers/001 section 4.3): an edge (a, b) shared by
  * (a, b, c) and (b, a, d) is flipped to (c, d) when a diametric ball of the pair contains the
  * opposite vertex and either the flipped pair has empty balls or -- the paper's tie-break for
@@ -777,26 +809,7 @@ static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face
       out->cap_hit = 1;
       break;
     }
-    /* Neighbours across the outer edges: (b, c), (c, a) of t1 and (a, d), (d, b) of t2. */
-    int32_t n_bc = w->nbr[3 * t1 + (q1 + 1) % 3], n_ca = w->nbr[3 * t1 + (q1 + 2) % 3];
-    int32_t n_ad = w->nbr[3 * t2 + (q2 + 1) % 3], n_db = w->nbr[3 * t2 + (q2 + 2) % 3];
-    uint8_t f_bc = w->fixed[3 * t1 + (q1 + 1) % 3], f_ca = w->fixed[3 * t1 + (q1 + 2) % 3];
-    uint8_t f_ad = w->fixed[3 * t2 + (q2 + 1) % 3], f_db = w->fixed[3 * t2 + (q2 + 2) % 3];
-    /* t1 becomes (a, d, c), t2 becomes (b, c, d). */
-    int32_t T1[3] = {a, d, c}, T2[3] = {b, c, d};
-    int32_t N1[3] = {n_ad, t2, n_ca}, N2[3] = {n_bc, t1, n_db};
-    uint8_t F1[3] = {f_ad, 0, f_ca}, F2[3] = {f_bc, 0, f_db};
-    for (int q = 0; q < 3; ++q) {
-      w->tri[3 * t1 + q] = T1[q], w->nbr[3 * t1 + q] = N1[q], w->fixed[3 * t1 + q] = F1[q];
-      w->tri[3 * t2 + q] = T2[q], w->nbr[3 * t2 + q] = N2[q], w->fixed[3 * t2 + q] = F2[q];
-    }
-    /* Point the neighbours that changed sides back at the right triangle. */
-    if (n_ad >= 0)
-      for (int q = 0; q < 3; ++q)
-        if (w->nbr[3 * n_ad + q] == t2) w->nbr[3 * n_ad + q] = t1;
-    if (n_bc >= 0)
-      for (int q = 0; q < 3; ++q)
-        if (w->nbr[3 * n_bc + q] == t1) w->nbr[3 * n_bc + q] = t2;
+    flip_pair(w, t1, q1, t2, q2);
     pairset_del(&edges, a, b);
     pairset_add(&edges, c, d);
     ++flips;
@@ -810,6 +823,100 @@ static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face
   }
   out->flips = (int32_t)flips;
   free(queue), free(inq), free(edges.key);
+}
+
+/* Edge flips in the parameter plane under the surface's local metric. One affine map per face
+ * (eq. 16) is exact only where the first fundamental form [E F; F G] is the same all over the
+ * face. On a face whose parametrization is strongly uneven the Delaunay triangulation of the
+ * scaled plane joins nodes far apart in 3D: long triangles across curved strips, which lift to
+ * folded triangles and needles that the 3D flips, each kept acceptable, cannot all undo. Two
+ * such faces: the B-spline thread of bottle.brep (gmsh face 4), where |Su| runs from about 2.5
+ * at the ends of u to 48 in the middle and the angle between Su and Sv from 87 to 41 degrees
+ * (estimated from the triangles of its bubble mesh), and a cone, whose |Su| shrinks to zero at
+ * the apex (robust/statreport__Cone_1.brep). Here each interior edge (a, b) between (a, b, c) and
+ * (b, a, d) is flipped to (c, d) when d lies inside the circle through a, b, c measured in the
+ * metric averaged over the four points (the anisotropic Delaunay criterion, the metric fixed per
+ * quadrilateral) and the quadrilateral is strictly convex in (u, v) -- so the triangulation stays
+ * a planar one of the same points and constraints, only its connections change. A constrained
+ * edge is never flipped, nor one touching a point whose node appears twice in the pair (a seam
+ * wrap, left to split_repeats); the flips are capped (the metric differs from one quadrilateral
+ * to the next, so the criterion is not a global one and could cycle). Works on w->tri in point
+ * indices; returns the number of flips, -1 when out of memory. */
+static int64_t metric_flips(const pm_cell *f, face_work *w, int64_t max_flips, pm_error *err) {
+  if (w->ntri < 2) return 0;
+  double *met = malloc(sizeof(double) * 3 * (size_t)w->np);
+  if (!met) return -1;
+  for (int32_t p = 0; p < w->np; ++p) {
+    pm_face_point fp;
+    pm_face_eval(f, &w->uv[2 * p], 1, &fp);
+    met[3 * p] = pm_v3_dot(fp.su, fp.su);
+    met[3 * p + 1] = pm_v3_dot(fp.su, fp.sv);
+    met[3 * p + 2] = pm_v3_dot(fp.sv, fp.sv);
+    for (int k = 0; k < 3; ++k)
+      if (!isfinite(met[3 * p + k])) met[3 * p + k] = 0;
+  }
+  if (build_adjacency(w, w->np, err)) {
+    free(met);
+    return -1;
+  }
+  int64_t cap = 3 * (int64_t)w->ntri;
+  int32_t *queue = malloc(sizeof(int32_t) * (size_t)cap);
+  uint8_t *inq = calloc((size_t)cap, 1);
+  if (!queue || !inq) {
+    free(met), free(queue), free(inq);
+    return -1;
+  }
+  int64_t head = 0, size = 0, flips = 0;
+  for (int32_t t = 0; t < w->ntri; ++t)
+    for (int q = 0; q < 3; ++q)
+      if (w->nbr[3 * t + q] > t && !w->fixed[3 * t + q]) queue[size++] = 3 * t + q, inq[3 * t + q] = 1;
+  while (size > 0 && flips < max_flips) {
+    int32_t he = queue[head];
+    head = (head + 1) % cap, --size;
+    inq[he] = 0;
+    int32_t t1 = he / 3, q1 = he % 3, t2 = w->nbr[he];
+    if (t2 < 0 || w->fixed[he]) continue;
+    int32_t a = w->tri[3 * t1 + q1], b = w->tri[3 * t1 + (q1 + 1) % 3], c = w->tri[3 * t1 + (q1 + 2) % 3];
+    int q2 = 0;
+    while (q2 < 3 && !(w->tri[3 * t2 + q2] == b && w->tri[3 * t2 + (q2 + 1) % 3] == a)) ++q2;
+    if (q2 == 3) continue;
+    int32_t d = w->tri[3 * t2 + (q2 + 2) % 3];
+    const int32_t v[4] = {a, b, c, d};
+    int twice = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) twice |= w->node[v[i]] == w->node[v[j]];
+    if (twice) continue;
+    const double *A = &w->uv[2 * a], *B = &w->uv[2 * b], *C = &w->uv[2 * c], *D = &w->uv[2 * d];
+    /* Strictly convex: c and d on either side of (a, b), a and b on either side of (c, d). */
+    if (pm_orient2d(A, B, C) * pm_orient2d(A, B, D) >= 0) continue;
+    if (pm_orient2d(C, D, A) * pm_orient2d(C, D, B) >= 0) continue;
+    double E = 0, F = 0, G = 0;
+    for (int i = 0; i < 4; ++i) E += met[3 * v[i]], F += met[3 * v[i] + 1], G += met[3 * v[i] + 2];
+    double det = E * G - F * F;
+    if (!(E > 0) || !(det > 1e-12 * (E + G) * (E + G))) continue;
+    /* Cholesky factor L of [E F; F G] (upper triangular, det L > 0 keeps orientations): the
+     * metric lengths are Euclidean lengths of L (uv - uv_a). */
+    double l00 = sqrt(E), l01 = F / l00, l11 = sqrt(det) / l00;
+    double X[4][2];
+    for (int i = 0; i < 4; ++i) {
+      double du = w->uv[2 * v[i]] - A[0], dv = w->uv[2 * v[i] + 1] - A[1];
+      X[i][0] = l00 * du + l01 * dv, X[i][1] = l11 * dv;
+    }
+    int o = pm_orient2d(X[0], X[1], X[2]);
+    if (o == 0 || o * pm_incircle(X[0], X[1], X[2], X[3]) <= 0) continue;
+    flip_pair(w, t1, q1, t2, q2);
+    ++flips;
+    int32_t re[4] = {3 * t1 + 0, 3 * t1 + 2, 3 * t2 + 0, 3 * t2 + 2};
+    for (int k = 0; k < 4; ++k)
+      if (!inq[re[k]] && w->nbr[re[k]] >= 0 && !w->fixed[re[k]] && size < cap) {
+        queue[(head + size++) % cap] = re[k];
+        inq[re[k]] = 1;
+      }
+  }
+  free(met), free(queue), free(inq);
+  free(w->nbr), free(w->fixed);
+  w->nbr = NULL, w->fixed = NULL;
+  return flips;
 }
 
 /* Sum and maximum of R/l_min over the face's non-degenerate triangles; degenerate ones (zero
@@ -1139,12 +1246,20 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
     }
   }
   pm_cdt_result_free(&cdt);
+  if (p->metric_flips) {
+    int64_t nf = metric_flips(f, &w, (int64_t)p->max_flips_per_tri * w.ntri, err);
+    if (nf < 0) {
+      s = err->code ? err->code : pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+      goto fail;
+    }
+    out->metric_flips = (int32_t)nf;
+  }
   if ((s = split_repeats(f, &w, out, err))) goto fail;
   to_local_nodes(&w);
   out->curved = face_is_curved(f, m->diagonal);
   if (out->curved) out->asp_before = sum_aspect(&w, mesh, &out->max_before, &out->degen_before);
   if (p->flips != PM_FLIP_NONE && w.ntri > 1) {
-    s = build_adjacency(&w, err);
+    s = build_adjacency(&w, w.nloc, err);
     if (s) goto fail;
     flip_face(&w, mesh, (int64_t)p->max_flips_per_tri * w.ntri, out);
   }
@@ -1347,6 +1462,7 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
   double asp_b = 0, asp_a = 0;
   for (int32_t f = 0; f < nf && !s; ++f) {
     rep.pole_triangles += fo[f].pole;
+    rep.metric_flips += fo[f].metric_flips;
     rep.flips += fo[f].flips;
     rep.flip_cap_hits += fo[f].cap_hit;
     if (fo[f].curved) {

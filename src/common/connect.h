@@ -8,8 +8,9 @@
  *      face's parameter space through its pcurves (a seam's nodes appear on both sides, a pole's
  *      node once per end of its degenerate pcurve), optionally affinely rescaled (papers/001
  *      eq. 16), are triangulated by CGAL's constrained Delaunay triangulation with the boundary
- *      chains as constraints; triangles outside the trimming loops are removed, triangles that
- *      collapse onto a pole are dropped, the rest are lifted to 3D and oriented along the face's
+ *      chains as constraints, whose edges are then flipped in the parameter plane towards the
+ *      Delaunay criterion of the surface's local metric (metric_flips); triangles outside the
+ *      trimming loops are removed, triangles that collapse onto a pole are dropped, the rest are lifted to 3D and oriented along the face's
  *      outward normal (where it bounds a volume), and edges are flipped in 3D towards triangles
  *      whose diametric balls are empty (papers/001 section 4.3): a constrained edge is never
  *      flipped, no flip creates an inverted, degenerate or duplicate triangle, and the number of
@@ -46,6 +47,10 @@ typedef enum pm_volume_mode {
 
 typedef struct pm_connect_params {
   int affine;             /* 1: affine scaling of each face's parameter space (001 eq. 16); default 1 */
+  int metric_flips;       /* 1: after the parameter-space triangulation, flip its edges towards
+                             the Delaunay criterion of the surface's local metric (first
+                             fundamental form, averaged per quadrilateral), for faces one affine
+                             map cannot straighten; 0: the paper's triangulation; default 1 */
   pm_flip_rule flips;     /* default PM_FLIP_DIAMETRIC */
   int max_flips_per_tri;  /* cap on flips per face, as a multiple of its triangle count; default 20 */
   pm_volume_mode volume;  /* default PM_VOLUME_NONE */
@@ -72,6 +77,7 @@ typedef struct pm_connect_report {
   int32_t repair_nodes;        /* face nodes added where two triangles had the same three nodes
                                   (a pole with two neighbours, two faces sharing both curves of
                                   a corner: see connect.c) */
+  int32_t metric_flips;        /* parameter-space edge flips under the local metric performed */
   int32_t flips;               /* 3D edge flips performed */
   int32_t flip_cap_hits;       /* faces where the flip cap stopped the flips */
   double aspect_before;        /* mean R/l_min of the triangles of curved faces before flips */

@@ -95,6 +95,8 @@ typedef struct psys_params {
   int frame_every;      /* --frames: a snapshot every this many iterations; 10 */
   int affine;           /* connection: affine scaling of eq. 16; on */
   int flips;            /* connection: diametric-ball edge flips of section 4.3; on */
+  int metric_flips;     /* connection: parameter-space flips under the surface's local metric
+                           (connect.c; our addition); on */
   double tet_radius_edge; /* --volume: TetGen radius-edge bound (-q); 1.5 */
 } psys_params;
 

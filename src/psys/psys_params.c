@@ -112,6 +112,10 @@ static const pm_param_desc desc[] = {
      NULL},
     {"affine", B, F(affine), 1, 0, 1, PM_RANGE_CLOSED, "",
      "connection: affine scaling of each face's parameter space", "001 eq. 16", NULL},
+    {"metric_flips", B, F(metric_flips), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "connection: flip each face's parameter-space triangulation towards the Delaunay criterion "
+     "of the surface's local metric (0: eq. 16's one affine map per face alone)",
+     "ours (connect.c)", NULL},
     {"flips", B, F(flips), 1, 0, 1, PM_RANGE_CLOSED, "",
      "connection: flip edges towards empty diametric balls", "001 sec. 4.3", NULL},
     {"tet_radius_edge", D, F(tet_radius_edge), 1.5, 1, 100, PM_RANGE_LO_OPEN, "",
