@@ -51,6 +51,9 @@ typedef struct pm_connect_params {
                              the Delaunay criterion of the surface's local metric (first
                              fundamental form, averaged per quadrilateral), for faces one affine
                              map cannot straighten; 0: the paper's triangulation; default 1 */
+  int drop_crossed;       /* 1: drop the face nodes that lie inside a boundary segment in (u, v)
+                             but not in 3D, where the face's pcurve and the curve disagree
+                             (connect.c, step 1b); 0: keep every node, as the papers do; default 1 */
   pm_flip_rule flips;     /* default PM_FLIP_DIAMETRIC */
   int max_flips_per_tri;  /* cap on flips per face, as a multiple of its triangle count; default 20 */
   pm_volume_mode volume;  /* default PM_VOLUME_NONE */
@@ -73,6 +76,9 @@ typedef struct pm_connect_report {
                                   fewer than 3 nodes */
   int32_t dropped_nodes;       /* face nodes outside their face's trimmed region, and nodes of
                                   stray CAD points on another vertex, removed */
+  int32_t crossed_nodes;       /* face nodes dropped for lying inside a boundary segment in (u, v)
+                                  but outside it in 3D, where the face's pcurve and the curve
+                                  disagree (connect.c, step 1b) */
   int32_t pole_triangles;      /* parameter-space triangles collapsed onto a pole, dropped */
   int32_t repair_nodes;        /* face nodes added where two triangles had the same three nodes
                                   (a pole with two neighbours, two faces sharing both curves of

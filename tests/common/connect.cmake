@@ -37,3 +37,13 @@ set_tests_properties(test_connect_cad_retag PROPERTIES LABELS "backend" TIMEOUT 
 add_test(NAME test_connect_cad_facet_order COMMAND test_connect_cad ${PM_CAD_DIR}/bottle.brep 0.065)
 set_tests_properties(test_connect_cad_facet_order PROPERTIES LABELS "backend" TIMEOUT 300
   ENVIRONMENT "${PM_TEST_ENV}")
+
+# A face whose pcurve disagrees with its 3D curve (fusee.stp face 85): step 1b of connect.c.
+add_executable(test_connect_crossed ${CMAKE_CURRENT_LIST_DIR}/test_connect_crossed.c)
+target_compile_options(test_connect_crossed PRIVATE ${PM_WARNINGS})
+target_include_directories(test_connect_crossed PRIVATE ${CMAKE_SOURCE_DIR}/tests)
+target_include_directories(test_connect_crossed SYSTEM PRIVATE ${GMSH_INCLUDE_DIR})
+target_compile_definitions(test_connect_crossed PRIVATE PM_CAD_DIR="${PM_CAD_DIR}")
+target_link_libraries(test_connect_crossed PRIVATE packmesh ${CMOCKA_LIBRARIES} m)
+add_test(NAME test_connect_crossed COMMAND test_connect_crossed)
+set_tests_properties(test_connect_crossed PROPERTIES LABELS "backend" TIMEOUT 120)
