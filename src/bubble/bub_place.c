@@ -551,8 +551,22 @@ pm_status bub_place(bub_state *s, pm_error *err) {
   /* Boundary bubbles into the grid, so that faces can keep their points away from them. */
   st = bub_state_grid_rebuild(s, err);
   if (!st && s->p.place == BUB_PLACE_LATTICE) st = bub_place_lattice(s, cap, err);
-  for (int32_t f = 0; f < m->count[PM_FACE] && !st && s->p.place == BUB_PLACE_QUADTREE; ++f)
-    st = place_face(s, f, cap, err);
+  /* The quadtree for every face with place=quadtree, and with place=lattice for a face the
+   * lattice left empty: one where no border chord gave a seed inside the face (the sphere of
+   * robust/occ__cube-sphere-cube-compound.brep, cut by two solids: without a face bubble its
+   * triangles wrapped round the seam and the mesh came out with duplicate nodes). */
+  uint8_t *empty = NULL;
+  if (!st && s->p.place == BUB_PLACE_LATTICE) {
+    empty = malloc((size_t)m->count[PM_FACE] + 1);
+    if (!empty) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    memset(empty, 1, (size_t)m->count[PM_FACE] + 1);
+    for (int32_t i = 0; i < s->n; ++i)
+      if (s->kind[i] == BUB_KFACE && !(s->flags[i] & BUB_FDEAD)) empty[s->cell[i]] = 0;
+  }
+  for (int32_t f = 0; f < m->count[PM_FACE] && !st; ++f)
+    if (s->p.place == BUB_PLACE_QUADTREE || (empty && empty[f]))
+      st = place_face(s, f, cap, err);
+  free(empty);
   if (st) return st;
   /* Arrays are in (kind, cell) order already; ordering sets the ranges and sorts each cell's
    * bubbles in space. */

@@ -4,6 +4,7 @@
 #include "bub_test_util.h"
 
 #include "common/cases.h"
+#include "common/geom_cad.h"
 #include "common/sizing.h"
 
 static pm_sizing *const_size(double d) {
@@ -201,12 +202,44 @@ static void hole_and_determinism(void **state) {
   pm_model_destroy(m);
 }
 
+/* A face the lattice cannot seed gets the quadtree: the sphere of
+ * robust/occ__cube-sphere-cube-compound.brep, cut by two cubes, had no face bubble (every seed
+ * from its border chords fell outside it) and its mesh wrapped round the seam. Every face of the
+ * model gets bubbles of its own. */
+static void lattice_leaves_no_face_empty(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  char path[512];
+  pm_test_cad("robust/occ__cube-sphere-cube-compound.brep", path, sizeof path);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  pm_sizing *size = const_size(1.0);
+  bub_params p = bt_params();
+  p.place = BUB_PLACE_LATTICE;
+  bub_state *s = bt_state(m, size, &p, 1);
+  PM_ASSERT_OK(bub_place(s, &e), e);
+  int32_t *per = calloc((size_t)m->count[PM_FACE], sizeof(int32_t));
+  assert_non_null(per);
+  for (int32_t i = 0; i < s->n; ++i)
+    if (s->kind[i] == BUB_KFACE) per[s->cell[i]]++;
+  for (int32_t f = 0; f < m->count[PM_FACE]; ++f)
+    if (per[f] < 4) fail_msg("face %d: %d face bubbles", f, per[f]);
+  /* The sphere (gmsh face 7): about its area over a lattice cell, 4 pi 5^2 less the two caps. */
+  assert_true(per[6] > 150);
+  free(per);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(curve_subdivision),
       cmocka_unit_test(rhombic_lattice),
       cmocka_unit_test(grown_lattice),
       cmocka_unit_test(hole_and_determinism),
+      cmocka_unit_test(lattice_leaves_no_face_empty),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -39,11 +39,4 @@ set_tests_properties(test_connect_cad_facet_order PROPERTIES LABELS "backend" TI
   ENVIRONMENT "${PM_TEST_ENV}")
 
 # A face whose pcurve disagrees with its 3D curve (fusee.stp face 85): step 1b of connect.c.
-add_executable(test_connect_crossed ${CMAKE_CURRENT_LIST_DIR}/test_connect_crossed.c)
-target_compile_options(test_connect_crossed PRIVATE ${PM_WARNINGS})
-target_include_directories(test_connect_crossed PRIVATE ${CMAKE_SOURCE_DIR}/tests)
-target_include_directories(test_connect_crossed SYSTEM PRIVATE ${GMSH_INCLUDE_DIR})
-target_compile_definitions(test_connect_crossed PRIVATE PM_CAD_DIR="${PM_CAD_DIR}")
-target_link_libraries(test_connect_crossed PRIVATE packmesh ${CMOCKA_LIBRARIES} m)
-add_test(NAME test_connect_crossed COMMAND test_connect_crossed)
-set_tests_properties(test_connect_crossed PROPERTIES LABELS "backend" TIMEOUT 120)
+pm_add_test(test_connect_crossed LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_connect_crossed.c TIMEOUT 120)
