@@ -711,9 +711,15 @@ static void to_local_nodes(face_work *w) {
  * w_ij = 1 / |r_ij|^4 (relative errors, so small and large edges count alike) -- linear least
  * squares in the three entries of Q, with the same minimizer as eq. 16 when the fit is exact --
  * then A = Q^(1/2), the symmetric square root (det A > 0 keeps orientations). The pairs are the
- * edges of a first, unscaled triangulation. Returns 0 (and leaves xy unscaled) when Q is not
- * positive definite. */
-static int affine_scale(face_work *w, const pm_mesh *mesh, const pm_cdt_result *first) {
+ * edges of a first, unscaled triangulation, without those longer than half a period along a
+ * periodic parameter: such an edge joins points next to each other across the seam, and its
+ * short chord against its long parameter step read as a squeezed parameter (a cylinder 300 high
+ * of radius 100, robust/statreport__Cylinder_1.brep: the unscaled plane is 48 times taller than
+ * wide, its triangulation joins the two sides of the seam, and the fit squeezed u until the
+ * scaled triangulation wrapped round the cylinder). Returns 0 (and leaves xy unscaled) when Q
+ * is not positive definite. */
+static int affine_scale(const pm_cell *f, face_work *w, const pm_mesh *mesh,
+                        const pm_cdt_result *first) {
   /* Interior edges appear in two triangles and so count twice, boundary edges once. */
   double N[3][3] = {{0}}, rhs[3] = {0};
   int used = 0;
@@ -723,6 +729,9 @@ static int affine_scale(face_work *w, const pm_mesh *mesh, const pm_cdt_result *
       int32_t na = w->node[a], nb = w->node[b];
       if (na == nb) continue;
       double du = w->uv[2 * a] - w->uv[2 * b], dv = w->uv[2 * a + 1] - w->uv[2 * b + 1];
+      if ((f->periodic[0] && fabs(du) > 0.5 * f->period[0]) ||
+          (f->periodic[1] && fabs(dv) > 0.5 * f->period[1]))
+        continue;
       double r2 = pm_v3_dist2(&mesh->xyz[3 * na], &mesh->xyz[3 * nb]);
       if (!(r2 > 0) || (du == 0 && dv == 0)) continue;
       double phi[3] = {du * du, 2 * du * dv, dv * dv}, wt = 1.0 / (r2 * r2);
@@ -1348,7 +1357,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
   s = pm_cdt_triangulate(w.xy, w.np, w.cons, w.nc, 1, 1, &cdt, err);
   if (s) goto fail_cdt;
   if ((s = take_triangles(&w, &cdt, &out->pole, err))) goto fail;
-  if (p->affine && affine_scale(&w, mesh, &cdt)) {
+  if (p->affine && affine_scale(f, &w, mesh, &cdt)) {
     pm_cdt_result scaled = {0};
     s = pm_cdt_triangulate(w.xy, w.np, w.cons, w.nc, 1, 1, &scaled, err);
     if (s) goto fail_cdt;

@@ -9,7 +9,8 @@
  *     read when the shared models are there);
  *   - a sliver face narrower than the default size gives no needle;
  *   - a cone whose apex has a single face node near it (a pole fan of two triangles, the same
- *     triangle twice) is connected into a valid mesh by a repair node.
+ *     triangle twice) is connected into a valid mesh by a repair node;
+ *   - a cylinder far taller than wide in its parameters connects without wrapping round.
  */
 #include "cli/cli_stats.h"
 
@@ -383,6 +384,29 @@ static void pole_with_two_neighbours(void **state) {
   pm_model_destroy(m);
 }
 
+/* ---- a tall cylinder ---------------------------------------------------------------------- */
+
+/* Radius 100, height 300 (robust/statreport__Cylinder_1.brep's shape): its parameter plane is
+ * 2 pi wide and 300 high, so the unscaled triangulation joins the two sides of the seam; the
+ * affine map must not read those edges as neighbours (connect.c, affine_scale). */
+static int tall_cylinder(void) {
+  int ierr = 0;
+  gmshModelOccAddCylinder(0, 0, 0, 0, 0, 300, 100, -1, 2 * M_PI, &ierr);
+  return ierr;
+}
+
+static void tall_cylinder_does_not_wrap(void **state) {
+  (void)state;
+  const char *path = write_shape("tall_cylinder", tall_cylinder);
+  const char *methods[2] = {"bubble", "psys"};
+  for (int k = 0; k < 2; ++k) {
+    cJSON *o = mesh_stats(path, methods[k], NULL);
+    assert_valid_no_unforced(o, methods[k]);
+    assert_true(pm_test_stat(o, "tri", "min_angle_deg", "min") >= 20);
+    cJSON_Delete(o);
+  }
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(cylinder_hole_across_the_seam),
@@ -392,6 +416,7 @@ int main(void) {
       cmocka_unit_test(faces_listed_twice_are_kept_once),
       cmocka_unit_test(sliver_face_gives_no_needle),
       cmocka_unit_test(pole_with_two_neighbours),
+      cmocka_unit_test(tall_cylinder_does_not_wrap),
   };
   int rc = cmocka_run_group_tests(tests, setup, teardown);
   pm_gmsh_shutdown();
