@@ -3,6 +3,7 @@
  * same file cannot be reserved twice, and the live temporaries are removed by
  * pm_tmp_remove_all (what the command's signal handler calls). */
 #include "test_support.h"
+#include "test_dirs.h"
 
 #include <dirent.h>
 #include <stdlib.h>
@@ -10,24 +11,6 @@
 #include <sys/stat.h>
 
 #include "common/atomic_file.h"
-
-static char base[256], dir[300];
-
-/* Each test in a fresh folder. */
-static int fresh_dir(void **state) {
-  (void)state;
-  static int k;
-  snprintf(dir, sizeof dir, "%s/t%d", base, ++k);
-  return mkdir(dir, 0777);
-}
-
-static const char *in_dir(const char *name) {
-  static char buf[4][600];
-  static int k;
-  k = (k + 1) % 4;
-  snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
-  return buf[k];
-}
 
 static int exists(const char *p) {
   struct stat st;
@@ -60,7 +43,7 @@ static void files_respect_the_umask(void **state) {
   const mode_t want[3] = {0644, 0600, 0664};
   for (int k = 0; k < 3; ++k) {
     mode_t old = umask(masks[k]);
-    const char *p = in_dir("mode.txt");
+    const char *p = pm_test_in_dir("mode.txt");
     PM_ASSERT_OK(pm_atomic_write(p, "x", 1, &e), e);
     struct stat st;
     assert_int_equal(stat(p, &st), 0);
@@ -71,16 +54,16 @@ static void files_respect_the_umask(void **state) {
     /* A set's file and folder too. */
     pm_outputs *s = pm_outputs_create();
     const char *tf, *td;
-    PM_ASSERT_OK(pm_outputs_add(s, in_dir("set.txt"), 0, &tf, &e), e);
-    PM_ASSERT_OK(pm_outputs_add(s, in_dir("setdir"), 1, &td, &e), e);
+    PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("set.txt"), 0, &tf, &e), e);
+    PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("setdir"), 1, &td, &e), e);
     PM_ASSERT_OK(pm_outputs_commit(s, &e), e);
     pm_outputs_destroy(s);
-    assert_int_equal(stat(in_dir("set.txt"), &st), 0);
+    assert_int_equal(stat(pm_test_in_dir("set.txt"), &st), 0);
     assert_int_equal(st.st_mode & 0777, want[k]);
-    assert_int_equal(stat(in_dir("setdir"), &st), 0);
+    assert_int_equal(stat(pm_test_in_dir("setdir"), &st), 0);
     assert_int_equal(st.st_mode & 0777, 0777 & ~masks[k]);
-    unlink(in_dir("set.txt"));
-    rmdir(in_dir("setdir"));
+    unlink(pm_test_in_dir("set.txt"));
+    rmdir(pm_test_in_dir("setdir"));
     umask(old);
   }
 }
@@ -91,14 +74,14 @@ static void a_set_is_all_or_nothing(void **state) {
   /* Written and committed: all three in place, no temporary left. */
   pm_outputs *s = pm_outputs_create();
   const char *t1, *t2, *t3;
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("a.msh"), 0, &t1, &e), e);
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("a.json"), 0, &t2, &e), e);
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("sub/deeper/frames"), 1, &t3, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("a.msh"), 0, &t1, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("a.json"), 0, &t2, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("sub/deeper/frames"), 1, &t3, &e), e);
   assert_non_null(strstr(t1, ".pmtmp-"));
   assert_true(strlen(t1) > 4 && strcmp(t1 + strlen(t1) - 4, ".msh") == 0); /* same extension */
   assert_true(exists(t1) && exists(t2) && exists(t3));
-  assert_true(exists(in_dir("sub/deeper")));
-  assert_false(exists(in_dir("a.msh")));
+  assert_true(exists(pm_test_in_dir("sub/deeper")));
+  assert_false(exists(pm_test_in_dir("a.msh")));
   write_text(t1, "mesh");
   write_text(t2, "stats");
   char f[700];
@@ -106,39 +89,39 @@ static void a_set_is_all_or_nothing(void **state) {
   write_text(f, "frame");
   PM_ASSERT_OK(pm_outputs_commit(s, &e), e);
   pm_outputs_destroy(s);
-  assert_true(exists(in_dir("a.msh")) && exists(in_dir("a.json")));
-  assert_true(exists(in_dir("sub/deeper/frames/frame_0.vtu")));
-  assert_int_equal(entries(dir), 3); /* a.msh, a.json, sub */
+  assert_true(exists(pm_test_in_dir("a.msh")) && exists(pm_test_in_dir("a.json")));
+  assert_true(exists(pm_test_in_dir("sub/deeper/frames/frame_0.vtu")));
+  assert_int_equal(entries(pm_test_dir), 3); /* a.msh, a.json, sub */
 
   /* Not committed: the temporaries and the folders made for them are gone. */
   s = pm_outputs_create();
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("b.msh"), 0, &t1, &e), e);
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("new/parent/frames"), 1, &t3, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("b.msh"), 0, &t1, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("new/parent/frames"), 1, &t3, &e), e);
   pm_outputs_destroy(s);
-  assert_int_equal(entries(dir), 3);
+  assert_int_equal(entries(pm_test_dir), 3);
 
   /* A later rename fails (its temporary vanished): the earlier output is undone. */
   s = pm_outputs_create();
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("c.msh"), 0, &t1, &e), e);
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("c.json"), 0, &t2, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("c.msh"), 0, &t1, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("c.json"), 0, &t2, &e), e);
   write_text(t1, "mesh");
   unlink(t2);
   assert_int_equal(pm_outputs_commit(s, &e), PM_ERR_IO);
   assert_non_null(strstr(e.msg, "c.json"));
   pm_outputs_destroy(s);
-  assert_false(exists(in_dir("c.msh")));
-  assert_false(exists(in_dir("c.json")));
-  assert_int_equal(entries(dir), 3);
+  assert_false(exists(pm_test_in_dir("c.msh")));
+  assert_false(exists(pm_test_in_dir("c.json")));
+  assert_int_equal(entries(pm_test_dir), 3);
 
   /* Frames into an existing folder with files: moved in, the old ones kept. */
   s = pm_outputs_create();
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("sub/deeper/frames/"), 1, &t3, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("sub/deeper/frames/"), 1, &t3, &e), e);
   snprintf(f, sizeof f, "%s/frame_1.vtu", t3);
   write_text(f, "frame 1");
   PM_ASSERT_OK(pm_outputs_commit(s, &e), e);
   pm_outputs_destroy(s);
-  assert_int_equal(entries(in_dir("sub/deeper/frames")), 2);
-  assert_int_equal(entries(in_dir("sub/deeper")), 1);
+  assert_int_equal(entries(pm_test_in_dir("sub/deeper/frames")), 2);
+  assert_int_equal(entries(pm_test_in_dir("sub/deeper")), 1);
 }
 
 static void unwritable_and_repeated_outputs(void **state) {
@@ -146,28 +129,28 @@ static void unwritable_and_repeated_outputs(void **state) {
   pm_error e = {0};
   pm_outputs *s = pm_outputs_create();
   const char *t;
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("x.msh"), 0, &t, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("x.msh"), 0, &t, &e), e);
   /* The same file under other names. */
   char other[700];
-  snprintf(other, sizeof other, "%s/./x.msh", dir);
+  snprintf(other, sizeof other, "%s/./x.msh", pm_test_dir);
   assert_int_equal(pm_outputs_add(s, other, 0, &t, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "names the same file"));
-  mkdir(in_dir("d"), 0777);
-  snprintf(other, sizeof other, "%s/d/../x.msh", dir);
+  mkdir(pm_test_in_dir("d"), 0777);
+  snprintf(other, sizeof other, "%s/d/../x.msh", pm_test_dir);
   assert_int_equal(pm_outputs_add(s, other, 0, &t, &e), PM_ERR_ARG);
   /* A folder where a file is asked for, a missing folder, a file in the way of a folder. */
-  assert_int_equal(pm_outputs_add(s, in_dir("d"), 0, &t, &e), PM_ERR_IO);
+  assert_int_equal(pm_outputs_add(s, pm_test_in_dir("d"), 0, &t, &e), PM_ERR_IO);
   assert_non_null(strstr(e.msg, "it is a folder"));
-  assert_int_equal(pm_outputs_add(s, in_dir("nodir/s.json"), 0, &t, &e), PM_ERR_IO);
+  assert_int_equal(pm_outputs_add(s, pm_test_in_dir("nodir/s.json"), 0, &t, &e), PM_ERR_IO);
   assert_non_null(strstr(e.msg, "nodir/s.json"));
-  write_text(in_dir("plain"), "x");
-  assert_int_equal(pm_outputs_add(s, in_dir("plain/s.json"), 0, &t, &e), PM_ERR_IO);
-  assert_int_equal(pm_outputs_add(s, in_dir("plain"), 1, &t, &e), PM_ERR_IO);
-  assert_int_equal(pm_outputs_add(s, in_dir("plain/frames"), 1, &t, &e), PM_ERR_IO);
+  write_text(pm_test_in_dir("plain"), "x");
+  assert_int_equal(pm_outputs_add(s, pm_test_in_dir("plain/s.json"), 0, &t, &e), PM_ERR_IO);
+  assert_int_equal(pm_outputs_add(s, pm_test_in_dir("plain"), 1, &t, &e), PM_ERR_IO);
+  assert_int_equal(pm_outputs_add(s, pm_test_in_dir("plain/frames"), 1, &t, &e), PM_ERR_IO);
   pm_outputs_destroy(s);
-  unlink(in_dir("plain"));
-  rmdir(in_dir("d"));
-  assert_int_equal(entries(dir), 0);
+  unlink(pm_test_in_dir("plain"));
+  rmdir(pm_test_in_dir("d"));
+  assert_int_equal(entries(pm_test_dir), 0);
   assert_true(pm_path_same("a/b.msh", "a/b.msh/"));
   assert_false(pm_path_same("a/b.msh", "b.msh"));
 }
@@ -176,41 +159,40 @@ static void signals_find_the_temporaries(void **state) {
   (void)state;
   pm_error e = {0};
   pm_atomic_file a;
-  PM_ASSERT_OK(pm_atomic_begin(&a, in_dir("one.vtu"), 1, &e), e);
+  PM_ASSERT_OK(pm_atomic_begin(&a, pm_test_in_dir("one.vtu"), 1, &e), e);
   fputs("partial", a.f);
   fflush(a.f);
   pm_outputs *s = pm_outputs_create();
   const char *t1, *t3;
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("two.msh"), 0, &t1, &e), e);
-  PM_ASSERT_OK(pm_outputs_add(s, in_dir("p/q/frames"), 1, &t3, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("two.msh"), 0, &t1, &e), e);
+  PM_ASSERT_OK(pm_outputs_add(s, pm_test_in_dir("p/q/frames"), 1, &t3, &e), e);
   char f[700];
   snprintf(f, sizeof f, "%s/frame_0.vtu", t3);
   write_text(f, "frame");
-  int extra = pm_tmp_track(in_dir(".tmp-plot.svg"), 0);
-  write_text(in_dir(".tmp-plot.svg"), "svg");
-  assert_true(entries(dir) >= 4);
+  int extra = pm_tmp_track(pm_test_in_dir(".tmp-plot.svg"), 0);
+  write_text(pm_test_in_dir(".tmp-plot.svg"), "svg");
+  assert_true(entries(pm_test_dir) >= 4);
   pm_tmp_remove_all();
-  assert_int_equal(entries(dir), 0); /* files, the frames folder and the folders made for it */
+  assert_int_equal(entries(pm_test_dir), 0); /* files, the frames folder and the folders made for it */
   pm_tmp_untrack(extra);
   fclose(a.f);
   a.f = NULL;
   pm_atomic_abort(&a);
   pm_outputs_destroy(s);
-  assert_int_equal(entries(dir), 0);
+  assert_int_equal(entries(pm_test_dir), 0);
 }
 
 int main(void) {
-  snprintf(base, sizeof base, "/tmp/pm_test_atomic_XXXXXX");
-  if (!mkdtemp(base)) return 1;
+  if (pm_test_dirs_init("pm_test_atomic")) return 1;
   const struct CMUnitTest tests[] = {
-      cmocka_unit_test_setup(files_respect_the_umask, fresh_dir),
-      cmocka_unit_test_setup(a_set_is_all_or_nothing, fresh_dir),
-      cmocka_unit_test_setup(unwritable_and_repeated_outputs, fresh_dir),
-      cmocka_unit_test_setup(signals_find_the_temporaries, fresh_dir),
+      cmocka_unit_test_setup(files_respect_the_umask, pm_test_fresh_dir),
+      cmocka_unit_test_setup(a_set_is_all_or_nothing, pm_test_fresh_dir),
+      cmocka_unit_test_setup(unwritable_and_repeated_outputs, pm_test_fresh_dir),
+      cmocka_unit_test_setup(signals_find_the_temporaries, pm_test_fresh_dir),
   };
   int rc = cmocka_run_group_tests(tests, NULL, NULL);
   char cmd[300];
-  snprintf(cmd, sizeof cmd, "rm -rf %s", base);
+  snprintf(cmd, sizeof cmd, "rm -rf %s", pm_test_base);
   if (system(cmd) != 0) rc = 1;
   return rc;
 }
