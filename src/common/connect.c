@@ -1014,14 +1014,28 @@ static int64_t metric_flips(const pm_cell *f, face_work *w, int64_t max_flips, p
     if (q2 == 3) continue;
     int32_t d = w->tri[3 * t2 + (q2 + 2) % 3];
     const int32_t v[4] = {a, b, c, d};
-    int twice = 0;
+    /* An edge between the two copies of one seam node (a triangle wrapped round the period) has
+     * no length in 3D: any convex alternative is better, so it is flipped without the metric
+     * test. Other repeated nodes leave the pair alone. */
+    int twice = 0, wrap = w->node[a] == w->node[b];
     for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) twice |= w->node[v[i]] == w->node[v[j]];
+      for (int j = i + 1; j < 4; ++j) twice |= (i != 0 || j != 1) && w->node[v[i]] == w->node[v[j]];
     if (twice) continue;
     const double *A = &w->uv[2 * a], *B = &w->uv[2 * b], *C = &w->uv[2 * c], *D = &w->uv[2 * d];
     /* Strictly convex: c and d on either side of (a, b), a and b on either side of (c, d). */
     if (pm_orient2d(A, B, C) * pm_orient2d(A, B, D) >= 0) continue;
     if (pm_orient2d(C, D, A) * pm_orient2d(C, D, B) >= 0) continue;
+    if (wrap) {
+      flip_pair(w, t1, q1, t2, q2);
+      ++flips;
+      int32_t re[4] = {3 * t1 + 0, 3 * t1 + 2, 3 * t2 + 0, 3 * t2 + 2};
+      for (int k = 0; k < 4; ++k)
+        if (!inq[re[k]] && w->nbr[re[k]] >= 0 && !w->fixed[re[k]] && size < cap) {
+          queue[(head + size++) % cap] = re[k];
+          inq[re[k]] = 1;
+        }
+      continue;
+    }
     double E = 0, F = 0, G = 0;
     for (int i = 0; i < 4; ++i) E += met[3 * v[i]], F += met[3 * v[i] + 1], G += met[3 * v[i] + 2];
     double det = E * G - F * F;
