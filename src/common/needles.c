@@ -129,6 +129,48 @@ static double corner_angle_at(const pm_cell *f, int32_t v, const double P[3], co
   return -1;
 }
 
+/* Node n (dimension d, cell c) lies on curve `curve` or on one of its end vertices. */
+static int in_curve_closure(const pm_model *m, int32_t d, int32_t c, int32_t curve) {
+  if (d == PM_CURVE) return c == curve;
+  if (d != PM_VERTEX) return 0;
+  const pm_cell *cc = &m->cells[PM_CURVE][curve];
+  for (int32_t u = 0; u < cc->nbound; ++u)
+    if (cc->bound[u].cell == c) return 1;
+  return 0;
+}
+
+/* The feature rule by height: all three nodes on curves or vertices, not all on one curve and
+ * its ends, and a node nearer than `floor` to the line through the other two -- the two model
+ * cells it joins there are closer than the floor (a strip face that tapers below it: between
+ * its two long curves there is no room for a face node at any spacing the CAD resolves).
+ * The shortest-edge rule alone reads the same strip as forced or unforced by how the nodes on
+ * its two sides happen to be staggered. */
+static int below_floor_across_cells(const pm_mesh *mesh, const pm_model *m, const int32_t *v,
+                                    const double *const P[3], double floor) {
+  for (int j = 0; j < 3; ++j)
+    if (mesh->node_dim[v[j]] < 0 || mesh->node_dim[v[j]] >= PM_FACE) return 0;
+  for (int j = 0; j < 3; ++j)
+    if (mesh->node_dim[v[j]] == PM_CURVE) {
+      int all = 1;
+      for (int k = 0; k < 3 && all; ++k)
+        all = in_curve_closure(m, mesh->node_dim[v[k]], mesh->node_cell[v[k]], mesh->node_cell[v[j]]);
+      if (all) return 0;
+    }
+  double e1[3], e2[3], n[3];
+  pm_v3_sub(e1, P[1], P[0]);
+  pm_v3_sub(e2, P[2], P[0]);
+  pm_v3_cross(n, e1, e2);
+  double twice_area = pm_v3_norm(n);
+  for (int j = 0; j < 3; ++j) {
+    int32_t p = v[j], q = v[(j + 1) % 3], r = v[(j + 2) % 3];
+    int same = (mesh->node_dim[p] == mesh->node_dim[q] && mesh->node_cell[p] == mesh->node_cell[q]) ||
+               (mesh->node_dim[p] == mesh->node_dim[r] && mesh->node_cell[p] == mesh->node_cell[r]);
+    double base = pm_v3_dist(P[(j + 1) % 3], P[(j + 2) % 3]);
+    if (!same && base > 0 && twice_area < floor * base) return 1;
+  }
+  return 0;
+}
+
 pm_status pm_needles_classify(const pm_mesh *mesh, const pm_model *model, double limit,
                               pm_needles *out, uint8_t *kind, pm_error *err) {
   memset(out, 0, sizeof *out);
@@ -173,6 +215,8 @@ pm_status pm_needles_classify(const pm_mesh *mesh, const pm_model *model, double
           if (lmin < floor && mesh->node_dim[a] >= 0 && mesh->node_dim[a] < PM_FACE &&
               mesh->node_dim[b] >= 0 && mesh->node_dim[b] < PM_FACE &&
               (mesh->node_dim[a] != mesh->node_dim[b] || mesh->node_cell[a] != mesh->node_cell[b]))
+            k = PM_NEEDLE_FEATURE;
+          else if (below_floor_across_cells(mesh, model, v, P, floor))
             k = PM_NEEDLE_FEATURE;
         }
       }

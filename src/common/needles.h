@@ -13,7 +13,11 @@
  *     model cells of lower dimension than the face (two curves, a curve and a vertex): a sliver
  *     face, a gap or an edge of that size is below the resolution of the CAD data itself
  *     (OpenCASCADE's confusion tolerance is 1e-7 model units; exporters leave gaps of 1e-6 of the
- *     diagonal), and no mesher is asked to resolve it.
+ *     diagonal), and no mesher is asked to resolve it. Likewise when all its nodes are on
+ *     curves and vertices, not all on one curve and its ends, and one node is nearer than the
+ *     floor to the line through the other two, on other cells: two model cells come closer than
+ *     the floor there (a strip face that tapers below it), whatever the staggering of the nodes
+ *     along them.
  * Every other needle is unforced: a finer node spacing at the feature would have avoided it (a
  * face narrower than the local size, an edge shorter than it, a corner sharper than the size's
  * angular resolution but not below the limit). A mesh with unforced needles is a defect of the
