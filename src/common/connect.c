@@ -264,19 +264,32 @@ static pm_status emit_segments(const pm_model *m, pm_mesh *mesh, const chains *c
  * beside the segment within one segment length of it in (u, v), so a face whose pcurves follow
  * their curves keeps every node. 0.05: a gap that changes a node's side is of the order of its
  * distance to the boundary, about half a spacing; the pcurves of fusee.stp's face 85 that do
- * follow their curves are off by 1.5e-7 where the spacing is 1.8-2.4. */
+ * follow their curves are off by 1.5e-7 where the spacing is 1.8-2.4.
+ * The same holds for a segment too coarse for its curve: the chord cuts inside the arc by its
+ * sag, and a face node nearer the arc than that lies beyond the chord in 3D while inside it in
+ * (u, v) (a quarter circle of radius 0.0032 with no node inside it against face nodes 0.0004
+ * apart: robust/occ_large__simple_plane.brep with psys, face 3, four folded triangles in the
+ * cap's plane). Such a node's triangle with the segment stands nearly upright on the surface (at
+ * a right angle as the node reaches the arc, then folded over where the surface leans towards
+ * the chord, as a cone's does): along a segment whose sag exceeds CROSSED_GAP of its length, a
+ * node is dropped when that triangle's normal is more than 80 degrees off the surface normal at
+ * the node (STEEP_COS = cos 80). */
 #define CROSSED_GAP 0.05
+#define STEEP_COS 0.17364817766693041
 
 typedef struct cross_seg {
   double qa[2], qb[2]; /* the segment's ends in (u, v) */
   double gap;          /* the larger of its ends' gaps |S(pcurve(t)) - C(t)| */
+  double sag;          /* how far the chord cuts inside the curve, at its middle */
   const double *xa, *xb; /* ... and in 3D (the nodes' positions) */
 } cross_seg;
 
 /* Append the segments of chain c (as traced by `use` on face f) whose pcurve and 3D curve
  * disagree; returns -1 when out of memory. */
-static int crossed_segments(const pm_cell *f, const pm_use *use, const pm_mesh *mesh,
-                            const chains *ch, cross_seg **seg, int32_t *nseg, int32_t *cap) {
+static int crossed_segments(const pm_model *m, const pm_cell *f, const pm_use *use,
+                            const pm_mesh *mesh, const chains *ch, cross_seg **seg, int32_t *nseg,
+                            int32_t *cap) {
+  const pm_cell *curve = &m->cells[PM_CURVE][use->cell];
   int32_t a = ch->off[use->cell], b = ch->off[use->cell + 1];
   double prev_uv[2] = {0, 0}, prev_gap = 0;
   for (int32_t i = a; i < b; ++i) {
@@ -289,7 +302,12 @@ static int crossed_segments(const pm_cell *f, const pm_use *use, const pm_mesh *
     if (i > a) {
       const double *xp = &mesh->xyz[3 * (size_t)ch->node[i - 1]];
       double len = sqrt(pm_v3_dist2(xp, x));
-      if (fmax(gap, prev_gap) > CROSSED_GAP * len) {
+      /* The chord's sag: the curve at the middle parameter against the chord's middle. */
+      pm_curve_point mid;
+      pm_curve_eval(curve, 0.5 * (ch->t[i - 1] + ch->t[i]), 0, &mid);
+      double chord_mid[3] = {0.5 * (xp[0] + x[0]), 0.5 * (xp[1] + x[1]), 0.5 * (xp[2] + x[2])};
+      double sag = sqrt(pm_v3_dist2(mid.p, chord_mid));
+      if (fmax(fmax(gap, prev_gap), sag) > CROSSED_GAP * len) {
         if (*nseg == *cap) {
           int32_t nc = *cap ? 2 * *cap : 16;
           cross_seg *g = realloc(*seg, sizeof(cross_seg) * (size_t)nc);
@@ -298,7 +316,7 @@ static int crossed_segments(const pm_cell *f, const pm_use *use, const pm_mesh *
         }
         cross_seg *cs = &(*seg)[(*nseg)++];
         memcpy(cs->qa, prev_uv, sizeof prev_uv), memcpy(cs->qb, uv, sizeof uv);
-        cs->xa = xp, cs->xb = x, cs->gap = fmax(gap, prev_gap);
+        cs->xa = xp, cs->xb = x, cs->gap = fmax(gap, prev_gap), cs->sag = sag;
       }
     }
     memcpy(prev_uv, uv, sizeof uv), prev_gap = gap;
@@ -316,12 +334,12 @@ static int32_t flag_crossed_nodes(const pm_model *m, const pm_cell *f, const pm_
     for (int32_t k = 0; k < f->loop[l].nuse; ++k) {
       const pm_use *use = &f->loop[l].use[k];
       if (m->cells[PM_CURVE][use->cell].degenerate) continue;
-      if (crossed_segments(f, use, mesh, ch, &seg, &nseg, &cap)) goto oom;
+      if (crossed_segments(m, f, use, mesh, ch, &seg, &nseg, &cap)) goto oom;
     }
   for (int32_t e = 0; e < f->nembed; ++e)
     if (f->embed[e].dim == PM_CURVE) {
       pm_use use = {f->embed[e].index, 1, 0};
-      if (crossed_segments(f, &use, mesh, ch, &seg, &nseg, &cap)) goto oom;
+      if (crossed_segments(m, f, &use, mesh, ch, &seg, &nseg, &cap)) goto oom;
     }
   int32_t n = 0;
   for (int32_t k = fb->off[f->index]; k < fb->off[f->index + 1] && nseg; ++k) {
@@ -351,8 +369,12 @@ static int32_t flag_crossed_nodes(const pm_model *m, const pm_cell *f, const pm_
       /* the node's offset from the segment in (u, v), in 3D lengths through the Jacobian */
       double o[2] = {r[0] - along * d[0], r[1] - along * d[1]}, o3[3];
       for (int c = 0; c < 3; ++c) o3[c] = fp.su[c] * o[0] + fp.sv[c] * o[1];
+      /* Beyond a sagging chord, the triangle the node makes with the segment stands on the
+       * surface instead of lying in it: steeper than STEEP_COS allows. */
+      double steep = STEEP_COS * pm_v3_norm(c3) * pm_v3_norm(nrm);
       if ((side_uv > 0 && side_3d <= 0) || (side_uv < 0 && side_3d >= 0) ||
-          pm_v3_dot(o3, o3) <= cs->gap * cs->gap) {
+          pm_v3_dot(o3, o3) <= cs->gap * cs->gap ||
+          (cs->sag > CROSSED_GAP * sqrt(pm_v3_dist2(cs->xa, cs->xb)) && fabs(side_3d) <= steep)) {
         drop[id] = 1, ++n;
         break;
       }

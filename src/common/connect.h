@@ -52,8 +52,9 @@ typedef struct pm_connect_params {
                              fundamental form, averaged per quadrilateral), for faces one affine
                              map cannot straighten; 0: the paper's triangulation; default 1 */
   int drop_crossed;       /* 1: drop the face nodes that lie inside a boundary segment in (u, v)
-                             but not in 3D, where the face's pcurve and the curve disagree
-                             (connect.c, step 1b); 0: keep every node, as the papers do; default 1 */
+                             but not in 3D, where the face's pcurve and the curve disagree or
+                             the segment's chord sags inside a coarse arc (connect.c, step 1b);
+                             0: keep every node, as the papers do; default 1 */
   pm_flip_rule flips;     /* default PM_FLIP_DIAMETRIC */
   int max_flips_per_tri;  /* cap on flips per face, as a multiple of its triangle count; default 20 */
   pm_volume_mode volume;  /* default PM_VOLUME_NONE */

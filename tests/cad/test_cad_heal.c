@@ -10,6 +10,8 @@
  *   - a sliver face narrower than the default size gives no needle;
  *   - a cone whose apex has a single face node near it (a pole fan of two triangles, the same
  *     triangle twice) is connected into a valid mesh by a repair node;
+ *   - face nodes beyond the chord of a boundary segment too coarse for its arc are dropped (a
+ *     quarter cone frustum);
  *   - a cylinder far taller than wide in its parameters connects without wrapping round;
  *   - a cone meshed by psys (fine at the apex, coarse at the base) connects without wrapping
  *     (a copy of robust/statreport__Cone_1.brep).
@@ -386,6 +388,88 @@ static void pole_with_two_neighbours(void **state) {
   pm_model_destroy(m);
 }
 
+/* ---- a boundary segment too coarse for its arc ------------------------------------------- */
+
+/* A quarter of a cone frustum (radius 1 at the bottom, 0.5 at height 1): each quarter circle is
+ * one segment, whose chord cuts 0.29 (0.15 at the top) inside the arc, and the curved face has
+ * nodes 0.002 of the height from the circles -- beyond the chord in 3D, inside it in (u, v), as
+ * psys left them on robust/occ_large__simple_plane.brep (face 3, a quarter frustum). Connected,
+ * their triangles with the chord stand upright on the surface and, where it leans towards the
+ * chord, fold over; step 1b (connect.c) drops them, and only them. */
+static int quarter_frustum(void) {
+  int ierr = 0;
+  gmshModelOccAddCone(0, 0, 0, 0, 0, 1, 1, 0.5, -1, M_PI / 2, &ierr);
+  return ierr;
+}
+
+static void coarse_arc_drops_nodes_beyond_its_chord(void **state) {
+  (void)state;
+  const char *path = write_shape("quarter_frustum", quarter_frustum);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  const pm_cell *f = NULL;
+  for (int32_t i = 0; i < m->count[PM_FACE] && !f; ++i) {
+    const pm_cell *c = &m->cells[PM_FACE][i];
+    double k1 = 0, k2 = 0, mid[2] = {0.5 * (c->lo[0] + c->hi[0]), 0.5 * (c->lo[1] + c->hi[1])};
+    pm_face_curvatures(c, mid, &k1, &k2, NULL);
+    if (fabs(k1) > 0.5 || fabs(k2) > 0.5) f = c;
+  }
+  assert_non_null(f);
+  int valid[2] = {0, 0};
+  int32_t dropped[2] = {0, 0}, near = 0;
+  for (int drop = 0; drop <= 1; ++drop) {
+    pm_mesh *mesh = pm_mesh_create();
+    assert_non_null(mesh);
+    /* Straight curves get 4 nodes inside, arcs none. */
+    for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+      const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+      if (pm_curve_curvature(cv, 0.5 * (cv->lo[0] + cv->hi[0])) > 0.5) continue;
+      for (int k = 1; k <= 4; ++k) {
+        double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * k / 5, x[3];
+        pm_cell_point(cv, &t, x);
+        PM_ASSERT_OK(pm_mesh_add_node(mesh, x, PM_CURVE, c, &t, NULL, &e), e);
+      }
+    }
+    /* Face nodes: three along each side of the parameter box, 0.002 of the box in, and one in
+     * the middle. */
+    near = 0;
+    const double fr[3] = {0.25, 0.5, 0.75};
+    for (int side = 0; side < 4; ++side)
+      for (int k = 0; k < 3; ++k) {
+        double a = side < 2 ? fr[k] : (side == 2 ? 0.002 : 0.998);
+        double b = side < 2 ? (side == 0 ? 0.002 : 0.998) : fr[k];
+        double uv[2] = {f->lo[0] + a * (f->hi[0] - f->lo[0]), f->lo[1] + b * (f->hi[1] - f->lo[1])}, x[3];
+        pm_cell_point(f, uv, x);
+        PM_ASSERT_OK(pm_mesh_add_node(mesh, x, PM_FACE, f->index, uv, NULL, &e), e);
+        ++near;
+      }
+    double uv[2] = {0.5 * (f->lo[0] + f->hi[0]), 0.5 * (f->lo[1] + f->hi[1])}, x[3];
+    pm_cell_point(f, uv, x);
+    PM_ASSERT_OK(pm_mesh_add_node(mesh, x, PM_FACE, f->index, uv, NULL, &e), e);
+    pm_connect_params p;
+    pm_connect_params_init(&p);
+    p.drop_crossed = drop;
+    pm_connect_report rep;
+    PM_ASSERT_OK(pm_connect(m, mesh, &p, &rep, &e), e);
+    pm_check_report chk = {0};
+    PM_ASSERT_OK(pm_mesh_check(mesh, m, &chk, &e), e);
+    valid[drop] = chk.valid;
+    dropped[drop] = rep.crossed_nodes;
+    pm_check_report_clear(&chk);
+    pm_mesh_destroy(mesh);
+  }
+  print_message("quarter frustum: %d face nodes near its sides; kept: valid %d; dropped %d: valid %d\n",
+                (int)near, valid[0], (int)dropped[1], valid[1]);
+  assert_false(valid[0]);       /* the fold is real */
+  /* The three nodes along the bottom arc, whose triangles fold (the face leans 27 degrees back
+   * from the chord); along the top arc the face leans over the chord and the triangles lie 63
+   * degrees off the surface: kept, as are the nodes along the straight sides. */
+  assert_int_equal(dropped[1], 3);
+  assert_true(valid[1]);
+  pm_model_destroy(m);
+}
+
 /* ---- a tall cylinder ---------------------------------------------------------------------- */
 
 /* Radius 100, height 300 (robust/statreport__Cylinder_1.brep's shape): its parameter plane is
@@ -440,6 +524,7 @@ int main(void) {
       cmocka_unit_test(faces_listed_twice_are_kept_once),
       cmocka_unit_test(sliver_face_gives_no_needle),
       cmocka_unit_test(pole_with_two_neighbours),
+      cmocka_unit_test(coarse_arc_drops_nodes_beyond_its_chord),
       cmocka_unit_test(tall_cylinder_does_not_wrap),
       cmocka_unit_test(graded_cone_does_not_wrap),
   };
