@@ -19,7 +19,8 @@
  *             names. A table at the end repeats one line per model.
  * throughput: case:sphere (radius 1) with a uniform size giving about 10^4 and 10^5 particles,
  *             then table.brep with a uniform size (10^5 particles) and wrench.stp with the
- *             inferred field, each at 1 thread and at --threads (at least 2): phase-3
+ *             inferred field, each at 1 thread and at --threads (at least 2), with the ratio of
+ *             the two rates: phase-3
  *             particle-iterations per second, seconds per iteration at the final count, the end
  *             to end rate, CPU seconds beside wall seconds (the machine may be shared), time per
  *             step and peak RSS per particle; equal rates at both sphere sizes mean a cost
@@ -508,7 +509,9 @@ out:
 static void throughput(int threads, const char *cad, const char *dir) {
   printf("throughput: case:sphere (radius 1), uniform size, and a CAD model with the inferred "
          "field\n");
-  /* A hexagonal packing of edge d on the unit sphere holds about 4 pi / (sqrt(3)/2 d^2) nodes. */
+  /* A hexagonal packing of edge d on the unit sphere holds about 4 pi / (sqrt(3)/2 d^2) nodes.
+   * Every input on one thread and on `threads` (at least 2): the scaling figures. */
+  const int tn = threads > 1 ? threads : 2;
   const double ds[2] = {0.038, 0.012};
   for (int k = 0; k < 2; ++k) {
     pm_error e = {0};
@@ -519,11 +522,11 @@ static void throughput(int threads, const char *cad, const char *dir) {
       printf("throughput: %s\n", e.msg);
       continue;
     }
-    throughput_one("case:sphere", label, size, threads);
+    double r1 = throughput_one("case:sphere", label, size, 1);
+    double rn = throughput_one("case:sphere", label, size, tn);
+    printf("%s: %d threads / 1 thread = %.2f (phase-3 rates)\n", label, tn, r1 > 0 ? rn / r1 : 0);
     pm_sizing_destroy(size);
   }
-  /* The CAD models on one thread and on `threads` (at least 2): the scaling figures. */
-  const int tn = threads > 1 ? threads : 2;
   {
     pm_error e = {0};
     pm_sizing *size = NULL;

@@ -200,7 +200,9 @@ static pm_status seed_faces(psys_sys *s, pm_error *err) {
     memcpy(&hx[3 * k], &s->xyz[3 * (n0 + k)], 3 * sizeof(double));
     hs[k] = s->sigma[n0 + k];
     dead[n0 + k] = 1;
-    st = pm_grid_insert(hint.grid, k, &hx[3 * k], 0, err);
+    /* filed at its spacing: the radius sets the size of a point's cell only (ball queries do
+     * not read it), and at 0 every query, 2 sigma wide, walked down from the apex */
+    st = pm_grid_insert(hint.grid, k, &hx[3 * k], s->p.edge_per_sigma * hs[k], err);
   }
   hint.xyz = hx, hint.sigma = hs;
   if (!st) st = psys_compact(s, dead, err);

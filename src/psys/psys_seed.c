@@ -150,6 +150,10 @@ static int try_point(front *F, const fpt *p, const double dx[3], pm_idbuf *buf, 
   if (!pm_face_inside(F->f, uv) || !frame(F->f, uv, x, nrm)) return 0;
   const double got = pm_v3_dist(x, p->x);
   if (!(got > 0.7 * want && got < 1.3 * want)) return 0;
+  /* Most candidates fall where the lattice has a point already: room at a spacing of 0 (no
+   * point o within SEED_KEEP x its own spacing of x) is necessary for room at any spacing, and
+   * spares those the sigma they would not use (the width and hint queries, the curvature). */
+  if (!room(F, x, 0, buf)) return 0;
   const double sg = sigma_at(F, uv, x, p, got, buf);
   if (!(sg > 0) || !isfinite(sg) || !room(F, x, s->p.edge_per_sigma * sg, buf)) return 0;
   fpt c;
