@@ -1183,9 +1183,12 @@ static void tri_nbhd_other(const dctx *c, int32_t f, const int32_t *near_off, co
     nb->other = cap;
     return;
   }
+  /* The search reaches cap only (its cost stays that of the triangle's surroundings); an
+   * unvisited triangle is farther than cap, so its distance less its reach exceeds
+   * cap - reach_max. */
   other_ctx o = {c, nb->g, f, cap};
-  pm_bvh_visit(c->rf.bvh, nb->g, cap + c->reach_max, other_face_visit, &o);
-  nb->other = o.best;
+  pm_bvh_visit(c->rf.bvh, nb->g, cap, other_face_visit, &o);
+  nb->other = fmin(o.best, cap - c->reach_max);
 }
 
 /* ---- driver ---------------------------------------------------------------------------------------------- */
