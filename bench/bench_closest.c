@@ -185,8 +185,8 @@ int main(int argc, char **argv) {
     return 1;
   }
   omp_set_num_threads(nthreads);
-  printf("# %9s %9s %12s %12s %12s %9s %9s\n", "ntri", "dist_s", "max", "mesh->model", "model->mesh",
-         "nmesh", "nmodel");
+  printf("# %9s %9s %12s %12s %12s %12s %9s %9s\n", "ntri", "dist_s", "unpruned_s", "max",
+         "mesh->model", "model->mesh", "nmesh", "nmodel");
   for (long target = 10000; target <= maxtri && target <= 100000; target *= 10) {
     int nv = (int)ceil(sqrt((double)target / 4.0)), nu = 2 * nv;
     double *xyz;
@@ -196,15 +196,26 @@ int main(int argc, char **argv) {
     if (!me || pm_mesh_reserve(me, nnode, 0, ntri, 0, &e)) return 1;
     for (int32_t i = 0; i < nnode; ++i) pm_mesh_add_node(me, &xyz[3 * i], -1, -1, NULL, NULL, &e);
     for (int32_t t = 0; t < ntri; ++t) pm_mesh_add_tri(me, tri[3 * t], tri[3 * t + 1], tri[3 * t + 2], -1, &e);
-    pm_distance d;
+    pm_distance d, d0;
+    pm_distance_params dp;
+    pm_distance_params_init(&dp);
     double t0 = now();
-    if (pm_mesh_distance(me, m, NULL, NULL, &d, &e)) {
+    if (pm_mesh_distance(me, m, NULL, &dp, &d, &e)) {
       fprintf(stderr, "bench_closest: %s\n", e.msg);
       return 1;
     }
-    printf("  %9d %9.3f %12.5g %12.5g %12.5g %9lld %9lld\n", (int)ntri, now() - t0, d.max,
-           d.mesh_to_model_max, d.model_to_mesh_max, (long long)d.nsamples_mesh,
-           (long long)d.nsamples_model);
+    double t_pruned = now() - t0;
+    /* The previous code path: every search done (distance.h: prune = 0), same figures. */
+    dp.prune = 0;
+    t0 = now();
+    if (pm_mesh_distance(me, m, NULL, &dp, &d0, &e)) {
+      fprintf(stderr, "bench_closest: %s\n", e.msg);
+      return 1;
+    }
+    double t_full = now() - t0;
+    printf("  %9d %9.3f %12.3f %12.5g %12.5g %12.5g %9lld %9lld%s\n", (int)ntri, t_pruned, t_full,
+           d.max, d.mesh_to_model_max, d.model_to_mesh_max, (long long)d.nsamples_mesh,
+           (long long)d.nsamples_model, d.mean == d0.mean && d.max == d0.max ? "" : "  (figures differ!)");
     pm_mesh_destroy(me);
     free(xyz), free(tri);
   }
@@ -213,6 +224,7 @@ int main(int argc, char **argv) {
          "# build_tbb / build_1th: the same Embree build with the default device (TBB pool) / threads=1;\n"
          "# q/s: pm_bvh_closest per second, 1 thread or all OpenMP threads; near: points within 5%% of\n"
          "# the surface, far: at radius 1.5 .. 3; selfint_s: pm_triangles_self_intersections;\n"
-         "# dist_s: pm_mesh_distance against case:sphere (default parameters, unclassified mesh).\n");
+         "# dist_s: pm_mesh_distance against case:sphere (default parameters, unclassified mesh);\n"
+         "# unpruned_s: the same with prune = 0 (every search done: the previous code path).\n");
   return 0;
 }

@@ -4,15 +4,20 @@
  * that a crash or a hang of one run is a row of the table and not the end of the study.
  *
  *   bench_robust [--methods bubble,psys,gmsh-frontal] [--timeout SECONDS] [--only TEXT]
- *                [--csv FILE] [DIR ...]
+ *                [--csv FILE] [--packmesh PATH] [DIR ...]
+ *
+ * --packmesh runs another build of the command (the previous code path, for a before/after table
+ * from the same benchmark; default: the command built beside this benchmark).
  *
  * Per file and method: the status (ok, the one-line error, timeout, crash), the checker's
  * verdict, nodes, the time of each stage from --stats (load: reading and healing the file; setup:
  * building the cell complex; mesh: the method without its connection; connect; check; distance),
- * the run's total, the smallest angle, and the needles below 10 degrees, forced and unforced
- * (needles.h). Then per method: files loaded, valid, with no unforced needle; bubble's total
- * time over gmsh-frontal's per file (the largest ratio and where), and the runs that spent
- * longer measuring (check, quality, distance) than meshing.
+ * the run's total, the measuring (check + quality + distance) beside the meshing (mesh + connect)
+ * of the same run, the smallest angle, and the needles below 10 degrees, forced and unforced
+ * (needles.h); the CSV adds the distance's mean and max (model units). Then per method: files
+ * loaded, valid, with no unforced needle; bubble's total time over gmsh-frontal's per file (the
+ * largest ratio and where), and the runs that spent longer measuring than meshing, with the
+ * largest ratio of the two and where.
  *
  * Prints figures only; never a test (tests/cad_robust_long runs the validity assertions).
  */
@@ -43,6 +48,7 @@ typedef struct row {
   long nodes;
   double t_load, t_setup, t_mesh, t_connect, t_check, t_quality, t_distance, t_total;
   double min_angle;
+  double dist_mean, dist_max;
   long forced, unforced;
   int healed;
 } row;
@@ -82,7 +88,8 @@ static char *slurp(const char *path) {
 }
 
 /* Run one file with one method into row r; `tmp` is a scratch folder. */
-static void run_one(const char *path, const char *method, double timeout, const char *tmp, row *r) {
+static void run_one(const char *cli, const char *path, const char *method, double timeout,
+                    const char *tmp, row *r) {
   char msh[1024], json[1024], errf[1024];
   snprintf(msh, sizeof msh, "%s/mesh.msh", tmp);
   snprintf(json, sizeof json, "%s/stats.json", tmp);
@@ -96,7 +103,7 @@ static void run_one(const char *path, const char *method, double timeout, const 
     if (fd >= 0) dup2(fd, 1);
     if (fe >= 0) dup2(fe, 2);
     setpgid(0, 0);
-    execl(PM_CLI, PM_CLI, "mesh", path, "--method", method, "--threads", "1", "-o", msh,
+    execl(cli, cli, "mesh", path, "--method", method, "--threads", "1", "-o", msh,
           "--stats", json, (char *)NULL);
     _exit(127);
   }
@@ -158,6 +165,8 @@ static void run_one(const char *path, const char *method, double timeout, const 
   r->t_distance = num(o, "time_s.distance");
   r->t_mesh = r->t_total - r->t_load - r->t_setup - r->t_connect;
   r->min_angle = num(o, "tri.min_angle_deg.min");
+  r->dist_mean = num(o, "distance.mean");
+  r->dist_max = num(o, "distance.max");
   r->forced = (long)num(o, "tri.needles.forced");
   r->unforced = (long)num(o, "tri.needles.unforced");
   cJSON_Delete(o);
@@ -173,7 +182,7 @@ static void csv_text(FILE *f, const char *s) {
 }
 
 int main(int argc, char **argv) {
-  const char *methods_arg = "bubble,psys,gmsh-frontal", *only = NULL, *csv = NULL;
+  const char *methods_arg = "bubble,psys,gmsh-frontal", *only = NULL, *csv = NULL, *cli = PM_CLI;
   double timeout = 600;
   const char *dirs[16];
   int ndir = 0;
@@ -182,6 +191,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(argv[i], "--timeout") && i + 1 < argc) timeout = atof(argv[++i]);
     else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
     else if (!strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
+    else if (!strcmp(argv[i], "--packmesh") && i + 1 < argc) cli = argv[++i];
     else if (argv[i][0] == '-') {
       fprintf(stderr, "bench_robust: unknown option '%s'\n", argv[i]);
       return 2;
@@ -226,10 +236,12 @@ int main(int argc, char **argv) {
   }
   printf("command:");
   for (int i = 0; i < argc; ++i) printf(" %s", argv[i]);
-  printf("\npackmesh: %s; one thread per run; timeout %g s per run\n\n", PM_CLI, timeout);
-  printf("%-44s %-12s %-5s %7s %7s %7s %8s %7s %7s %8s %8s %7s %6s %6s  %s\n", "file", "method",
-         "valid", "nodes", "load", "setup", "mesh", "connect", "check", "distance", "total",
-         "minang", "forced", "unforc", "status");
+  printf("\npackmesh: %s; one thread per run; timeout %g s per run\n\n", cli, timeout);
+  /* "measure" is check + quality + distance, "meshing" mesh + connect, both from one run's
+   * --stats; a '>' after the measuring marks a run that measured longer than it meshed. */
+  printf("%-44s %-12s %-5s %7s %7s %7s %8s %7s %8s %7s %8s %9s %8s %7s %6s %6s  %s\n", "file",
+         "method", "valid", "nodes", "load", "setup", "mesh", "connect", "meshing", "check",
+         "distance", "measure", "total", "minang", "forced", "unforc", "status");
   row *rows = calloc((size_t)nf * (size_t)nm + 1, sizeof(row));
   if (!rows) return 1;
   for (int i = 0; i < nf; ++i)
@@ -238,33 +250,44 @@ int main(int argc, char **argv) {
       const char *base = strrchr(files[i], '/');
       snprintf(r->file, sizeof r->file, "%s", base ? base + 1 : files[i]);
       snprintf(r->method, sizeof r->method, "%s", methods[j]);
-      run_one(files[i], methods[j], timeout, tmp, r);
-      if (r->ran)
-        printf("%-44s %-12s %-5s %7ld %7.2f %7.2f %8.2f %7.2f %7.2f %8.2f %8.2f %7.2f %6ld %6ld  "
-               "%s%s\n",
+      run_one(cli, files[i], methods[j], timeout, tmp, r);
+      if (r->ran) {
+        double meshing = r->t_mesh + r->t_connect;
+        double measure = r->t_check + r->t_quality + r->t_distance;
+        printf("%-44s %-12s %-5s %7ld %7.2f %7.2f %8.2f %7.2f %8.2f %7.2f %8.2f %8.2f%c %8.2f "
+               "%7.2f %6ld %6ld  %s%s\n",
                r->file, r->method, r->valid ? "yes" : "NO", r->nodes, r->t_load, r->t_setup,
-               r->t_mesh, r->t_connect, r->t_check, r->t_distance, r->t_total, r->min_angle,
-               r->forced, r->unforced, r->status, r->healed ? " (healed)" : "");
-      else
-        printf("%-44s %-12s %-5s %7s %7s %7s %8s %7s %7s %8s %8.2f %7s %6s %6s  %s\n", r->file,
-               r->method, "-", "-", "-", "-", "-", "-", "-", "-", r->t_total, "-", "-", "-",
-               r->status);
+               r->t_mesh, r->t_connect, meshing, r->t_check, r->t_distance, measure,
+               measure > meshing ? '>' : ' ', r->t_total, r->min_angle, r->forced, r->unforced,
+               r->status, r->healed ? " (healed)" : "");
+      } else {
+        printf("%-44s %-12s %-5s %7s %7s %7s %8s %7s %8s %7s %8s %9s %8.2f %7s %6s %6s  %s\n",
+               r->file, r->method, "-", "-", "-", "-", "-", "-", "-", "-", "-", "-", r->t_total,
+               "-", "-", "-", r->status);
+      }
       fflush(stdout);
     }
-  printf("\n%-14s %6s %6s %6s %9s %9s\n", "method", "runs", "loaded", "valid", "no-unforc",
-         "measure>mesh");
+  printf("\n%-14s %6s %6s %6s %9s %12s %13s  %s\n", "method", "runs", "loaded", "valid",
+         "no-unforc", "measure>mesh", "largest ratio", "where");
   for (int j = 0; j < nm; ++j) {
     int runs = 0, loaded = 0, valid = 0, clean = 0, slow = 0;
+    double worst = 0;
+    const char *where = "-";
     for (int i = 0; i < nf; ++i) {
       const row *r = &rows[i * nm + j];
       ++runs;
       loaded += r->ran;
       valid += r->ran && r->valid;
       clean += r->ran && r->valid && r->unforced == 0;
+      if (!r->ran) continue;
       double measure = r->t_check + r->t_quality + r->t_distance;
-      slow += r->ran && measure > r->t_mesh + r->t_connect;
+      double meshing = r->t_mesh + r->t_connect;
+      slow += measure > meshing;
+      double ratio = meshing > 0 ? measure / meshing : 0;
+      if (ratio > worst) worst = ratio, where = r->file;
     }
-    printf("%-14s %6d %6d %6d %9d %9d\n", methods[j], runs, loaded, valid, clean, slow);
+    printf("%-14s %6d %6d %6d %9d %12d %13.2f  %s\n", methods[j], runs, loaded, valid, clean, slow,
+           worst, where);
   }
   /* bubble over gmsh-frontal, per file. */
   int jb = -1, jg = -1;
@@ -293,19 +316,19 @@ int main(int argc, char **argv) {
     } else {
       fprintf(f, "file,method,status,valid,nodes,load_s,setup_s,mesh_s,connect_s,check_s,"
                  "quality_s,distance_s,total_s,min_angle_deg,needles_forced,needles_unforced,"
-                 "healed\n");
+                 "healed,distance_mean,distance_max\n");
       for (int i = 0; i < nf * nm; ++i) {
         const row *r = &rows[i];
         csv_text(f, r->file);
         fprintf(f, ",%s,", r->method);
         csv_text(f, r->status);
         if (r->ran)
-          fprintf(f, ",%s,%ld,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%ld,%ld,%d\n",
+          fprintf(f, ",%s,%ld,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%ld,%ld,%d,%.17g,%.17g\n",
                   r->valid ? "true" : "false", r->nodes, r->t_load, r->t_setup, r->t_mesh,
                   r->t_connect, r->t_check, r->t_quality, r->t_distance, r->t_total,
-                  r->min_angle, r->forced, r->unforced, r->healed);
+                  r->min_angle, r->forced, r->unforced, r->healed, r->dist_mean, r->dist_max);
         else
-          fprintf(f, ",,,,,,,,,,%.4f,,,,\n", r->t_total);
+          fprintf(f, ",,,,,,,,,,%.4f,,,,,,\n", r->t_total);
       }
       fclose(f);
       printf("table written to %s\n", csv);

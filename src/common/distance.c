@@ -23,6 +23,7 @@ void pm_distance_params_init(pm_distance_params *p) {
   p->ref_max_points = 100000;
   p->ref_per_tri = 16;
   p->model_per_tri = 16;
+  p->prune = 1;
 }
 
 pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
@@ -52,6 +53,8 @@ pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
   if (p->model_per_tri < 1 || p->model_per_tri > 1000000)
     return pm_error_setf(err, PM_ERR_ARG, "distance: model_per_tri must be in 1..1000000, got %d",
                          (int)p->model_per_tri);
+  if (p->prune != 0 && p->prune != 1)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: prune must be 0 or 1, got %d", (int)p->prune);
   if (p->ref_max_points < 100)
     return pm_error_setf(err, PM_ERR_ARG, "distance: ref_max_points must be >= 100, got %lld",
                          (long long)p->ref_max_points);
@@ -92,6 +95,12 @@ static double face_foot(const pm_cell *f, const double x[3], double uv[2], int *
     pm_v3_sub(r, x, fp.p);
     pm_v3_copy(der, fp.su), pm_v3_copy(der + 3, fp.sv);
     pm_cell_param_delta(f, uv, der, r, dpar);
+    /* The step's image Su du + Sv dv is the tangential part of x - S: when it is below the
+     * tolerance, S(uv) is already the foot to within it, and evaluating the step would only
+     * confirm so. */
+    double img[3];
+    for (int k = 0; k < 3; ++k) img[k] = dpar[0] * fp.su[k] + dpar[1] * fp.sv[k];
+    if (pm_v3_norm(img) <= tol) break;
     double lam = 1, uvn[2] = {uv[0], uv[1]}, dn = d;
     pm_face_point fn;
     int ok = 0;
@@ -118,18 +127,23 @@ static double face_foot(const pm_cell *f, const double x[3], double uv[2], int *
   return d;
 }
 
-/* The foot of x on curve c from t (in place); every C(t) with t in range is a model point. */
-static double curve_foot(const pm_cell *c, const double x[3], double *t) {
+/* The foot of x on curve c from t (in place); every C(t) with t in range is a model point. *at
+ * (may be NULL) receives C and C' at the final t. */
+static double curve_foot_at(const pm_cell *c, const double x[3], double *t, pm_curve_point *at) {
   const double tol = FOOT_STEP_TOL * c->model->diagonal;
   if (!c->periodic[0]) *t = clampd(*t, c->lo[0], c->hi[0]);
   pm_curve_point cp;
   pm_curve_eval(c, *t, 1, &cp);
   double d = pm_v3_dist(x, cp.p);
-  if (c->degenerate) return d;
+  if (c->degenerate) {
+    if (at) *at = cp;
+    return d;
+  }
   for (int it = 0; it < FOOT_MAX_IT && d > 0; ++it) {
     double r[3], dt = 0;
     pm_v3_sub(r, x, cp.p);
     pm_cell_param_delta(c, t, cp.d1, r, &dt); /* papers/003 eq. 15 */
+    if (fabs(dt) * pm_v3_norm(cp.d1) <= tol) break; /* as in face_foot */
     double lam = 1, tn = *t, dn = d;
     pm_curve_point cn;
     int ok = 0;
@@ -149,7 +163,12 @@ static double curve_foot(const pm_cell *c, const double x[3], double *t) {
     if (step <= tol) break;
   }
   if (c->periodic[0]) pm_cell_wrap(c, t);
+  if (at) *at = cp;
   return d;
+}
+
+static double curve_foot(const pm_cell *c, const double x[3], double *t) {
+  return curve_foot_at(c, x, t, NULL);
 }
 
 /* ---- growing arrays ---------------------------------------------------------------------------- */
@@ -194,11 +213,14 @@ typedef struct ref_faces {
   ibuf tri, face; /* triangles (global point indices) and their face */
   pm_bvh *bvh;
   double chord;   /* the largest chordal error bound over curved faces */
+  double gap;     /* the widest strip a degraded face's reference leaves along its boundary */
   int32_t degraded;
 } ref_faces;
 
 /* Probe grid (per direction) for a face's derivative sizes and curvature. */
 #define PROBE 17
+/* Reference points lifted per evaluation call. */
+#define LIFT_BATCH 256
 /* Bounds on the subdivision of one trimming-polyline edge. */
 #define MAX_EDGE_SPLIT 4096
 
@@ -317,6 +339,9 @@ static pm_status ref_face(ref_faces *rf, const pm_cell *f, const face_info *fi, 
      * the grid cells whose four corners are inside instead, leaving a gap of at most one cell
      * along the boundary, which the curve reference and the projections cover. */
     rf->degraded++;
+    /* The strip left uncovered: at most a cell between the polylines and the first inside cell
+     * centre, and the cell itself (3D diagonal sqrt(2) hh each). */
+    rf->gap = fmax(rf->gap, 3 * hh);
     int64_t *idx = malloc(sizeof(int64_t) * (size_t)inu * (size_t)inv);
     tris = malloc(sizeof(int32_t) * 6 * (size_t)inu * (size_t)inv);
     if (!idx || !tris) {
@@ -341,12 +366,15 @@ static pm_status ref_face(ref_faces *rf, const pm_cell *f, const face_info *fi, 
       }
     free(idx);
   }
-  /* Lift and append. */
+  /* Lift (in batches: one evaluation call per LIFT_BATCH points) and append. */
   int64_t base = rf->xyz.n / 3;
-  for (int64_t i = 0; i < npts && !s; ++i) {
-    pm_face_point fp;
-    pm_face_eval(f, &uv.v[2 * i], 0, &fp);
-    if (!dbuf_push(&rf->xyz, fp.p, 3) || !dbuf_push(&rf->uv, &uv.v[2 * i], 2)) s = PM_ERR_NOMEM;
+  for (int64_t i0 = 0; i0 < npts && !s; i0 += LIFT_BATCH) {
+    pm_face_point fp[LIFT_BATCH];
+    int32_t nb = (int32_t)(npts - i0 < LIFT_BATCH ? npts - i0 : LIFT_BATCH);
+    pm_face_eval_many(f, nb, &uv.v[2 * i0], 0, fp);
+    for (int32_t i = 0; i < nb && !s; ++i)
+      if (!dbuf_push(&rf->xyz, fp[i].p, 3) || !dbuf_push(&rf->uv, &uv.v[2 * (i0 + i)], 2))
+        s = PM_ERR_NOMEM;
   }
   for (int32_t t = 0; t < ntris && !s; ++t) {
     int32_t v[3] = {(int32_t)(base + tris[3 * t]), (int32_t)(base + tris[3 * t + 1]),
@@ -435,6 +463,28 @@ static void ref_curves_free(ref_curves *rc) {
   memset(rc, 0, sizeof *rc);
 }
 
+/* See model_dist: the reference's distance to its faces is taken as this many times its chordal
+ * bound. */
+#define REF_REACH_MARGIN 4
+
+/* What lies near a mesh triangle, measured once from its centroid so that the samples inside it
+ * can skip the searches that cannot find anything (model_dist): a sample x of the triangle is
+ * |x - g| <= r from the centroid g, so every reference triangle T of another face is farther
+ * than other - |x - g| + reach(T) from x (reach: face_reach of T's face), and every boundary
+ * curve farther than curve - |x - g|. Both are computed from exact (double) distances, or are
+ * lower bounds when nothing was found within the search radius. */
+typedef struct tri_nbhd {
+  double g[3];   /* the centroid */
+  double r;      /* the largest distance from the centroid to a corner */
+  double other;  /* the smallest distance from the centroid to a reference triangle of a face
+                    other than the triangle's own, less that face's reach */
+  double curve;  /* distance from the centroid to the boundary curves' reference polylines */
+} tri_nbhd;
+
+/* Bounds compared with a tiny relative slack, so that the rounding of the triangle inequality
+ * never turns a search that would find something into a skipped one. */
+#define NBHD_SLACK (1 + 1e-9)
+
 /* ---- the context ---------------------------------------------------------------------------------- */
 
 enum { PART_SURF = 0, PART_WIRE = 1 };
@@ -451,6 +501,16 @@ typedef struct dctx {
   int32_t *wire_seg;         /* [nwire] indices of the wire part's mesh segments */
   int8_t *dangling;          /* [count[CURVE]] 1 for curves that bound no face */
   ref_faces rf;              /* faces */
+  double band;               /* inside_exact's search radius */
+  const struct tri_nbhd *nb; /* [mesh->ntri] neighbourhood bounds of the triangles, or NULL */
+  double *face_reach;        /* [nface] how far a point of the face may lie from its reference,
+                                but for the gap: REF_REACH_MARGIN x its chordal bound */
+  double reach_max;          /* the largest face_reach */
+  double *face_box;          /* [6 nface] each face's reference box (lo, hi); a face without
+                                a reference has lo = +inf, hi = -inf: every distance to it is
+                                infinite */
+  double ref_reach;          /* how far a face point may lie from the reference: the largest
+                                chordal bound (at least eps) with a margin, and the widest gap */
   ref_curves rc_surf;        /* curves bounding faces */
   ref_curves rc_wire;        /* dangling curves */
   int level;                 /* lattice level */
@@ -461,6 +521,7 @@ typedef struct dctx {
 typedef struct hint {
   int32_t cell;
   double par[2];
+  int32_t tri;    /* the mesh triangle the point lies in (its neighbourhood bounds), or -1 */
 } hint;
 
 /* A face candidate of model_dist. */
@@ -482,12 +543,20 @@ typedef struct fcand {
  * pm_face_inside decides. Returns the corrected verdict. */
 #define BOUNDARY_BAND 1e-3
 
-static int inside_exact(const dctx *c, int32_t fi, int poly_in, const double p[3], const double n[3]) {
+/* inside_exact searching the curves within `radius` (at least c->band) of p: *dcurve (may be
+ * NULL) receives the distance to the nearest curve's polyline, or radius when none is within
+ * it, so that a caller can skip the searches of points nearer than dcurve - band to p. The
+ * verdict is inside_exact's: the nearest polyline within the band is the same in both. */
+static int inside_exact_far(const dctx *c, int32_t fi, int poly_in, const double p[3],
+                            const double n[3], double radius, double *dcurve) {
   const pm_model *m = c->m;
+  if (dcurve) *dcurve = INFINITY;
   if (!c->rc_surf.bvh) return poly_in;
   double band = BOUNDARY_BAND * m->diagonal;
   pm_bvh_hit hit;
-  if (!pm_bvh_closest(c->rc_surf.bvh, p, band + 2 * c->p->ref_tol * m->diagonal, &hit)) return poly_in;
+  int found = pm_bvh_closest(c->rc_surf.bvh, p, radius, &hit);
+  if (dcurve) *dcurve = found ? hit.dist : radius;
+  if (!found || hit.dist > c->band) return poly_in;
   int32_t cu = c->rc_surf.curve.v[hit.tri];
   const pm_cell *f = &m->cells[PM_FACE][fi], *cc = &m->cells[PM_CURVE][cu];
   int uses = 0, sense = 0;
@@ -496,17 +565,20 @@ static int inside_exact(const dctx *c, int32_t fi, int poly_in, const double p[3
   if (uses != 1 || cc->degenerate) return poly_in;
   const int32_t *v = &c->rc_surf.seg.v[3 * (size_t)hit.tri];
   double t = hit.bary[0] * c->rc_surf.t.v[v[0]] + (hit.bary[1] + hit.bary[2]) * c->rc_surf.t.v[v[1]];
-  double dq = curve_foot(cc, p, &t);
+  pm_curve_point cp; /* C and C' at the foot */
+  double dq = curve_foot_at(cc, p, &t, &cp);
   double span = cc->hi[0] - cc->lo[0];
   if (dq > band || (!cc->periodic[0] && (t <= cc->lo[0] + 1e-9 * span || t >= cc->hi[0] - 1e-9 * span)))
     return poly_in;
-  pm_curve_point cp;
-  pm_curve_eval(cc, t, 1, &cp);
   double T[3], in_dir[3], off[3];
   pm_v3_scale(T, cp.d1, sense >= 0 ? 1 : -1);
   pm_v3_cross(in_dir, n, T);
   pm_v3_sub(off, p, cp.p);
   return pm_v3_dot(off, in_dir) >= 0;
+}
+
+static int inside_exact(const dctx *c, int32_t fi, int poly_in, const double p[3], const double n[3]) {
+  return inside_exact_far(c, fi, poly_in, p, n, c->band, NULL);
 }
 
 /* Distance from x to the model's faces (surface part) or dangling curves (wire part): the
@@ -515,24 +587,45 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
   const pm_model *m = c->m;
   double best = INFINITY, eps = c->p->ref_tol * m->diagonal;
   *fallback = 0;
+  const tri_nbhd *nb = c->nb && h && h->tri >= 0 ? &c->nb[h->tri] : NULL;
+  const double rx = nb ? pm_v3_dist(x, nb->g) : 0;
   if (part == PART_SURF) {
     fcand fc[2];
-    int nf = 0;
+    int nf = 0, poly_in[2] = {0, 0};
+    /* How far the reference may be from its faces: a face point nearer to x than reach lies
+     * within reach + ref_reach of x's closest reference triangle. */
+    double reach = INFINITY;
     if (h && h->cell >= 0) {
       double uv[2] = {h->par[0], h->par[1]};
       fcand *a = &fc[nf++];
       a->f = h->cell;
       a->d = face_foot(&m->cells[PM_FACE][h->cell], x, uv, &a->in, a->p, a->n);
+      poly_in[0] = a->in;
+      /* inside_exact searches the curves within its band of the foot, which is within
+       * a->d + |x - g| of the centroid: when they are farther, its verdict is poly_in. */
+      if (!nb || nb->curve <= (rx + a->d + c->band) * NBHD_SLACK)
+        a->in = inside_exact(c, a->f, a->in, a->p, a->n);
+      /* The hint's foot is a model point at distance a->d: another face can only do better
+       * where the reference comes within a->d + ref_reach of x, so the search stops there
+       * (which prunes it to a few boxes where a face is not near another). The unbounded
+       * search found the same faces, but where the reference is farther from its face than
+       * ref_reach. */
+      if (a->in && c->p->prune) reach = a->d + c->ref_reach;
     }
     double dref = INFINITY;
+    /* The reference of other faces is beyond their reach (tri_nbhd): the search could only
+     * name the hint's own face, whose foot is inside, and so add nothing. */
+    if (nb && nf == 1 && poly_in[0] && fc[0].in &&
+        nb->other > (rx + fc[0].d) * NBHD_SLACK)
+      goto candidates_done;
     if (c->rf.bvh) {
       pm_bvh_hit hit;
-      if (pm_bvh_closest(c->rf.bvh, x, INFINITY, &hit)) {
+      if (pm_bvh_closest(c->rf.bvh, x, reach, &hit)) {
         dref = hit.dist;
         int32_t f = c->rf.face.v[hit.tri];
         /* The reference names the hint's own face, whose foot was found inside it: a second
          * projection onto that face would land on the same foot. */
-        if (nf == 1 && fc[0].f == f && fc[0].in) goto candidates_done;
+        if (nf == 1 && fc[0].f == f && poly_in[0]) goto candidates_done;
         const int32_t *v = &c->rf.tri.v[3 * (size_t)hit.tri];
         double uv[2] = {0, 0};
         for (int k = 0; k < 3; ++k)
@@ -541,16 +634,15 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
         fcand *b = &fc[nf++];
         b->f = f;
         b->d = face_foot(&m->cells[PM_FACE][f], x, uv, &b->in, b->p, b->n);
+        b->in = inside_exact(c, b->f, b->in, b->p, b->n);
       }
     }
   candidates_done:
-    for (int i = 0; i < nf; ++i) {
-      fc[i].in = inside_exact(c, fc[i].f, fc[i].in, fc[i].p, fc[i].n);
+    for (int i = 0; i < nf; ++i)
       if (fc[i].in) best = fmin(best, fc[i].d);
-    }
     /* Curves: only points closer than the best face candidate matter (the reference polyline
-     * is within eps of its curve). */
-    if (c->rc_surf.bvh) {
+     * is within eps of its curve), and none is when the triangle's curve bound says so. */
+    if (c->rc_surf.bvh && !(nb && best < INFINITY && nb->curve > (rx + best + 2 * eps) * NBHD_SLACK)) {
       pm_bvh_hit hit;
       if (pm_bvh_closest(c->rc_surf.bvh, x, best < INFINITY ? best + 2 * eps : INFINITY, &hit)) {
         int32_t cu = c->rc_surf.curve.v[hit.tri];
@@ -669,7 +761,7 @@ static double mesh_eval(const dctx *c, int kind, int32_t e, const double par[2],
     pm_v3_zero(x);
     for (int k = 0; k < 3; ++k) pm_v3_axpy(x, x, w[k], &me->xyz[3 * (size_t)v[k]]);
     double np[3][2];
-    hint h = {-1, {0, 0}};
+    hint h = {-1, {0, 0}, e};
     int32_t f = tri_hint_nodes(c, e, np);
     if (f >= 0) {
       h.cell = f;
@@ -684,7 +776,7 @@ static double mesh_eval(const dctx *c, int kind, int32_t e, const double par[2],
                *b = &me->xyz[3 * (size_t)me->seg[2 * (size_t)sg + 1]];
   for (int k = 0; k < 3; ++k) x[k] = (1 - t) * a[k] + t * b[k];
   double np[2];
-  hint h = {-1, {0, 0}};
+  hint h = {-1, {0, 0}, -1};
   int32_t cu = seg_hint_nodes(c, sg, np);
   if (cu >= 0 && c->dangling[cu]) h.cell = cu, h.par[0] = (1 - t) * np[0] + t * np[1];
   return model_dist(c, PART_WIRE, x, &h, fallback);
@@ -928,6 +1020,82 @@ static pm_status lattice_build(const pm_mesh *me, int level, lattice *l, pm_erro
   return PM_OK;
 }
 
+/* A run of model-side samples: chunk positions k .. k + len - 1, all of block `block`. */
+typedef struct mrun {
+  int64_t k;
+  int32_t len, block;
+} mrun;
+#define RUN 64
+
+/* Evaluate a run (the model -> mesh loop): results at chunk position k as in that loop. The
+ * figures are model_eval's: a face's points come from one pm_face_eval_many call (the same
+ * evaluations, batched), a sample's search of the curves (inside_exact) reaches further than the
+ * band and tells how far the curves are, so that the following samples nearer to it than that
+ * distance less the band need no search, and the search of the mesh starts from the previous
+ * sample's distance plus the distance between the two (a bound on the answer, which is the same
+ * exact distance as from an unbounded search). */
+static void model_run(const dctx *c, const mblock *blocks, const mrun *run, int64_t s0,
+                      double *dres, double *wres, double *rres, double *xres, int *fres) {
+  const mblock *b = &blocks[run->block];
+  const pm_model *m = c->m;
+  const pm_bvh *target = (b->part == PART_WIRE && c->mesh_wire) ? c->mesh_wire : c->mesh_tri;
+  if (b->kind != S_FACE) {
+    for (int32_t q = 0; q < run->len; ++q) {
+      int64_t k = run->k + q, r = s0 + k - b->first;
+      double par[2], w = 0, *x = &xres[3 * k];
+      par[0] = r + 1 == b->nu ? m->cells[PM_CURVE][b->cell].hi[0] : b->u0 + r * b->du, par[1] = 0;
+      dres[k] = model_eval(c, b, par, x, NULL);
+      /* Boundary curves of faces carry no area: they count in the maximum only. Dangling
+       * curves are the wire part, weighted by length. */
+      if (b->part == PART_WIRE && isfinite(dres[k])) {
+        pm_curve_point cp;
+        pm_curve_eval(&m->cells[PM_CURVE][b->cell], par[0], 1, &cp);
+        w = pm_v3_norm(cp.d1) * b->du * ((r == 0 || r + 1 == b->nu) ? 0.5 : 1);
+      }
+      wres[k] = w;
+      fres[k] = run->block;
+      double sz = isfinite(dres[k]) ? size_at(c, x) : 0;
+      rres[k] = sz > 0 ? dres[k] / sz : 0;
+    }
+    return;
+  }
+  const pm_cell *f = &m->cells[PM_FACE][b->cell];
+  double uv[2 * RUN];
+  pm_face_point fp[RUN];
+  for (int32_t q = 0; q < run->len; ++q) {
+    int64_t r = s0 + run->k + q - b->first;
+    int32_t i = (int32_t)(r / b->nv), j = (int32_t)(r % b->nv);
+    uv[2 * q] = b->u0 + i * b->du, uv[2 * q + 1] = b->v0 + j * b->dv;
+  }
+  pm_face_eval_many(f, run->len, uv, 1, fp);
+  double prev[3] = {0, 0, 0}, dprev = INFINITY, cprev[3] = {0, 0, 0}, dcurve = -INFINITY;
+  for (int32_t q = 0; q < run->len; ++q) {
+    int64_t k = run->k + q;
+    double *x = &xres[3 * k], n[3];
+    pm_v3_copy(x, fp[q].p);
+    pm_v3_cross(n, fp[q].su, fp[q].sv);
+    int in = pm_face_inside(f, &uv[2 * q]);
+    if (!c->p->prune) {
+      in = inside_exact(c, b->cell, in, x, n);
+    } else if (dcurve - pm_v3_dist(x, cprev) <= c->band * NBHD_SLACK) {
+      in = inside_exact_far(c, b->cell, in, x, n, 4 * c->band, &dcurve);
+      pm_v3_copy(cprev, x);
+    }
+    dres[k] = NAN, wres[k] = 0;
+    if (in && target) {
+      pm_bvh_hit hit;
+      double bound = dprev < INFINITY && c->p->prune ? (dprev + pm_v3_dist(x, prev)) * NBHD_SLACK : INFINITY;
+      if (!pm_bvh_closest(target, x, bound, &hit)) pm_bvh_closest(target, x, INFINITY, &hit);
+      dres[k] = hit.dist;
+      pm_v3_copy(prev, x), dprev = hit.dist;
+      wres[k] = pm_v3_norm(n) * b->du * b->dv;
+    }
+    fres[k] = run->block;
+    double sz = isfinite(dres[k]) ? size_at(c, x) : 0;
+    rres[k] = sz > 0 ? dres[k] / sz : 0;
+  }
+}
+
 /* Points allowed on one face: per_tri for each of its triangles, at least FACE_BUDGET_MIN (a
  * face with a handful of triangles still gets a grid that resolves its boundary), at most cap. */
 #define FACE_BUDGET_MIN 256
@@ -935,6 +1103,92 @@ static int64_t face_budget(int64_t cap, int32_t per_tri, int32_t ntri) {
   int64_t b = (int64_t)per_tri * ntri;
   if (b < FACE_BUDGET_MIN) b = FACE_BUDGET_MIN;
   return b < cap ? b : cap;
+}
+
+/* The neighbourhood bounds of triangle t (tri_nbhd). The searches reach a quarter of r beyond
+ * what a sample needs when its distance to the model is 0 (NBHD_REACH): samples farther from
+ * the model than that search as before. */
+#define NBHD_REACH 1.25
+
+typedef struct other_ctx {
+  const dctx *c;
+  const double *p;
+  int32_t face;
+  double best;  /* the smallest distance less the face's reach so far */
+} other_ctx;
+
+/* A reference triangle counts as nearer by its face's reach, so the search goes on to the best
+ * value plus the largest reach. The strip that a degraded face's reference leaves uncovered
+ * (ref_faces.gap) is not counted: the unbounded search of the reference found such a face only
+ * where its reference was the nearest, and so does this one. */
+static double other_face_visit(void *user, int32_t t, double radius) {
+  other_ctx *o = user;
+  const dctx *c = o->c;
+  const ref_faces *rf = &c->rf;
+  int32_t f = rf->face.v[t];
+  if (f == o->face) return radius;
+  const int32_t *v = &rf->tri.v[3 * (size_t)t];
+  double d = pm_point_triangle_closest(o->p, &rf->xyz.v[3 * (size_t)v[0]], &rf->xyz.v[3 * (size_t)v[1]],
+                                       &rf->xyz.v[3 * (size_t)v[2]], NULL, NULL);
+  o->best = fmin(o->best, d - c->face_reach[f]);
+  return fmin(radius, o->best + c->reach_max);
+}
+
+/* Centroid, r and the curve bound of triangle t. */
+static void tri_nbhd_near(const dctx *c, int32_t t, tri_nbhd *nb) {
+  const pm_mesh *me = c->mesh;
+  const int32_t *v = &me->tri[3 * (size_t)t];
+  double *g = nb->g;
+  pm_v3_zero(g);
+  for (int k = 0; k < 3; ++k) pm_v3_axpy(g, g, 1.0 / 3.0, &me->xyz[3 * (size_t)v[k]]);
+  nb->r = 0;
+  for (int k = 0; k < 3; ++k) nb->r = fmax(nb->r, pm_v3_dist(g, &me->xyz[3 * (size_t)v[k]]));
+  nb->curve = INFINITY;
+  if (c->rc_surf.bvh) {
+    double cap = NBHD_REACH * nb->r + c->band;
+    pm_bvh_hit hit;
+    nb->curve = pm_bvh_closest(c->rc_surf.bvh, g, cap, &hit) ? hit.dist : cap;
+  }
+}
+
+/* Distance from p to an axis-aligned box (lo[3], hi[3]); 0 inside. */
+static double box_distance(const double p[3], const double *box) {
+  double s = 0;
+  for (int k = 0; k < 3; ++k) {
+    double e = fmax(fmax(box[k] - p[k], p[k] - box[3 + k]), 0);
+    s += e * e;
+  }
+  return sqrt(s);
+}
+
+/* The other-face bound of a triangle classified on face f (f < 0: unclassified). The
+ * boxes of the faces near f's box are looked at first: when none comes within reach, no
+ * reference triangle does, and the search of the reference (which visits the triangle's own
+ * face's reference too, to no use) is not needed. */
+static void tri_nbhd_other(const dctx *c, int32_t f, const int32_t *near_off, const int32_t *near,
+                           tri_nbhd *nb) {
+  if (!c->rf.bvh) {
+    nb->other = INFINITY;
+    return;
+  }
+  if (f < 0) {
+    nb->other = -INFINITY; /* no hint, nothing is skipped */
+    return;
+  }
+  const double cap = NBHD_REACH * nb->r;
+  int any = 0;
+  for (int32_t k = near_off[f]; k < near_off[f + 1] && !any; ++k)
+    any = box_distance(nb->g, &c->face_box[6 * (size_t)near[k]]) - c->face_reach[near[k]] <= cap;
+  if (!any) {
+    nb->other = cap;
+    return;
+  }
+  /* The search reaches cap only (its cost stays that of the triangle's surroundings); an
+   * unvisited triangle is farther than cap, so its distance less its reach exceeds
+   * cap - reach_max. */
+  other_ctx o = {c, nb->g, f, cap};
+  pm_bvh_visit(c->rf.bvh, nb->g, cap, other_face_visit, &o);
+  nb->other = fmin(o.best, cap - c->reach_max);
 }
 
 /* ---- driver ---------------------------------------------------------------------------------------------- */
@@ -1020,11 +1274,18 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
   double *Lface = malloc(sizeof(double) * (size_t)(nface > 0 ? nface : 1));
   mblock *blocks = NULL;
   face_info *finfo = NULL;
+  tri_nbhd *nbhd = NULL;
   double *dres = NULL, *wres = NULL, *rres = NULL, *xres = NULL;
   lattice lat = {0};
   int *fres = NULL;
+  mrun *runs = NULL;
+  int32_t *curve_segs = NULL; /* [ncurve] mesh segments on each curve */
   if (!c.dangling || !face_tris_off || !face_tris || !Lface) goto nomem;
   int ndangling = 0;
+  curve_segs = calloc((size_t)(ncurve > 0 ? ncurve : 1), sizeof(int32_t));
+  if (!curve_segs) goto nomem;
+  for (int32_t i = 0; i < mesh->nseg && mesh->seg_cell; ++i)
+    if (mesh->seg_cell[i] >= 0 && mesh->seg_cell[i] < ncurve) curve_segs[mesh->seg_cell[i]]++;
   for (int32_t i = 0; i < ncurve; ++i) {
     c.dangling[i] = m->cells[PM_CURVE][i].nup == 0;
     ndangling += c.dangling[i];
@@ -1115,6 +1376,11 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
     /* Faces in parallel, each into its own buffers, then appended in face order (so the result
      * does not depend on the thread count). */
     ref_faces *part = calloc((size_t)nface, sizeof(ref_faces));
+    c.face_reach = calloc((size_t)nface, sizeof(double));
+    if (!c.face_reach) {
+      free(part);
+      goto nomem;
+    }
     pm_status *fst = calloc((size_t)nface, sizeof(pm_status));
     pm_error *ferr = calloc((size_t)nface, sizeof(pm_error));
     if (!part || !fst || !ferr) {
@@ -1134,6 +1400,13 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
       int32_t base = (int32_t)(c.rf.xyz.n / 3);
       c.rf.chord = fmax(c.rf.chord, part[f].chord);
       c.rf.degraded += part[f].degraded;
+      c.rf.gap = fmax(c.rf.gap, part[f].gap);
+      /* The chordal bound (0 on a plane: the floor is for rounding). The sliver that the
+       * trimming polylines cut off a face along a curved boundary (2e-4 of its parameter box,
+       * trim.c) has no reference; its points are within the sliver's width of the boundary
+       * curve, which the curve candidates of model_dist measure. */
+      c.face_reach[f] = REF_REACH_MARGIN * part[f].chord + 1e-12 * m->diagonal;
+      c.reach_max = fmax(c.reach_max, c.face_reach[f]);
       if (!dbuf_push(&c.rf.xyz, part[f].xyz.v, part[f].xyz.n) ||
           !dbuf_push(&c.rf.uv, part[f].uv.v, part[f].uv.n) ||
           !ibuf_push(&c.rf.face, part[f].face.v, part[f].face.n)) {
@@ -1153,6 +1426,23 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
       pm_error_prefix(err, "distance: reference");
       goto done;
     }
+    /* The reference is within its chordal bound of its faces (at least eps; the bound is an
+     * estimate from the probed curvature, so REF_REACH_MARGIN times it leaves room for what the
+     * probes missed), but for the strip along the boundary that a face whose constrained
+     * triangulation failed leaves uncovered. */
+    c.ref_reach = REF_REACH_MARGIN * fmax(eps, c.rf.chord) + c.rf.gap;
+    c.face_box = malloc(sizeof(double) * 6 * (size_t)nface);
+    if (!c.face_box) goto nomem;
+    for (int32_t f = 0; f < nface; ++f)
+      for (int k = 0; k < 3; ++k) c.face_box[6 * f + k] = INFINITY, c.face_box[6 * f + 3 + k] = -INFINITY;
+    for (int64_t t = 0; t < c.rf.tri.n / 3; ++t) {
+      double *b = &c.face_box[6 * (size_t)c.rf.face.v[t]];
+      for (int q = 0; q < 3; ++q)
+        for (int k = 0; k < 3; ++k) {
+          double x = c.rf.xyz.v[3 * (size_t)c.rf.tri.v[3 * t + q] + k];
+          b[k] = fmin(b[k], x), b[3 + k] = fmax(b[3 + k], x);
+        }
+    }
     out->ref_chord = c.rf.chord;
     out->ref_faces_degraded = c.rf.degraded;
   }
@@ -1171,6 +1461,59 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
     }
   }
 
+  c.band = BOUNDARY_BAND * m->diagonal + 2 * eps;
+  if (c.surf && mesh->ntri > 0 && p.prune) {
+    nbhd = malloc(sizeof(tri_nbhd) * (size_t)mesh->ntri);
+    double *rmax = calloc((size_t)nface + 1, sizeof(double));
+    int32_t *near_off = calloc((size_t)nface + 1, sizeof(int32_t)), *near = NULL;
+    if (!nbhd || !rmax || !near_off) {
+      free(rmax), free(near_off);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int32_t t = 0; t < mesh->ntri; ++t) tri_nbhd_near(&c, t, &nbhd[t]);
+    for (int32_t t = 0; t < mesh->ntri; ++t) {
+      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+      if (f >= 0 && f < nface) rmax[f] = fmax(rmax[f], nbhd[t].r);
+    }
+    /* For each face, the other faces whose boxes come within reach of its box (a triangle's
+     * centroid lies in its face's box but for the mesh's distance to it, which the
+     * search radius NBHD_REACH r covers where skipping is possible at all). */
+    int64_t nnear = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+      nnear = 0;
+      for (int32_t f = 0; f < nface; ++f) {
+        if (pass) near_off[f] = (int32_t)nnear;
+        const double *a = &c.face_box[6 * (size_t)f];
+        for (int32_t f2 = 0; f2 < nface; ++f2) {
+          if (f2 == f) continue;
+          const double *b = &c.face_box[6 * (size_t)f2];
+          double s2 = 0;
+          for (int k = 0; k < 3; ++k) {
+            double e = fmax(fmax(a[k] - b[3 + k], b[k] - a[3 + k]), 0);
+            s2 += e * e;
+          }
+          if (sqrt(s2) - c.face_reach[f2] <= NBHD_REACH * rmax[f] + rmax[f]) {
+            if (pass) near[nnear] = f2;
+            ++nnear;
+          }
+        }
+      }
+      if (pass) near_off[nface] = (int32_t)nnear;
+      else if (!(near = malloc(sizeof(int32_t) * (size_t)(nnear > 0 ? nnear : 1)))) break;
+    }
+    if (!near) {
+      free(rmax), free(near_off);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int32_t t = 0; t < mesh->ntri; ++t) {
+      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+      tri_nbhd_other(&c, f >= 0 && f < nface ? f : -1, near_off, near, &nbhd[t]);
+    }
+    free(rmax), free(near_off), free(near);
+    c.nb = nbhd;
+  }
   /* ---- model -> mesh: blocks -------------------------------------------------------------- */
   int32_t nblock = 0;
   blocks = malloc(sizeof(mblock) * (size_t)(nface + ncurve + 1));
@@ -1213,6 +1556,13 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
       h *= p.spacing * grow;
       double n = fmax(3, ceil(pm_curve_length(cu, cu->lo[0], cu->hi[0]) / h) + 1);
       if (n > (double)p.max_face_samples) n = (double)p.max_face_samples;
+      /* A boundary curve counts in the maximum only (its largest samples are refined): like a
+       * face, at most model_per_tri points per mesh segment on it (at least FACE_BUDGET_MIN),
+       * so that a face's shortest edges do not set the sampling of its long curves. */
+      if (!c.dangling[i] && curve_segs[i] > 0) {
+        double cap = (double)face_budget(p.max_face_samples, p.model_per_tri, curve_segs[i]);
+        if (n > cap) n = cap;
+      }
       mblock *b = &blocks[nblock++];
       b->kind = S_CURVE, b->part = c.dangling[i] ? PART_WIRE : PART_SURF, b->cell = i;
       b->nu = (int32_t)n, b->nv = 1;
@@ -1242,8 +1592,9 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
   rres = malloc(sizeof(double) * CHUNK);
   xres = malloc(sizeof(double) * 3 * CHUNK);
   fres = malloc(sizeof(int) * CHUNK);
+  runs = malloc(sizeof(mrun) * (CHUNK + (size_t)nblock + 1));
   topk *top = malloc(sizeof(topk) * (size_t)(2 * p.refine + 1));
-  if (!dres || !wres || !rres || !xres || !fres || !top) {
+  if (!dres || !wres || !rres || !xres || !fres || !runs || !top) {
     free(top);
     goto nomem;
   }
@@ -1311,8 +1662,10 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
   /* ---- model -> mesh ------------------------------------------------------------------------- */
   for (int64_t s0 = 0; s0 < nmodel; s0 += CHUNK) {
     int64_t n = nmodel - s0 < CHUNK ? nmodel - s0 : CHUNK;
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t k = 0; k < n; ++k) {
+    /* Runs of up to RUN consecutive samples of one block: a face's run is evaluated in one
+     * batch, and each sample's searches start from what the previous one found. */
+    int64_t nrun = 0;
+    for (int64_t k = 0; k < n;) {
       int64_t sidx = s0 + k;
       /* The block holding sample sidx (binary search on `first`). */
       int32_t lo = 0, hi = nblock - 1;
@@ -1323,32 +1676,14 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
         else
           hi = mid - 1;
       }
-      const mblock *b = &blocks[lo];
-      int64_t r = sidx - b->first;
-      double par[2], w = 0;
-      double *x = &xres[3 * k];
-      if (b->kind == S_FACE) {
-        int32_t i = (int32_t)(r / b->nv), j = (int32_t)(r % b->nv);
-        par[0] = b->u0 + i * b->du, par[1] = b->v0 + j * b->dv;
-        double jac = 0;
-        dres[k] = model_eval(&c, b, par, x, &jac);
-        if (isfinite(dres[k])) w = jac * b->du * b->dv;
-      } else {
-        par[0] = r + 1 == b->nu ? m->cells[PM_CURVE][b->cell].hi[0] : b->u0 + r * b->du, par[1] = 0;
-        dres[k] = model_eval(&c, b, par, x, NULL);
-        /* Boundary curves of faces carry no area: they count in the maximum only. Dangling
-         * curves are the wire part, weighted by length. */
-        if (b->part == PART_WIRE && isfinite(dres[k])) {
-          pm_curve_point cp;
-          pm_curve_eval(&m->cells[PM_CURVE][b->cell], par[0], 1, &cp);
-          w = pm_v3_norm(cp.d1) * b->du * ((r == 0 || r + 1 == b->nu) ? 0.5 : 1);
-        }
-      }
-      wres[k] = w;
-      fres[k] = lo;
-      double sz = isfinite(dres[k]) ? size_at(&c, x) : 0;
-      rres[k] = sz > 0 ? dres[k] / sz : 0;
+      int64_t end = blocks[lo].first + (int64_t)blocks[lo].nu * blocks[lo].nv - s0;
+      int64_t len = end - k < RUN ? end - k : RUN;
+      if (k + len > n) len = n - k;
+      runs[nrun].k = k, runs[nrun].len = (int32_t)len, runs[nrun].block = lo;
+      ++nrun, k += len;
     }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t q = 0; q < nrun; ++q) model_run(&c, blocks, &runs[q], s0, dres, wres, rres, xres, fres);
     for (int64_t k = 0; k < n; ++k) {
       if (!isfinite(dres[k])) continue;
       const mblock *b = &blocks[fres[k]];
@@ -1430,11 +1765,11 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
 nomem:
   s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory");
 done:
-  free(dres), free(wres), free(rres), free(xres), free(fres);
+  free(dres), free(wres), free(rres), free(xres), free(fres), free(runs);
   lattice_free(&lat);
-  free(blocks), free(finfo);
+  free(blocks), free(finfo), free(nbhd), free(curve_segs);
   free(face_tris_off), free(face_tris), free(Lface);
-  free(c.dangling), free(c.wire_seg);
+  free(c.dangling), free(c.wire_seg), free(c.face_reach), free(c.face_box);
   pm_bvh_destroy(c.mesh_tri), pm_bvh_destroy(c.mesh_wire);
   ref_faces_free(&c.rf);
   ref_curves_free(&c.rc_surf), ref_curves_free(&c.rc_wire);

@@ -16,7 +16,8 @@
  *     says the point is in the trimmed region, with a 3D spacing of `spacing` times the local edge
  *     length of the mesh (the 5th percentile of the edge lengths of the face's triangles, or of
  *     all triangles when the mesh is not classified); the boundary curves are sampled at the same
- *     spacing (this is where a polygonal boundary cuts corners: the sagitta). Each point S(u, v)
+ *     spacing, at most model_per_tri points per mesh segment on the curve (this is where a
+ *     polygonal boundary cuts corners: the sagitta). Each point S(u, v)
  *     or C(t) is queried against a BVH of the mesh's triangles: the exact distance to the mesh.
  *   mesh -> model: each triangle is sampled on the barycentric lattice of level `tri_level`
  *     (vertices, points on the edges, interior points), each segment at tri_level + 1 points. The
@@ -43,6 +44,18 @@
  *     equally close the pick may be the wrong one, which costs at most about that tolerance. If no
  *     candidate is available (every projection left the trim and there is no curve), the distance
  *     to the reference tessellation itself is used and counted in `nfallback`.
+ * Searches that cannot find anything are skipped (prune = 1, the default; no figure changes):
+ *   - mesh -> model: per mesh triangle, the distances from its centroid to the boundary curves'
+ *     polylines and to the reference of the other faces (less how far that reference may lie from
+ *     its face) are measured once; a sample x of the triangle skips the search of the other
+ *     faces when they are farther than the hint's foot plus |x - centroid|, and the search of the
+ *     curves likewise. Where a search remains, it stops at the hint's foot distance plus how far
+ *     the reference may lie from its faces (its chordal bound with a margin, at least eps).
+ *   - model -> mesh: a face's samples are evaluated in batches of one grid row segment; each
+ *     starts its search of the mesh from the previous sample's distance plus the distance between
+ *     them, and skips the search of the curves while the last one shows them out of reach.
+ *   Projections stop when the step's image in 3D (the tangential part of x - S) is below 1e-10
+ *   of the diagonal, before evaluating it.
  * Each direction then refines its `refine` largest distances (one per element, or per 1/64 of a
  * face or curve) by a pattern search over the element's parameters, so that the maximum is the
  * local maximum of the distance function and not just the best sample.
@@ -94,7 +107,14 @@ typedef struct pm_distance_params {
                             mesh's (16 gives 1/20 on a sphere); 1..1e6, default 16 */
   int32_t model_per_tri; /* model -> mesh samples of one face: at most this many per triangle of
                             the face's mesh (at least 256 a face), so that the cost follows the
-                            mesh, not the parametrization; 1..1e6, default 16 */
+                            mesh, not the parametrization; and of one boundary curve, at most
+                            this many per mesh segment on it (at least 256); 1..1e6, default 16 */
+  int32_t prune;         /* 1: skip the searches that bounds show cannot find anything (per mesh
+                            triangle, the distance from its centroid to the boundary curves and to
+                            the reference of the other faces; along a row of model samples, the
+                            previous sample's answers), which leaves every figure as it is;
+                            0: search everywhere (the previous code path, kept for tests and
+                            benchmarks); 0..1, default 1 */
 } pm_distance_params;
 
 /* Set the defaults above. */

@@ -529,6 +529,179 @@ static void test_torus_doubly_periodic(void **state) {
   pm_model_destroy(m);
 }
 
+/* ---- pruned searches -------------------------------------------------------------------------- */
+
+/* The cylinder prism of test_cylinder_prism (n sides, `layers` rows), classified as a mesher
+ * leaves it: each triangle on the face nearest its centroid, each node on a face whose triangles
+ * are all on that face, with its (u, v) by projection; nodes on the rims stay unclassified (the
+ * hint then takes a face node's (u, v)). The top ring is pulled in to radius 0.4999 and down to
+ * z = 0.998: points of the top cap's triangles near it are nearer to the side than to the cap
+ * (the search of the other faces must find the side), and some of their feet on the cap lie
+ * between the cap's trimming polyline and its circle (the exact inside test must see them). */
+static pm_mesh *classified_prism(const pm_model *m, int n, int layers) {
+  const double r = 0.5;
+  int32_t nn = layers * n + n + 2;
+  double *xyz = malloc(sizeof(double) * 3 * (size_t)nn);
+  for (int j = 0; j <= layers; ++j)
+    for (int k = 0; k < n; ++k) {
+      double a = 2 * M_PI * k / n, *p = &xyz[3 * (j * n + k)];
+      p[0] = r * cos(a), p[1] = r * sin(a), p[2] = -1 + 2.0 * j / layers;
+      if (j == layers) p[0] *= 0.9998, p[1] *= 0.9998, p[2] = 0.998;
+    }
+  int32_t cb = (layers + 1) * n, ct = cb + 1;
+  xyz[3 * cb] = xyz[3 * cb + 1] = 0, xyz[3 * cb + 2] = -1;
+  xyz[3 * ct] = xyz[3 * ct + 1] = 0, xyz[3 * ct + 2] = 1;
+  int32_t nt = 2 * layers * n + 2 * n, *tri = malloc(sizeof(int32_t) * 3 * (size_t)nt), q = 0;
+  for (int j = 0; j < layers; ++j)
+    for (int k = 0; k < n; ++k) {
+      int32_t a = j * n + k, b = j * n + (k + 1) % n, c = a + n, d = b + n;
+      tri[q++] = a, tri[q++] = b, tri[q++] = d, tri[q++] = a, tri[q++] = d, tri[q++] = c;
+    }
+  for (int k = 0; k < n; ++k) {
+    tri[q++] = cb, tri[q++] = (k + 1) % n, tri[q++] = k;
+    tri[q++] = ct, tri[q++] = layers * n + k, tri[q++] = layers * n + (k + 1) % n;
+  }
+  int32_t *tface = malloc(sizeof(int32_t) * (size_t)nt), *nface = malloc(sizeof(int32_t) * (size_t)nn);
+  for (int32_t i = 0; i < nn; ++i) nface[i] = -2; /* -2 untouched, -1 on two faces */
+  pm_error e = {0};
+  for (int32_t t = 0; t < nt; ++t) {
+    double g[3] = {0, 0, 0}, best = INFINITY;
+    for (int k = 0; k < 3; ++k)
+      for (int q2 = 0; q2 < 3; ++q2) g[q2] += xyz[3 * tri[3 * t + k] + q2] / 3;
+    for (int32_t f = 0; f < m->count[PM_FACE]; ++f) {
+      double par[2], foot[3], d;
+      PM_ASSERT_OK(pm_cell_project(&m->cells[PM_FACE][f], g, NULL, par, foot, &d, &e), e);
+      if (d < best) best = d, tface[t] = f;
+    }
+    for (int k = 0; k < 3; ++k) {
+      int32_t v = tri[3 * t + k];
+      nface[v] = nface[v] == -2 || nface[v] == tface[t] ? tface[t] : -1;
+    }
+  }
+  pm_mesh *me = pm_mesh_create();
+  for (int32_t i = 0; i < nn; ++i) {
+    double uv[2], foot[3], d;
+    int f = nface[i] >= 0 ? nface[i] : -1;
+    if (f >= 0) PM_ASSERT_OK(pm_cell_project(&m->cells[PM_FACE][f], &xyz[3 * i], NULL, uv, foot, &d, &e), e);
+    PM_ASSERT_OK(pm_mesh_add_node(me, &xyz[3 * i], f >= 0 ? PM_FACE : -1, f, f >= 0 ? uv : NULL, NULL, &e), e);
+  }
+  for (int32_t t = 0; t < nt; ++t)
+    PM_ASSERT_OK(pm_mesh_add_tri(me, tri[3 * t], tri[3 * t + 1], tri[3 * t + 2], tface[t], &e), e);
+  free(xyz), free(tri), free(tface), free(nface);
+  return me;
+}
+
+/* Pruning (distance.h: prune) skips searches that cannot find anything, so every figure is the
+ * same as with the searches done everywhere: on the classified prism, whose samples near the rims
+ * see the other faces and the circles, and on the torus with a node pushed off the surface. */
+static void test_prune_changes_no_figure(void **state) {
+  (void)state;
+  pm_error e = {0};
+  for (int which = 0; which < 2; ++which) {
+    pm_model *m = NULL;
+    PM_ASSERT_OK(pm_cad_case(which ? "torus" : "cylinder", &m, &e), e);
+    pm_mesh *me = NULL;
+    if (which == 0) {
+      me = classified_prism(m, 24, 6);
+    } else {
+      me = pm_mesh_create();
+      const int nu = 24, nv = 12;
+      for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+          double uv[2] = {2 * M_PI * i / nu, 2 * M_PI * j / nv};
+          double p[3] = {(1 + 0.35 * cos(uv[1])) * cos(uv[0]), (1 + 0.35 * cos(uv[1])) * sin(uv[0]),
+                         0.35 * sin(uv[1])};
+          if (i == 5 && j == 3) p[2] += 0.02;
+          PM_ASSERT_OK(pm_mesh_add_node(me, p, PM_FACE, 0, uv, NULL, &e), e);
+        }
+      for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+          int32_t a = j * nu + i, b = j * nu + (i + 1) % nu, c = ((j + 1) % nv) * nu + i,
+                  d = ((j + 1) % nv) * nu + (i + 1) % nu;
+          PM_ASSERT_OK(pm_mesh_add_tri(me, a, b, d, 0, &e), e);
+          PM_ASSERT_OK(pm_mesh_add_tri(me, a, d, c, 0, &e), e);
+        }
+    }
+    pm_distance_params p;
+    pm_distance_params_init(&p);
+    assert_int_equal(p.prune, 1);
+    pm_distance dp, ds;
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &dp, &e), e);
+    p.prune = 0;
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &ds, &e), e);
+    if (getenv("PM_TEST_VERBOSE"))
+      printf("%s: pruned mean %.17g max %.17g, searched mean %.17g max %.17g\n", which ? "torus" : "prism",
+             dp.mean, dp.max, ds.mean, ds.max);
+    assert_true(dp.mean == ds.mean);
+    assert_true(dp.max == ds.max);
+    assert_true(dp.mesh_to_model_mean == ds.mesh_to_model_mean);
+    assert_true(dp.mesh_to_model_max == ds.mesh_to_model_max);
+    assert_true(dp.model_to_mesh_mean == ds.model_to_mesh_mean);
+    assert_true(dp.model_to_mesh_max == ds.model_to_mesh_max);
+    assert_true(dp.nsamples_mesh == ds.nsamples_mesh && dp.nsamples_model == ds.nsamples_model);
+    assert_int_equal(dp.nfallback, 0);
+    if (which == 0) {
+      /* At least the prism's sagitta (test_cylinder_prism), the pulled ring adds to it. */
+      double sag = 0.5 * (1 - cos(M_PI / 24));
+      assert_true(dp.mesh_to_model_max > sag && dp.mesh_to_model_max < 2 * sag);
+    } else {
+      assert_true(dp.mesh_to_model_max > 0.015);
+    }
+    pm_mesh_destroy(me);
+    pm_model_destroy(m);
+  }
+}
+
+/* A boundary curve is sampled at most model_per_tri times per mesh segment on it (at least 256),
+ * however short the face's shortest edges: the unit square meshed 5 x 5 with its first column
+ * 1e-4 wide (7% of the edges that short, so the face's 5th-percentile edge is 1e-4), boundary
+ * segments on their curves. Unbounded, each side would take 1 / (0.25 x 1e-4) = 40000 points. */
+static void test_curve_samples_follow_segments(void **state) {
+  (void)state;
+  pm_model *m = square_model();
+  pm_mesh *me = pm_mesh_create();
+  pm_error e = {0};
+  const int n = 5;
+  double xs[6] = {0, 1e-4, 0.25, 0.5, 0.75, 1};
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      double p[3] = {xs[i], (double)j / n, 0}, uv[2] = {p[0], p[1]};
+      PM_ASSERT_OK(pm_mesh_add_node(me, p, PM_FACE, 0, uv, NULL, &e), e);
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      int32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+      PM_ASSERT_OK(pm_mesh_add_tri(me, a, b, d, 0, &e), e);
+      PM_ASSERT_OK(pm_mesh_add_tri(me, a, d, c, 0, &e), e);
+    }
+  /* The boundary segments, each on the curve nearest its midpoint. */
+  int32_t ring[4 * 5 + 1], nr = 0;
+  for (int i = 0; i < n; ++i) ring[nr++] = i;
+  for (int j = 0; j < n; ++j) ring[nr++] = j * (n + 1) + n;
+  for (int i = n; i > 0; --i) ring[nr++] = n * (n + 1) + i;
+  for (int j = n; j > 0; --j) ring[nr++] = j * (n + 1);
+  ring[nr] = ring[0];
+  for (int k = 0; k < nr; ++k) {
+    double mid[3];
+    for (int q = 0; q < 3; ++q) mid[q] = 0.5 * (me->xyz[3 * ring[k] + q] + me->xyz[3 * ring[k + 1] + q]);
+    int32_t best = -1;
+    double bd = INFINITY;
+    for (int32_t cu = 0; cu < m->count[PM_CURVE]; ++cu) {
+      double t, foot[3], d;
+      PM_ASSERT_OK(pm_cell_project(&m->cells[PM_CURVE][cu], mid, NULL, &t, foot, &d, &e), e);
+      if (d < bd) bd = d, best = cu;
+    }
+    PM_ASSERT_OK(pm_mesh_add_seg(me, ring[k], ring[k + 1], best, &e), e);
+  }
+  pm_distance d;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  /* The face: at most 16 per triangle (800); the curves: 256 each. */
+  assert_true(d.nsamples_model <= 800 + 4 * 256);
+  assert_true(d.max < 1e-12);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
 /* ---- determinism --------------------------------------------------------------------------------- */
 
 static void test_thread_count_independent(void **state) {
@@ -698,6 +871,8 @@ int main(void) {
       cmocka_unit_test(test_sphere_pushed_vertex),
       cmocka_unit_test(test_cylinder_prism),
       cmocka_unit_test(test_torus_doubly_periodic),
+      cmocka_unit_test(test_prune_changes_no_figure),
+      cmocka_unit_test(test_curve_samples_follow_segments),
       cmocka_unit_test(test_thread_count_independent),
       cmocka_unit_test(test_wire_dangling_segment),
       cmocka_unit_test(test_params_and_bad_input),
