@@ -115,7 +115,14 @@ double bub_time_step(const bub_params *p) {
   return frac * 2 * M_PI * sqrt(p->mass / p->k0);
 }
 
+double bub_final_zeta(const bub_params *p) {
+  if (p->final_zeta != 0) return p->final_zeta > 0 ? p->final_zeta : 0;
+  return p->integrator == BUB_RK4 ? 0.3 : 0;
+}
+
 double bub_zeta_now(const bub_state *s) {
+  /* (the surface phase's final steps only: the volume phase was not measured with it) */
+  if (s->final_phase && !s->volume_phase && bub_final_zeta(&s->p) > 0) return bub_final_zeta(&s->p);
   if (s->p.viscosity == BUB_VISC_CONSTANT) return s->p.zeta;
   /* 004 section 2.2: c = c0 + k1 (steps into the round) + k2 (rounds done), saw-tooth shaped,
    * rising within a round and from round to round; capped for stability. */
