@@ -43,7 +43,7 @@ static const pm_param_desc desc[] = {
     {"zeta_max", PM_PARAM_DOUBLE, F(zeta_max), 1.5, 0.1, 10, PM_RANGE_CLOSED, "",
      "saw-tooth: cap of the damping ratio", "our choice (stability of the step)", NULL},
     {"final_zeta", PM_PARAM_DOUBLE, F(final_zeta), 0, -1, 10, PM_RANGE_CLOSED, "",
-     "damping ratio of the surface phase's final steps, after population control has ended; 0 = "
+     "damping ratio of curved faces' bubbles in the surface phase's final steps; 0 = "
      "automatic (rk4 0.3, rk2 the schedule: its step needs more damping), -1 = the viscosity "
      "schedule goes on (at its cap)",
      "our choice (bub_run.c; bench_bubble compare, timing)", NULL},

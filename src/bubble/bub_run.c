@@ -16,7 +16,8 @@
  *   - the self-adaptive stop (004 section 2.4): the count of curve and face bubbles changed by at
  *     most stop_change of itself in stop_rounds consecutive controls; then population control
  *     ends and up to final_steps relaxation steps follow (until the displacement tolerance),
- *     damped with final_zeta in the surface phase (our choice): the saw-tooth would hold its cap, 1.5, where the
+ *     the bubbles of curved faces damped with final_zeta in the surface phase (our choice;
+ *     planes keep the schedule, bub_zeta_curved): the saw-tooth would hold its cap, 1.5, where the
  *     packing's long waves relax at a rate k / c, slowly; at 0.3 (synth_torus.brep, d = 0.0366,
  *     the 100 steps of the former default) the mean radius ratio reached 0.9900 against 0.9881,
  *     and 50 steps at 0.3 gave 0.9893 (`packmesh mesh synth_torus.brep --size 0.0366 --set

@@ -60,8 +60,9 @@ typedef struct bub_params {
   double zeta_k2;   /* saw-tooth: rise of the damping ratio per round (0 <= k2 < k1 x steps of a
                        round); [0, 1], default 0.02 */
   double zeta_max;  /* saw-tooth: cap of the damping ratio; [0.1, 10], default 1.5 */
-  double final_zeta; /* damping ratio of the surface phase's relaxation steps after population
-                        control has ended (final_steps; the volume phase keeps the schedule); -1 = the viscosity schedule goes on (the saw-tooth at its
+  double final_zeta; /* damping ratio of curved faces' bubbles in the surface phase's relaxation
+                        steps after population control has ended (final_steps; planes, curves and
+                        the volume phase keep the schedule); -1 = the viscosity schedule goes on (the saw-tooth at its
                         cap, 1.5: overdamped, so the packing's long waves relax slowly, at a rate
                         k / c); 0 = automatic: 0.3 with rk4, the schedule with rk2 (Heun's
                         stability region leaves out the imaginary axis: at dt 0.05 it needs
