@@ -744,7 +744,7 @@ static void section_accel(const bub_params *base, int threads, int upto) {
       const char *label = "default (lattice start)";
       if (v < 6) {
         p.place = BUB_PLACE_QUADTREE, p.w2 = 0.5, p.face_open = 5, p.face_excess = 8;
-        p.disp_quantile = 1, p.final_steps = 60;
+        p.disp_quantile = 1, p.final_steps = 60, p.final_zeta = -1, p.curved_open = p.curved_excess = 0;
         label = "papers: quadtree, 004's accelerations";
       }
       if (v == 1) p.viscosity = BUB_VISC_CONSTANT, label = "papers, no saw-tooth viscosity";

@@ -115,6 +115,17 @@ double bub_time_step(const bub_params *p) {
   return frac * 2 * M_PI * sqrt(p->mass / p->k0);
 }
 
+double bub_final_zeta(const bub_params *p) {
+  if (p->final_zeta != 0) return p->final_zeta > 0 ? p->final_zeta : 0;
+  return p->integrator == BUB_RK4 ? 0.3 : 0;
+}
+
+double bub_zeta_curved(const bub_state *s) {
+  /* (the surface phase's final steps only: the volume phase was not measured with it) */
+  if (s->final_phase && !s->volume_phase && bub_final_zeta(&s->p) > 0) return bub_final_zeta(&s->p);
+  return bub_zeta_now(s);
+}
+
 double bub_zeta_now(const bub_state *s) {
   if (s->p.viscosity == BUB_VISC_CONSTANT) return s->p.zeta;
   /* 004 section 2.2: c = c0 + k1 (steps into the round) + k2 (rounds done), saw-tooth shaped,
@@ -314,7 +325,7 @@ static void clear_at(bub_state *s, int32_t i, const pm_cell *c, const double *pa
 /* ---- one chunk of a stage --------------------------------------------------------------------- */
 
 typedef struct stage_ctx {
-  double m, h, c_norm, c_odd;
+  double m, h, c_norm, c_odd, c_curved; /* c_curved: bubbles of curved faces (bub_zeta_curved) */
   const double *w, *off;
   int stg, nstage;
   const double *src; /* positions the forces are computed at */
@@ -419,7 +430,9 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
     } else {
       tangent_project(s->kind[i], stg == 0 ? &s->der[6 * i] : &s->ders[6 * i], f);
     }
-    const double c = (s->flags[i] & BUB_FODD) ? cx->c_odd : cx->c_norm;
+    const double c = (s->flags[i] & BUB_FODD)                                ? cx->c_odd
+                     : s->kind[i] == BUB_KFACE && !s->affine[s->cell[i]] ? cx->c_curved
+                                                                          : cx->c_norm;
     const double *vs = stg == 0 ? &s->v[3 * i] : &s->vs[3 * i]; /* (stage 0's velocity is v) */
     for (int k = 0; k < 3; ++k) acc[3 * q + k] = (f[k] - c * vs[k]) * inv_m;
   }
@@ -638,7 +651,7 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   static const double w2[2] = {0.5, 0.5}, off2[2] = {0, 1};
   const int rk4 = s->p.integrator == BUB_RK4;
   stage_ctx cx = {s->p.mass, bub_time_step(&s->p), 2 * bub_zeta_now(s) * sq, 2 * s->p.zeta_odd * sq,
-                  rk4 ? w4 : w2, rk4 ? off4 : off2, 0, rk4 ? 4 : 2, NULL, NULL, timers, bub_kernel_simd()};
+                  2 * bub_zeta_curved(s) * sq, rk4 ? w4 : w2, rk4 ? off4 : off2, 0, rk4 ? 4 : 2, NULL, NULL, timers, bub_kernel_simd()};
   for (int stg = 0; stg < cx.nstage; ++stg) {
     cx.stg = stg;
     cx.src = stg == 0 ? s->pos[0] : s->pos[1 + ((stg - 1) & 1)];

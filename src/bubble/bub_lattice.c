@@ -36,7 +36,18 @@
  *     site offset by the misfit between two rows at least about 0.7 l0 further than the
  *     quadtree's 0.25 / 0.5, since the lattice has the right density and needs no removal);
  *   - lattice sites are numbered (grain, i, j) in the grain's axial coordinates, so that a site
- *     reached from several bubbles is tried once.
+ *     reached from several bubbles is tried once;
+ *   - two parents (curved faces, lattice_apex = 1): a step of l0 from one parent along its row
+ *     direction keeps that one edge at the stable distance, and on a curved face the lattice's
+ *     other edges drift from it: where rows diverge (the outer side of a torus, going outwards)
+ *     the sites end up to 1.2 l0 apart, too close for a place between them (crowded below) and
+ *     too far for the packing (synth_torus.brep at d = 0.0366: 8752 bubbles placed against
+ *     10160 after population control, whole bands of the torus at 56-78% of the ideal density).
+ *     So when one of the two sites next to both the parent and the new site (directions k - 1
+ *     and k + 1) holds a bubble already, the new bubble goes to the point of the parent's
+ *     tangent plane at l0 from both, on the side of direction k (an advancing front's equilateral
+ *     triangle): 9322 placed, every band at 80-100%. Planes keep the one-parent step (exact
+ *     there).
  * The result on a uniform field is one grain aligned with the longest boundary curve, with its
  * misfit along the other curves, where relaxation and population control adjust it, as a
  * frontal mesher's rows meet in a seam.
@@ -74,6 +85,7 @@ typedef struct grow_ctx {
   int64_t qn, qcap;
   pm_keyindex sites; /* (grain, i, j) -> bubble id, or UNUSABLE */
   int32_t grain;
+  int apex;          /* two parents where there are (curved faces with lattice_apex) */
   pm_error *err;
 } grow_ctx;
 
@@ -166,6 +178,28 @@ static pm_status add(grow_ctx *g, const double par[2], int32_t i, int32_t j, con
   return st;
 }
 
+/* The object-space offset from bubble o (unit normal n) to a lattice place of diameter dc in
+ * direction dir: dir x l0(o, place); with a second parent p (>= 0), the point of o's tangent plane
+ * at l0 from both o and p on dir's side of the line o p (header, "two parents"), when there is
+ * one. */
+static void place_offset(const bub_state *s, int32_t o, int32_t p, const double n[3], const double dir[3],
+                         double dc, double dx[3]) {
+  const double lo = 0.5 * (s->d[o] + dc);
+  pm_v3_scale(dx, dir, lo);
+  if (p < 0) return;
+  const double lp = 0.5 * (s->d[p] + dc);
+  double b[3], w[3];
+  pm_v3_sub(b, &s->x[3 * p], &s->x[3 * o]);
+  pm_v3_axpy(b, b, -pm_v3_dot(b, n), n);
+  const double B = pm_v3_normalize(b);
+  if (!(B > 0)) return;
+  const double a = (lo * lo - lp * lp + B * B) / (2 * B), h2 = lo * lo - a * a;
+  if (!(h2 > 0.25 * lo * lo)) return; /* the parents too far apart, or too close: no triangle */
+  pm_v3_cross(w, n, b);
+  const double h = pm_v3_dot(w, dir) < 0 ? -sqrt(h2) : sqrt(h2);
+  for (int q = 0; q < 3; ++q) dx[q] = a * b[q] + h * w[q];
+}
+
 /* The six lattice directions of item it: a bubble at each free place. With sites, a place is tried
  * only when its site (it's grain, axial coordinates) has not been tried before, and is marked. */
 static pm_status try_six(grow_ctx *g, const grow_item *it, int sites) {
@@ -182,15 +216,23 @@ static pm_status try_six(grow_ctx *g, const grow_item *it, int sites) {
     const double ang = k * (M_PI / 3), c = cos(ang), sn = sin(ang);
     double dir[3], dx[3], par[2], x[3], dc;
     for (int q = 0; q < 3; ++q) dir[q] = c * it->e1[q] + sn * e2[q];
+    /* The second parent (header, "two parents"): a placed bubble at a site next to both. */
+    int32_t p2 = -1;
+    if (sites && g->apex)
+      for (int side = 1; side <= 5 && p2 < 0; side += 4) {
+        const int32_t id = pm_keyindex_get(&g->sites, site_key(g->grain, it->i + DI[(k + side) % 6],
+                                                               it->j + DJ[(k + side) % 6]));
+        if (id >= 0 && id != UNUSABLE) p2 = id;
+      }
     /* The stable distance to the place: d there from a first step of d(parent). */
-    pm_v3_scale(dx, dir, s->d[o]);
+    place_offset(s, o, p2, n, dir, s->d[o], dx);
     int ok = step_from(g->f, &s->par[2 * o], &s->der[6 * o], dx, par);
     if (ok) {
       pm_cell_point(g->f, par, x);
       dc = pm_sizing_eval(s->size, x);
       ok = dc > 0 && isfinite(dc);
       if (ok && fabs(dc - s->d[o]) > 1e-3 * s->d[o]) {
-        pm_v3_scale(dx, dir, 0.5 * (s->d[o] + dc));
+        place_offset(s, o, p2, n, dir, dc, dx);
         ok = step_from(g->f, &s->par[2 * o], &s->der[6 * o], dx, par);
         if (ok) {
           pm_cell_point(g->f, par, x);
@@ -356,6 +398,7 @@ pm_status bub_place_lattice(bub_state *s, int64_t cap, pm_error *err) {
     const pm_cell *fc = pm_model_cell(m, PM_FACE, f);
     if (fc->nloop == 0) continue;
     g.f = fc, g.face = f, g.grain = 0, g.qn = 0;
+    g.apex = s->p.lattice_apex && !s->affine[f];
     pm_keyindex_free(&g.sites);
     const int32_t lo = cstart[f], hi = cstart[f + 1];
     /* Seed order: chords per curve, the curve's middle chord. */

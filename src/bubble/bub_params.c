@@ -42,6 +42,11 @@ static const pm_param_desc desc[] = {
      "saw-tooth: rise of the damping ratio per round", "004 sec. 2.2 (k2)", NULL},
     {"zeta_max", PM_PARAM_DOUBLE, F(zeta_max), 1.5, 0.1, 10, PM_RANGE_CLOSED, "",
      "saw-tooth: cap of the damping ratio", "our choice (stability of the step)", NULL},
+    {"final_zeta", PM_PARAM_DOUBLE, F(final_zeta), 0, -1, 10, PM_RANGE_CLOSED, "",
+     "damping ratio of curved faces' bubbles in the surface phase's final steps; 0 = "
+     "automatic (rk4 0.3, rk2 the schedule: its step needs more damping), -1 = the viscosity "
+     "schedule goes on (at its cap)",
+     "our choice (bub_run.c; bench_bubble compare, timing)", NULL},
     {"zeta_odd", PM_PARAM_DOUBLE, F(zeta_odd), 0.5, 0, 10, PM_RANGE_LO_OPEN, "",
      "damping ratio of bubbles next to an insertion or deletion, for one round",
      "004 sec. 2.2 (c_odd = 1 at m = k0 = 1)", NULL},
@@ -71,6 +76,10 @@ static const pm_param_desc desc[] = {
      "face bubbles from the rhombic quadtree (the papers) or a hexagonal lattice grown from the "
      "border at the stable distance",
      "003 sec. 3.2, 000 sec. 4.1.1; lattice: our addition (bub_lattice.c)", placements},
+    {"lattice_apex", PM_PARAM_BOOL, F(lattice_apex), 1, 0, 1, 0, "",
+     "place=lattice, curved faces: a site next to two placed bubbles goes to the apex of the "
+     "triangle on them at the stable distance (0: a step from one along its row)",
+     "our addition (bub_lattice.c; bench_bubble timing)", NULL},
     {"w1", PM_PARAM_DOUBLE, F(w1), 1, 0, 4, PM_RANGE_LO_OPEN, "",
      "curve subdivision weight: split while w1 |P1P2| > r1 + r2", "004 sec. 2.3", NULL},
     {"w2", PM_PARAM_DOUBLE, F(w2), 0.5, 0, 1, PM_RANGE_LO_OPEN, "",
@@ -85,6 +94,13 @@ static const pm_param_desc desc[] = {
     {"face_excess", PM_PARAM_DOUBLE, F(face_excess), 7, 0, 30, PM_RANGE_LO_OPEN, "",
      "a face bubble with overlap ratio above this is excess (000: 8)",
      "000 sec. 4.1.2; 7: our choice with place=lattice (bench_bubble compare)", NULL},
+    {"curved_open", PM_PARAM_DOUBLE, F(curved_open), 5, 0, 6, PM_RANGE_CLOSED, "",
+     "a bubble of a curved face (not a plane) with overlap ratio below this is open (0: "
+     "face_open)",
+     "000 sec. 4.1.2; curved faces apart: our choice (bub_population.c; bench_bubble timing)", NULL},
+    {"curved_excess", PM_PARAM_DOUBLE, F(curved_excess), 8, 0, 30, PM_RANGE_CLOSED, "",
+     "a bubble of a curved face with overlap ratio above this is excess (0: face_excess)",
+     "000 sec. 4.1.2; curved faces apart: our choice (bub_population.c; bench_bubble timing)", NULL},
     {"curve_open", PM_PARAM_DOUBLE, F(curve_open), 5.0 / 3.0, 0, 4, PM_RANGE_LO_OPEN, "",
      "a curve bubble with overlap ratio below this is open", "our choice: face cut-off x 2/6",
      NULL},
@@ -125,7 +141,7 @@ static const pm_param_desc desc[] = {
      "the calm and displacement tests read this quantile of the bubbles' displacement / d "
      "(1 = the largest, the papers)",
      "our choice (bub_run.c: a step count that does not grow with n)", NULL},
-    {"final_steps", PM_PARAM_INT, F(final_steps), 100, 0, 1000000, PM_RANGE_CLOSED, "steps",
+    {"final_steps", PM_PARAM_INT, F(final_steps), 50, 0, 1000000, PM_RANGE_CLOSED, "steps",
      "relaxation steps after the population has settled, at most", "our choice", NULL},
     {"max_steps", PM_PARAM_INT, F(max_steps), 3000, 0, 100000000, PM_RANGE_CLOSED, "steps",
      "cap on the number of steps", "003 sec. 3.4", NULL},
@@ -192,6 +208,15 @@ pm_status bub_params_check(const bub_params *p, pm_error *err) {
                          "bubble parameters face_open=%g and face_excess=%g must satisfy "
                          "face_open < 6 < face_excess",
                          p->face_open, p->face_excess);
+  {
+    const double co = p->curved_open > 0 ? p->curved_open : p->face_open;
+    const double ce = p->curved_excess > 0 ? p->curved_excess : p->face_excess;
+    if (!(co < 6 && ce > 6))
+      return pm_error_setf(err, PM_ERR_ARG,
+                           "bubble parameters curved_open=%g and curved_excess=%g must satisfy "
+                           "curved_open < 6 < curved_excess (0: the face cut-off)",
+                           p->curved_open, p->curved_excess);
+  }
   if (!(p->curve_open < 2 && p->curve_excess > 2))
     return pm_error_setf(err, PM_ERR_ARG,
                          "bubble parameters curve_open=%g and curve_excess=%g must satisfy "
@@ -208,10 +233,11 @@ pm_status bub_params_check(const bub_params *p, pm_error *err) {
                          "volume_open < 12 < volume_excess",
                          p->volume_open, p->volume_excess);
   /* Every damping ratio the run can use must give a stable step. */
-  double zetas[4] = {p->zeta, p->zeta_odd, p->viscosity == BUB_VISC_SAWTOOTH ? p->zeta_max : p->zeta,
-                     p->viscosity == BUB_VISC_SAWTOOTH ? fmax(p->zeta, p->zeta_max) : p->zeta};
-  const char *names[4] = {"zeta", "zeta_odd", "zeta_max", "zeta_max"};
-  for (int k = 0; k < 4; ++k)
+  double zetas[5] = {p->zeta, p->zeta_odd, p->viscosity == BUB_VISC_SAWTOOTH ? p->zeta_max : p->zeta,
+                     p->viscosity == BUB_VISC_SAWTOOTH ? fmax(p->zeta, p->zeta_max) : p->zeta,
+                     bub_final_zeta(p) > 0 ? bub_final_zeta(p) : p->zeta};
+  const char *names[5] = {"zeta", "zeta_odd", "zeta_max", "zeta_max", "final_zeta"};
+  for (int k = 0; k < 5; ++k)
     if (!step_stable(p, zetas[k])) {
       /* Find the largest stable step for the message. */
       bub_params q = *p;

@@ -141,10 +141,19 @@ static int add_event(ctl *c, const double x[3], double d) {
   return 1;
 }
 
-static double cut_excess(const bub_state *s, int kind) {
+/* The cut-offs of a bubble of `kind` on `cell`: bubbles of curved faces (not planes) have their
+ * own when curved_open / curved_excess are set (bub_params.c: a curved face needs lattice defects
+ * wherever its Gaussian curvature is not 0, and a narrow window exchanges their bubbles at every
+ * control, bench_bubble timing). */
+static int curved_face(const bub_state *s, int kind, int32_t cell) {
+  return kind == BUB_KFACE && !s->affine[cell];
+}
+static double cut_excess(const bub_state *s, int kind, int32_t cell) {
+  if (curved_face(s, kind, cell) && s->p.curved_excess > 0) return s->p.curved_excess;
   return kind == BUB_KCURVE ? s->p.curve_excess : kind == BUB_KVOLUME ? s->p.volume_excess : s->p.face_excess;
 }
-static double cut_open(const bub_state *s, int kind) {
+static double cut_open(const bub_state *s, int kind, int32_t cell) {
+  if (curved_face(s, kind, cell) && s->p.curved_open > 0) return s->p.curved_open;
   return kind == BUB_KCURVE ? s->p.curve_open : kind == BUB_KVOLUME ? s->p.volume_open : s->p.face_open;
 }
 
@@ -167,12 +176,12 @@ static pm_status update_around(ctl *c, const double x[3], double d, int kind, in
     if (!moving || (s->flags[j] & BUB_FDEAD)) continue;
     s->alpha[j] = bub_alpha(s, j);
     if (kj != kind || !h) continue;
-    if (test > 0 && s->alpha[j] > cut_excess(s, kind) && !(s->flags[j] & BUB_FNEW) &&
+    if (test > 0 && s->alpha[j] > cut_excess(s, kind, s->cell[j]) && !(s->flags[j] & BUB_FNEW) &&
         !heap_push(h, s->alpha[j], j)) {
       free(ids);
       return pm_error_setf(c->err, PM_ERR_NOMEM, "out of memory");
     }
-    if (test < 0 && s->alpha[j] < cut_open(s, kind) && !(s->flags[j] & (BUB_FNEW | BUB_FDONE)) &&
+    if (test < 0 && s->alpha[j] < cut_open(s, kind, s->cell[j]) && !(s->flags[j] & (BUB_FNEW | BUB_FDONE)) &&
         !heap_push(h, -s->alpha[j], j)) {
       free(ids);
       return pm_error_setf(c->err, PM_ERR_NOMEM, "out of memory");
@@ -275,11 +284,10 @@ static pm_status remove_excess(ctl *c, int kind, int32_t *removed) {
   bub_state *s = c->s;
   heap h = {0};
   pm_status st = PM_OK;
-  double cut = cut_excess(s, kind);
   *removed = 0;
   if (kind == BUB_KCURVE && (st = chain_measure(c))) return st;
   for (int32_t i = 0; i < s->n && !st; ++i)
-    if (s->kind[i] == kind && !(s->flags[i] & (BUB_FDEAD | BUB_FNEW)) && s->alpha[i] > cut &&
+    if (s->kind[i] == kind && !(s->flags[i] & (BUB_FDEAD | BUB_FNEW)) && s->alpha[i] > cut_excess(s, kind, s->cell[i]) &&
         !heap_push(&h, s->alpha[i], i))
       st = pm_error_setf(c->err, PM_ERR_NOMEM, "out of memory");
   while (h.n && !st) {
@@ -287,7 +295,7 @@ static pm_status remove_excess(ctl *c, int kind, int32_t *removed) {
     int32_t i = it.id;
     if (s->flags[i] & (BUB_FDEAD | BUB_FNEW)) continue;
     if (it.prio != s->alpha[i]) { /* stale: the ratio dropped since */
-      if (s->alpha[i] > cut && !heap_push(&h, s->alpha[i], i))
+      if (s->alpha[i] > cut_excess(s, kind, s->cell[i]) && !heap_push(&h, s->alpha[i], i))
         st = pm_error_setf(c->err, PM_ERR_NOMEM, "out of memory");
       continue;
     }
@@ -501,19 +509,18 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
   bub_state *s = c->s;
   heap h = {0};
   pm_status st = PM_OK;
-  double open = cut_open(s, kind), excess = cut_excess(s, kind);
   *inserted = 0;
   if (kind == BUB_KCURVE && (st = chain_measure(c))) return st;
   for (int32_t i = 0; i < s->n && !st; ++i)
     if (s->kind[i] == kind && !(s->flags[i] & (BUB_FDEAD | BUB_FNEW | BUB_FDONE)) &&
-        s->alpha[i] < open && !heap_push(&h, -s->alpha[i], i))
+        s->alpha[i] < cut_open(s, kind, s->cell[i]) && !heap_push(&h, -s->alpha[i], i))
       st = pm_error_setf(c->err, PM_ERR_NOMEM, "out of memory");
   while (h.n && !st) {
     hitem it = heap_pop(&h);
     int32_t o = it.id;
     if (s->flags[o] & (BUB_FDEAD | BUB_FNEW | BUB_FDONE)) continue;
     if (-it.prio != s->alpha[o]) { /* stale: the ratio rose since */
-      if (s->alpha[o] < open && !heap_push(&h, -s->alpha[o], o))
+      if (s->alpha[o] < cut_open(s, kind, s->cell[o]) && !heap_push(&h, -s->alpha[o], o))
         st = pm_error_setf(c->err, PM_ERR_NOMEM, "out of memory");
       continue;
     }
@@ -529,6 +536,7 @@ static pm_status insert_open(ctl *c, int kind, int32_t *inserted) {
     /* Faces: a candidate that is excess already would be removed at once. Curves: the chain
      * test above decided; a snapshot of a chain before it relaxes overstates the ratio of a
      * bubble put into a gap (1.5 l0 split in two reads 3, relaxed it is about 2). */
+    const double excess = cut_excess(s, kind, s->cell[o]);
     if (!best.ok || (kind != BUB_KCURVE && best.alpha > fmax(excess, kind == BUB_KFACE ? s->p.insert_excess : 0))) {
       c->info->failed++;
       continue;

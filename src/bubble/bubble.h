@@ -60,6 +60,13 @@ typedef struct bub_params {
   double zeta_k2;   /* saw-tooth: rise of the damping ratio per round (0 <= k2 < k1 x steps of a
                        round); [0, 1], default 0.02 */
   double zeta_max;  /* saw-tooth: cap of the damping ratio; [0.1, 10], default 1.5 */
+  double final_zeta; /* damping ratio of curved faces' bubbles in the surface phase's relaxation
+                        steps after population control has ended (final_steps; planes, curves and
+                        the volume phase keep the schedule); -1 = the viscosity schedule goes on (the saw-tooth at its
+                        cap, 1.5: overdamped, so the packing's long waves relax slowly, at a rate
+                        k / c); 0 = automatic: 0.3 with rk4, the schedule with rk2 (Heun's
+                        stability region leaves out the imaginary axis: at dt 0.05 it needs
+                        zeta above 0.3); [-1, 10], default 0 (our choice, bub_run.c) */
   double zeta_odd;  /* damping ratio of "odd" bubbles, next to an insertion or deletion, for the
                        round after it (004: c_odd = 1 with m = k0 = 1 is zeta 0.5); (0, 10],
                        default 0.5 */
@@ -91,6 +98,10 @@ typedef struct bub_params {
                        BUB_PLACE_LATTICE, a hexagonal lattice grown from the border at the stable
                        distance (our addition, bub_lattice.c: one grain, the final count);
                        default lattice */
+  int lattice_apex; /* place = lattice on curved faces: a site next to two placed bubbles goes to
+                       the point at the stable distance from both (the apex of the triangle on
+                       them) instead of a step from one along the row direction; 0 = the step
+                       from one (bub_lattice.c, "two parents"); default 1 */
   double w1;        /* curve insertion weight: split while w1 |P1P2| > r1 + r2; (0, 4],
                        default 1 */
   double w2;        /* face insertion weight (004: 0.5..0.8); (0, 1], default 0.5 (a sparse
@@ -105,6 +116,13 @@ typedef struct bub_params {
                          strain over many triangles, bench_bubble compare) */
   double face_excess; /* face bubble is excess above this overlap ratio; (0, 30], > 6, default 7
                          (000 section 4.1.2: 8; the same choice) */
+  double curved_open;   /* bubbles of curved faces (not planes) are open below this overlap ratio;
+                           [0, 6), 0 = face_open; default 5 (000 section 4.1.2's cut-off: a
+                           curved face keeps lattice defects wherever its Gaussian curvature is
+                           not 0, and the planes' narrow window exchanges their bubbles at every
+                           control; bench_bubble timing) */
+  double curved_excess; /* bubbles of curved faces are excess above this; 0 or (6, 30], 0 =
+                           face_excess; default 8 (000 section 4.1.2; the same choice) */
   double curve_open;  /* curve bubble open below; (0, 4], < 2, default 5/3 (our choice: the face
                          cut-offs of 000, 5 and 8, scaled by 2/6, the same spacing window;
                          bub_population.c) */
@@ -140,8 +158,9 @@ typedef struct bub_params {
                            largest of n values grows with n, and so would the step count);
                            (0, 1], 1 = the largest (003 sections 3.4-3.5), default 0.99 */
   int final_steps;  /* relaxation steps after the population has settled, at most (the
-                       displacement test may end them sooner); [0, 1e6], default 100 (our
-                       choice) */
+                       displacement test may end them sooner); [0, 1e6], default 50 (our
+                       choice: with final_zeta 0.3 as good as 100 were at the saw-tooth's cap,
+                       bench_bubble compare) */
   int max_steps;    /* cap on steps; [0, 1e8], default 3000 */
   double max_bubbles; /* cap on bubbles: reached by insertions it ends the run (the run's own
                          node budget, pm_run_input.max_nodes, is an error instead); [1, 2e9],
