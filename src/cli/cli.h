@@ -3,8 +3,9 @@
  *   0  success
  *   1  the work failed (unreadable input, bad value, failed run): one line "packmesh: ..." on
  *      stderr, no output file left
- *   2  usage error (unknown option, missing argument, one file named by two options): one line
- *      on stderr
+ *   2  usage error (unknown option or parameter, missing argument or one out of its range, one
+ *      file named by two options, an option that does not apply to the input or method): one
+ *      line on stderr naming where the valid values are listed
  *   130, 143  interrupted by SIGINT, SIGTERM (cli_signal.h): one line, temporaries removed
  * main.c dispatches through a table of the subcommands built into this binary. */
 #ifndef PM_CLI_H

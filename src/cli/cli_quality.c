@@ -187,7 +187,7 @@ int pm_cli_quality(int argc, char **argv) {
   int code = PM_EXIT_FAIL;
   /* The size field first: a bad --size is reported before any file is read. */
   if (size_text && pm_sizing_parse(size_text, &size, &e)) {
-    code = pm_cli_fail("--size: %s", e.msg);
+    code = pm_cli_usage("quality", "--size: %s", e.msg);
     goto done;
   }
   if (geometry && pm_input_open(geometry, &model, &input_size, &e)) {
