@@ -16,5 +16,6 @@ int pm_cli_mesh(int argc, char **argv);
 int pm_cli_cases(int argc, char **argv);
 int pm_cli_compare(int argc, char **argv);
 int pm_cli_demo(int argc, char **argv);
+int pm_cli_references(int argc, char **argv);
 
 #endif /* PM_CLI_H */

@@ -93,6 +93,7 @@ static int method_help(const pm_method *m) {
     pm_params_help(m->params, stdout);
   else
     printf("(no parameters)\n");
+  printf("A number NNN in a SOURCE is the paper papers/NNN: 'packmesh references' cites them.\n");
   return PM_EXIT_OK;
 }
 
