@@ -44,7 +44,7 @@ typedef struct mesh_opts {
   int nset;
   unsigned long long seed;
   long threads;
-  int volume, help;
+  int volume, help, msh_parametric;
   long target_nodes, max_nodes;
   int method_given;
 } mesh_opts;
@@ -66,13 +66,15 @@ static int usage_text(void) {
   tracing_names(tracing, sizeof tracing);
   printf("usage: packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]\n"
          "                    [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]\n"
-         "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--stats STATS.json]\n"
-         "                    [--trace TRACE.csv] [--frames DIR]\n"
+         "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--msh-parametric]\n"
+         "                    [--stats STATS.json] [--trace TRACE.csv] [--frames DIR]\n"
          "       packmesh mesh --method M --help\n\n"
          "INPUT is a CAD file (.step .stp .iges .igs .brep), case:NAME (packmesh cases) or a case\n"
          "file (.json). --size is the desired edge length: a number, an expression in x, y, z, r,\n"
          "or 'inferred' (psys's sizing inference). Without --size the input's own size (built-in\n"
          "cases, case files) or the method's default is used.\n"
+         "--msh-parametric writes each .msh node's parameters on its curve or face (gmsh reads\n"
+         "them; meshio 7 does not, so they are off by default).\n"
          "--volume also meshes the input's volumes with tets (an input without volumes is a usage\n"
          "error; 'packmesh cases' gives the cases' dimensions). --trace and --frames record the\n"
          "iterations of the particle methods (%s); the others record none, and\n"
@@ -116,6 +118,11 @@ static int parse(int argc, char **argv, mesh_opts *o) {
     }
     if (pm_cli_flag(a, "volume")) {
       o->volume = 1;
+      ++i;
+      continue;
+    }
+    if (pm_cli_flag(a, "msh-parametric")) {
+      o->msh_parametric = 1;
       ++i;
       continue;
     }
@@ -230,6 +237,8 @@ int pm_cli_mesh(int argc, char **argv) {
   pm_error e = {0};
   pm_mesh_format fmt;
   if (pm_mesh_format_of(o.out, &fmt, &e)) return pm_cli_usage("mesh", "%s", e.msg);
+  if (o.msh_parametric && fmt != PM_MESH_MSH)
+    return pm_cli_usage("mesh", "--msh-parametric applies to .msh output only, not '%s'", o.out);
   /* One file for two outputs would leave only the last one written. */
   const struct {
     const char *opt, *path;
@@ -445,7 +454,9 @@ int pm_cli_mesh(int argc, char **argv) {
 
   /* Files: the mesh, the stats, the trace and the frames' index under their temporary names,
    * then all of them into place. Messages name the destinations, not the temporaries. */
-  if ((s = pm_mesh_write(out.mesh, tmp[0], &e)) ||
+  pm_mesh_write_opts wopts = {0};
+  wopts.msh_parametric = o.msh_parametric;
+  if ((s = pm_mesh_write_with(out.mesh, tmp[0], &wopts, &e)) ||
       (o.stats && (s = pm_stats_write_json(&stats, tmp[1], &e))) ||
       (trace && (s = pm_trace_write_csv(trace, tmp[2], &e))) ||
       (frames && (s = pm_frames_finish(frames, &e))))

@@ -140,7 +140,7 @@ static pm_status check_mesh(const pm_mesh *m, pm_error *err) {
 /* Build the mesh as discrete entities of the current gmsh model. gmsh's VTK and Medit writers
  * number nodes entity by entity; so that node i of the mesh stays point i of the file, those
  * formats get every node on one entity (they store no node classification anyway). */
-static pm_status gmsh_build(const pm_mesh *m, int classify, pm_error *err) {
+static pm_status gmsh_build(const pm_mesh *m, int classify, int parametric, pm_error *err) {
   int topdim = m->ntet ? 3 : m->ntri ? 2 : m->nseg ? 1 : 0;
   size_t nn = (size_t)m->nnode;
   size_t nelem = (size_t)m->nseg + (size_t)m->ntri + (size_t)m->ntet;
@@ -192,7 +192,9 @@ static pm_status gmsh_build(const pm_mesh *m, int classify, pm_error *err) {
   for (size_t i = 0; i < nn;) {
     size_t j = i;
     while (j < nn && nk[j].dim == nk[i].dim && nk[j].tag == nk[i].tag) ++j;
-    int npar = nk[i].tag == PM_MSH_UNTAGGED ? 0 : (nk[i].dim == 1 || nk[i].dim == 2) ? nk[i].dim : 0;
+    int npar = !parametric || nk[i].tag == PM_MSH_UNTAGGED ? 0
+               : (nk[i].dim == 1 || nk[i].dim == 2) ? nk[i].dim
+                                                     : 0;
     for (size_t k = i; k < j; ++k) {
       int32_t v = nk[k].idx;
       tags[k - i] = (size_t)v + 1;
@@ -237,8 +239,8 @@ done:
   return s;
 }
 
-static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, const char *tmp,
-                            const char *path, pm_error *err) {
+static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, int parametric,
+                            const char *tmp, const char *path, pm_error *err) {
   pm_gmsh_lock();
   pm_gmsh_scope scope;
   char name[64];
@@ -248,13 +250,13 @@ static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, const char *tm
     pm_gmsh_unlock();
     return s;
   }
-  s = gmsh_build(m, fmt == PM_MESH_MSH, err);
+  s = gmsh_build(m, fmt == PM_MESH_MSH, parametric, err);
   if (!s) {
     gm_option opt[] = {{"Mesh.MshFileVersion", 4.1, 0},  {"Mesh.Binary", 0, 0},
                        {"Mesh.SaveAll", 1, 0},           {"Mesh.SaveParametric", 1, 0},
                        {"Mesh.StlOneSolidPerSurface", 1, 0}};
     int nopt = (int)(sizeof opt / sizeof opt[0]);
-    if (fmt != PM_MESH_MSH) opt[3].value = 0; /* parameters are an MSH feature */
+    if (fmt != PM_MESH_MSH || !parametric) opt[3].value = 0; /* parameters are an MSH feature */
     options_set(opt, nopt);
     int ierr = 0;
     char msg[400];
@@ -393,7 +395,13 @@ static pm_status hand_write(const pm_mesh *m, pm_mesh_format fmt, FILE *f, const
 }
 
 pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err) {
+  return pm_mesh_write_with(m, path, NULL, err);
+}
+
+pm_status pm_mesh_write_with(const pm_mesh *m, const char *path, const pm_mesh_write_opts *opts,
+                             pm_error *err) {
   if (!m) return pm_error_setf(err, PM_ERR_ARG, "pm_mesh_write: no mesh");
+  const int parametric = opts && opts->msh_parametric;
   pm_mesh_format fmt;
   pm_status s = pm_mesh_format_of(path, &fmt, err);
   if (s) return s;
@@ -409,7 +417,7 @@ pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err) {
   if (by_hand)
     s = hand_write(m, fmt, a.f, path, err);
   else
-    s = gmsh_write(m, fmt, a.tmp, path, err);
+    s = gmsh_write(m, fmt, parametric, a.tmp, path, err);
   if (s) {
     pm_atomic_abort(&a);
     return s;

@@ -3,9 +3,11 @@
  *
  * Formats, chosen by the file extension (case-insensitive):
  *   .msh   gmsh MSH 4.1, ASCII, written by gmsh itself. Every model cell becomes a discrete
- *          entity (dim, tag = cell index + 1); a node is stored on the entity of its cell with
- *          its parameters (curve: t, face: u v; Mesh.SaveParametric), elements on the entity of
- *          their cell. Unclassified nodes and untagged elements go on a catch-all entity of tag
+ *          entity (dim, tag = cell index + 1); a node is stored on the entity of its cell,
+ *          elements on the entity of their cell. The node's parameters (curve: t, face: u v;
+ *          Mesh.SaveParametric) are written only on request (pm_mesh_write_opts.msh_parametric):
+ *          meshio 7 refuses parametric nodes ("parametric nodes not implemented"), gmsh and
+ *          packmesh read both. Unclassified nodes and untagged elements go on a catch-all entity of tag
  *          PM_MSH_UNTAGGED. Reading reverses this exactly (node and element order included, as
  *          they are stored by increasing node / element tag).
  *   .vtk   legacy VTK, ASCII, written by gmsh (points and cells; no tags).
@@ -79,6 +81,15 @@ const char *pm_mesh_format_ext(pm_mesh_format fmt);
  * indices below PM_MSH_UNTAGGED - 1 (PM_ERR_ARG otherwise); PM_ERR_IO when the file cannot be
  * written; PM_ERR_BACKEND when gmsh fails. */
 pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err);
+
+/* What a writer may add beyond the default (zero-initialize, then set). */
+typedef struct pm_mesh_write_opts {
+  int msh_parametric; /* 1: .msh nodes on curves and faces carry their parameters */
+} pm_mesh_write_opts;
+
+/* pm_mesh_write with options; opts may be NULL (the defaults, as pm_mesh_write). */
+pm_status pm_mesh_write_with(const pm_mesh *m, const char *path, const pm_mesh_write_opts *opts,
+                             pm_error *err);
 
 /* Read a mesh from path (.msh, .vtk, .vtu, .stl, .mesh). *out receives a new mesh
  * (pm_mesh_destroy) on success, NULL on failure. PM_ERR_IO for a missing or unreadable file (or

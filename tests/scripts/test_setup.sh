@@ -51,7 +51,7 @@ check_print() {
     fi
   done <<< "$out"
   [ "$n" -eq 2 ] || fail "install-deps.sh --print as $who gave $n apt-get commands, not 2: $out"
-  case "$out" in *"install -y"*libcgal-dev*libtet1.5-dev*libgmsh-dev*) ;;
+  case "$out" in *"install -y"*libcgal-dev*libtet1.5-dev*libgmsh-dev*python3-meshio*) ;;
     *) fail "install-deps.sh --print as $who does not install the libraries: $out" ;; esac
 }
 

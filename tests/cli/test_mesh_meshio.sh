@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# The files packmesh writes are read by meshio (Debian's python3-meshio, which
+# scripts/install-deps.sh installs): a solid with segments, triangles and tets written as .msh
+# (the default: no parametric nodes, which meshio 7 refuses) and as .vtu, read back by meshio with
+# the node and element counts packmesh printed. Without python3-meshio the test is reported as
+# skipped (exit 77), never passed.
+# Usage: test_mesh_meshio.sh PACKMESH PYTHON
+set -uo pipefail
+packmesh=${1:?usage: test_mesh_meshio.sh PACKMESH PYTHON}
+python=${2:-python3}
+if ! "$python" -c "import meshio, numpy" 2>/dev/null; then
+  echo "SKIP: $python cannot import meshio and numpy (install python3-meshio python3-numpy: scripts/install-deps.sh)"
+  exit 77
+fi
+dir=$(mktemp -d /tmp/pm_test_meshio.XXXXXX)
+trap 'rm -rf "$dir"' EXIT
+fails=0
+for ext in msh vtu; do
+  line=$("$packmesh" mesh case:boxhole --method bubble --volume -o "$dir/m.$ext") || {
+    echo "FAIL: packmesh mesh -o m.$ext failed"; fails=$((fails + 1)); continue; }
+  # "bubble case:boxhole: N nodes, S segments, T triangles, K tets in ..."
+  read -r nodes segs tris tets <<< "$(echo "$line" | sed -E 's/.*: ([0-9]+) nodes, ([0-9]+) segments, ([0-9]+) triangles, ([0-9]+) tets.*/\1 \2 \3 \4/')"
+  got=$("$python" - "$dir/m.$ext" <<'PY'
+import sys, meshio
+m = meshio.read(sys.argv[1])
+count = {"line": 0, "triangle": 0, "tetra": 0}
+for block in m.cells:
+    if block.type in count:
+        count[block.type] += len(block.data)
+print("counts", len(m.points), count["line"], count["triangle"], count["tetra"])
+PY
+) || { echo "FAIL: meshio cannot read m.$ext"; fails=$((fails + 1)); continue; }
+  # meshio may print notes of its own before the line of counts
+  got=$(echo "$got" | sed -n 's/^counts //p')
+  if [ "$got" != "$nodes $segs $tris $tets" ]; then
+    echo "FAIL: m.$ext: meshio reads points/lines/triangles/tets $got, packmesh wrote $nodes $segs $tris $tets"
+    fails=$((fails + 1))
+  else
+    echo "m.$ext: meshio reads $got (points, lines, triangles, tets), as written"
+  fi
+  [ "$tets" -gt 0 ] || { echo "FAIL: no tets in m.$ext"; fails=$((fails + 1)); }
+done
+exit $((fails > 0))
