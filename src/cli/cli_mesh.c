@@ -463,6 +463,21 @@ int pm_cli_mesh(int argc, char **argv) {
     goto fail;
   if ((s = pm_outputs_commit(outputs, &e))) goto fail;
 
+  /* A format that cannot hold an element kind leaves it out: said in one line, not silently. */
+  {
+    const int32_t count[4] = {0, out.mesh->nseg, out.mesh->ntri, out.mesh->ntet};
+    static const char *const kind[4] = {"", "segments", "triangles", "tets"};
+    char left[160] = "";
+    for (int d = 1; d <= 3; ++d)
+      if (count[d] > 0 && !pm_mesh_format_holds(fmt, d))
+        snprintf(left + strlen(left), sizeof left - strlen(left), "%s%d %s",
+                 left[0] ? " and " : "", (int)count[d], kind[d]);
+    if (left[0])
+      fprintf(stderr,
+              "packmesh: warning: a .%s file cannot hold %s; they are not in %s (.msh, .vtu, "
+              ".vtk and .mesh hold every kind)\n",
+              pm_mesh_format_ext(fmt), left, o.out);
+  }
   /* A missed target is a result, not a failure: the mesh of the last run is written; the line says
    * by how much it missed (a domain's corners alone may be more nodes than asked for, a cap or
    * the method's stopping rule may keep it from getting closer). */

@@ -35,6 +35,12 @@ static const char *path_ext(const char *path) {
   return (dot && dot != base && dot[1]) ? dot + 1 : NULL;
 }
 
+int pm_mesh_format_holds(pm_mesh_format fmt, int dim) {
+  if (fmt == PM_MESH_STL) return dim == 2;
+  if (fmt == PM_MESH_OBJ) return dim == 1 || dim == 2;
+  return dim >= 1 && dim <= 3;
+}
+
 pm_status pm_mesh_format_of(const char *path, pm_mesh_format *fmt, pm_error *err) {
   if (!path || !path[0]) return pm_error_setf(err, PM_ERR_ARG, "no mesh file name given");
   const char *ext = path_ext(path);

@@ -74,6 +74,11 @@ typedef enum pm_mesh_format {
 /* The format of a path from its extension; PM_ERR_ARG naming the extension when unknown. */
 pm_status pm_mesh_format_of(const char *path, pm_mesh_format *fmt, pm_error *err);
 
+/* 1 when files of format fmt hold elements of dimension dim (1 segments, 2 triangles, 3 tets):
+ * .stl holds triangles only, .obj segments and triangles, the others all three. A writer leaves
+ * out what its format cannot hold. */
+int pm_mesh_format_holds(pm_mesh_format fmt, int dim);
+
 /* The extension of a format, without the dot ("msh"). */
 const char *pm_mesh_format_ext(pm_mesh_format fmt);
 

@@ -159,6 +159,47 @@ static void usage_errors_exit_2(void **state) {
   free(err);
 }
 
+/* A format that cannot hold an element kind leaves it out with one warning line naming the kinds
+ * and counts (.stl: triangles only; .obj: no tets); a format that holds them all says nothing.
+ * The counts are those of the summary line. */
+static void formats_that_drop_elements_warn(void **state) {
+  (void)state;
+  static const struct {
+    const char *ext, *warning;
+  } runs[] = {{"stl", "warning: a .stl file cannot hold 147 segments and "},
+              {"obj", "warning: a .obj file cannot hold "},
+              {"vtu", NULL},
+              {"msh", NULL}};
+  for (size_t k = 0; k < sizeof runs / sizeof runs[0]; ++k) {
+    char args[1024], *out = NULL, *err = NULL;
+    snprintf(args, sizeof args, "mesh case:boxhole --method bubble --volume -o '%s/drop.%s'", dir,
+             runs[k].ext);
+    assert_int_equal(pm_test_cli(dir, args, &out, &err), 0);
+    int tets = 0, segs = 0;
+    const char *at = strstr(out, " segments, ");
+    assert_non_null(at);
+    while (at > out && at[-1] != ' ') --at;
+    segs = atoi(at);
+    at = strstr(out, " tets in ");
+    assert_non_null(at);
+    while (at > out && at[-1] != ' ') --at;
+    tets = atoi(at);
+    assert_int_equal(segs, 147);
+    assert_true(tets > 1000);
+    if (!runs[k].warning) {
+      if (err[0]) fail_msg(".%s: stderr '%s'", runs[k].ext, err);
+    } else {
+      char want[160];
+      snprintf(want, sizeof want, "%d tets; they are not in ", tets);
+      int lines = 0;
+      for (const char *c = err; *c; ++c) lines += *c == '\n';
+      if (lines != 1 || !strstr(err, runs[k].warning) || !strstr(err, want))
+        fail_msg(".%s: stderr '%s'", runs[k].ext, err);
+    }
+    free(out), free(err);
+  }
+}
+
 static void one_line_errors(void **state) {
   (void)state;
   char args[1024], bad[300], out[300];
@@ -217,6 +258,7 @@ int main(void) {
       cmocka_unit_test(target_nodes_and_threads),
       cmocka_unit_test(target_nodes_missed),
       cmocka_unit_test(usage_errors_exit_2),
+      cmocka_unit_test(formats_that_drop_elements_warn),
       cmocka_unit_test(one_line_errors),
   };
   int rc = cmocka_run_group_tests(tests, NULL, NULL);
