@@ -30,7 +30,7 @@
 static const char *const usage_text =
     "usage: packmesh quality MESH [--size EXPR|NUMBER] [--geometry INPUT] [--json | --csv]\n"
     "\n"
-    "Measure the elements of MESH (.msh, .vtk, .vtu, .stl or .mesh) and check its validity.\n"
+    "Measure the elements of MESH (.msh, .vtk, .vtu, .stl, .mesh or .obj) and check its validity.\n"
     "  --size S      the desired edge length d(x, y, z), a number or an expression in x, y, z, r\n"
     "                (\"0.1\", \"0.2*abs(r-2)+0.15\"): adds edge length / d at the edge midpoints\n"
     "  --geometry IN the model MESH discretizes: a CAD file (.step, .stp, .iges, .igs, .brep),\n"

@@ -24,14 +24,14 @@
  *          "f" triangles, a group "g cell_<index>" (or "g untagged") opening each run of
  *          elements of one cell. Tets have no OBJ form and are left out.
  * Reading is packmesh's own (mesh_read*.c), for .msh (MSH 2.x and 4.1, text or binary), .vtk
- * (legacy, ASCII or binary), .vtu (ascii arrays), .stl (ASCII or binary) and .mesh: no input file
+ * (legacy, ASCII or binary), .vtu (ascii arrays), .stl (ASCII or binary), .mesh and .obj: no input file
  * can crash the reader or make it allocate more than a small multiple of the file's size. Every
  * count a file declares is checked against the bytes that follow, every number is parsed whole,
  * coordinates must be finite and within +-PM_COORD_MAX (mesh.h), and every node an element uses
  * must be one the file defines; a file that fails any check is refused with a message naming the
  * file, the line (or byte) and the fault. Element entity tags t become cells t - 1 for .msh and
  * .mesh (PM_MSH_UNTAGGED becomes -1), .stl solids are cells 0, 1, ... in file order, .vtu cells
- * come from its "cell" array; nodes are classified from .msh (MSH 4.1: the entity block;
+ * come from its "cell" array, .obj elements from their "g cell_N" groups; nodes are classified from .msh (MSH 4.1: the entity block;
  * MSH 2: the lowest-dimensional element using the node, as gmsh does) and from .vtu's node_dim /
  * node_cell / node_par arrays; other formats carry no classification (node_dim = -1). Lines,
  * triangles and tets are read; a higher-order element is reduced to its corner nodes (the other
@@ -96,10 +96,10 @@ typedef struct pm_mesh_write_opts {
 pm_status pm_mesh_write_with(const pm_mesh *m, const char *path, const pm_mesh_write_opts *opts,
                              pm_error *err);
 
-/* Read a mesh from path (.msh, .vtk, .vtu, .stl, .mesh). *out receives a new mesh
+/* Read a mesh from path (.msh, .vtk, .vtu, .stl, .mesh, .obj). *out receives a new mesh
  * (pm_mesh_destroy) on success, NULL on failure. PM_ERR_IO for a missing or unreadable file (or
  * a directory, a FIFO: only regular files are read), PM_ERR_PARSE for a malformed file or one
- * that holds no mesh, PM_ERR_ARG for an unknown or unreadable extension (.obj) or an unsupported
+ * that holds no mesh, PM_ERR_ARG for an unknown extension or an unsupported
  * element type or variant of a format, PM_ERR_LIMIT beyond INT32_MAX nodes or elements,
  * PM_ERR_NOMEM. */
 pm_status pm_mesh_read(const char *path, pm_mesh **out, pm_error *err);

@@ -161,7 +161,8 @@ static void usage_errors_exit_2(void **state) {
 
 /* A format that cannot hold an element kind leaves it out with one warning line naming the kinds
  * and counts (.stl: triangles only; .obj: no tets); a format that holds them all says nothing.
- * The counts are those of the summary line. */
+ * The counts are those of the summary line. `packmesh quality` reads every format back with the
+ * counts it holds (.stl: the triangles and their corners). */
 static void formats_that_drop_elements_warn(void **state) {
   (void)state;
   static const struct {
@@ -169,7 +170,9 @@ static void formats_that_drop_elements_warn(void **state) {
   } runs[] = {{"stl", "warning: a .stl file cannot hold 147 segments and "},
               {"obj", "warning: a .obj file cannot hold "},
               {"vtu", NULL},
-              {"msh", NULL}};
+              {"msh", NULL},
+              {"vtk", NULL},
+              {"mesh", NULL}};
   for (size_t k = 0; k < sizeof runs / sizeof runs[0]; ++k) {
     char args[1024], *out = NULL, *err = NULL;
     snprintf(args, sizeof args, "mesh case:boxhole --method bubble --volume -o '%s/drop.%s'", dir,
@@ -186,6 +189,23 @@ static void formats_that_drop_elements_warn(void **state) {
     tets = atoi(at);
     assert_int_equal(segs, 147);
     assert_true(tets > 1000);
+    int nodes = atoi(out + (strstr(out, ": ") - out) + 2), tris = atoi(strstr(out, " segments, ") + 11);
+    int is_stl = strcmp(runs[k].ext, "stl") == 0, is_obj = strcmp(runs[k].ext, "obj") == 0;
+    char q[600], *qout = NULL;
+    snprintf(q, sizeof q, "quality '%s/drop.%s' --json", dir, runs[k].ext);
+    assert_int_equal(pm_test_cli(dir, q, &qout, NULL), 0);
+    cJSON *j = cJSON_Parse(qout);
+    free(qout);
+    assert_non_null(j);
+    const int want[4] = {is_stl ? -1 : nodes, is_stl ? 0 : segs, tris, is_stl || is_obj ? 0 : tets};
+    const char *keys[4] = {"nodes", "segments", "triangles", "tets"};
+    for (int c = 0; c < 4; ++c)
+      if (want[c] >= 0 && (int)pm_test_stat(j, keys[c], NULL, NULL) != want[c])
+        fail_msg("quality of .%s: %s %g, written %d", runs[k].ext, keys[c],
+                 pm_test_stat(j, keys[c], NULL, NULL), want[c]);
+    /* .stl: the triangles' corners only, the interior nodes of the tets are not in it */
+    if (is_stl && !(pm_test_stat(j, "nodes", NULL, NULL) < nodes)) fail_msg(".stl kept every node");
+    cJSON_Delete(j);
     if (!runs[k].warning) {
       if (err[0]) fail_msg(".%s: stderr '%s'", runs[k].ext, err);
     } else {
