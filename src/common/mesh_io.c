@@ -19,6 +19,7 @@
 
 #include "common/atomic_file.h"
 #include "common/gmsh_session.h"
+#include "common/quality.h"
 
 static const char *const format_ext[PM_MESH_FORMAT_COUNT] = {"msh", "vtk", "vtu",
                                                              "stl", "obj", "mesh"};
@@ -287,7 +288,24 @@ static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, int parametric
 /* %.17g: every double written comes back bit for bit. */
 static void put_double(FILE *f, double x) { fprintf(f, "%.17g", x); }
 
-static int write_vtu(const pm_mesh *m, FILE *f) {
+/* One quality measure per cell: segments first (-1: a segment has no such measure), then the
+ * triangles' values, then the tets'. */
+static void vtu_quality_array(FILE *f, const pm_mesh *m, const char *name, const double *tri,
+                              const double *tet) {
+  fprintf(f, "        <DataArray type=\"Float64\" Name=\"%s\" format=\"ascii\">\n", name);
+  for (int32_t i = 0; i < m->nseg; ++i) fputs("-1\n", f);
+  for (int32_t i = 0; i < m->ntri; ++i) {
+    put_double(f, tri[i]);
+    fputc('\n', f);
+  }
+  for (int32_t i = 0; i < m->ntet; ++i) {
+    put_double(f, tet[i]);
+    fputc('\n', f);
+  }
+  fputs("        </DataArray>\n", f);
+}
+
+static int write_vtu(const pm_mesh *m, const pm_quality *q, FILE *f) {
   int64_t ncell = (int64_t)m->nseg + m->ntri + m->ntet;
   fprintf(f,
           "<?xml version=\"1.0\"?>\n"
@@ -318,7 +336,13 @@ static int write_vtu(const pm_mesh *m, FILE *f) {
   for (int32_t i = 0; i < m->nseg; ++i) fprintf(f, "%ld\n", (long)m->seg_cell[i]);
   for (int32_t i = 0; i < m->ntri; ++i) fprintf(f, "%ld\n", (long)m->tri_cell[i]);
   for (int32_t i = 0; i < m->ntet; ++i) fprintf(f, "%ld\n", (long)m->tet_cell[i]);
-  fprintf(f, "        </DataArray>\n      </CellData>\n"
+  fprintf(f, "        </DataArray>\n");
+  /* Per-element quality (quality.h), for colouring in ParaView: radius ratio, R / l_min and the
+   * smallest angle (a tet's smallest dihedral angle). */
+  vtu_quality_array(f, m, "radius_ratio", q->tri.radius_ratio, q->tet.radius_ratio);
+  vtu_quality_array(f, m, "aspect_ratio", q->tri.aspect_ratio, q->tet.aspect_ratio);
+  vtu_quality_array(f, m, "min_angle_deg", q->tri.min_angle, q->tet.min_angle);
+  fprintf(f, "      </CellData>\n"
              "      <Points>\n"
              "        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n");
   for (int32_t v = 0; v < m->nnode; ++v) {
@@ -395,7 +419,16 @@ static int write_obj(const pm_mesh *m, FILE *f) {
 
 static pm_status hand_write(const pm_mesh *m, pm_mesh_format fmt, FILE *f, const char *path,
                             pm_error *err) {
-  int ok = fmt == PM_MESH_VTU ? write_vtu(m, f) : write_obj(m, f);
+  int ok;
+  if (fmt == PM_MESH_VTU) {
+    pm_quality q = {0};
+    pm_status s = pm_quality_compute(m, NULL, &q, err);
+    if (s) return s;
+    ok = write_vtu(m, &q, f);
+    pm_quality_clear(&q);
+  } else {
+    ok = write_obj(m, f);
+  }
   if (!ok) return pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
   return PM_OK;
 }

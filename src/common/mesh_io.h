@@ -19,7 +19,10 @@
  *   so for these formats every node is put on one entity).
  *   .vtu   VTK XML unstructured grid (ParaView), ASCII, written here (gmsh 4.8.4 has no .vtu
  *          writer): points, lines / triangles / tets, cell data "cell" (the cell index, -1 when
- *          untagged), point data "node_dim", "node_cell" and "node_par" (2 components).
+ *          untagged) and the per-element quality of quality.h, "radius_ratio", "aspect_ratio"
+ *          (R / l_min) and "min_angle_deg" (a tet's smallest dihedral angle; -1 on segments),
+ *          for colouring in ParaView; point data "node_dim", "node_cell" and "node_par"
+ *          (2 components).
  *   .obj   Wavefront OBJ, written here (gmsh has no .obj writer): vertices, "l" segments and
  *          "f" triangles, a group "g cell_<index>" (or "g untagged") opening each run of
  *          elements of one cell. Tets have no OBJ form and are left out.

@@ -28,10 +28,17 @@ for block in m.cells:
     if block.type in count:
         count[block.type] += len(block.data)
 print("counts", len(m.points), count["line"], count["triangle"], count["tetra"])
+if sys.argv[1].endswith(".vtu"):
+    # per-element quality for colouring: R / l_min of the triangles, as packmesh measures it
+    import numpy
+    rl = numpy.concatenate([a for b, a in zip(m.cells, m.cell_data["aspect_ratio"])
+                            if b.type == "triangle"])
+    print("tri_aspect_median %.9f" % numpy.median(rl))
 PY
 ) || { echo "FAIL: meshio cannot read m.$ext"; fails=$((fails + 1)); continue; }
   # meshio may print notes of its own before the line of counts
-  got=$(echo "$got" | sed -n 's/^counts //p')
+  raw=$got
+  got=$(echo "$raw" | sed -n 's/^counts //p')
   if [ "$got" != "$nodes $segs $tris $tets" ]; then
     echo "FAIL: m.$ext: meshio reads points/lines/triangles/tets $got, packmesh wrote $nodes $segs $tris $tets"
     fails=$((fails + 1))
@@ -39,5 +46,17 @@ PY
     echo "m.$ext: meshio reads $got (points, lines, triangles, tets), as written"
   fi
   [ "$tets" -gt 0 ] || { echo "FAIL: no tets in m.$ext"; fails=$((fails + 1)); }
+  if [ "$ext" = vtu ]; then
+    # the cell data's median R / l_min equals packmesh quality's (the median of the triangles)
+    want=$("$packmesh" quality "$dir/m.vtu" --json | "$python" -c \
+      'import sys, json; print("%.9f" % json.load(sys.stdin)["tri"]["aspect_ratio"]["median"])')
+    med=$(echo "$raw" | sed -n 's/^tri_aspect_median //p')
+    if [ -z "$med" ] || [ "$med" != "$want" ]; then
+      echo "FAIL: m.vtu: cell data aspect_ratio median '$med', packmesh quality $want"
+      fails=$((fails + 1))
+    else
+      echo "m.vtu: cell data aspect_ratio (R/l_min) median $med, as packmesh quality measures"
+    fi
+  fi
 done
 exit $((fails > 0))

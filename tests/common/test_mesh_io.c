@@ -15,6 +15,7 @@
 #include "common/gmsh_session.h"
 #include "common/mesh.h"
 #include "common/mesh_io.h"
+#include "common/quality.h"
 
 static char dir[256];
 
@@ -409,6 +410,22 @@ static void vtu_round_trip(void **state) {
     assert_true(nc[v] == m->node_cell[v]);
     assert_true(np[2 * v] == m->node_par[2 * v] && np[2 * v + 1] == m->node_par[2 * v + 1]);
   }
+  /* Per-element quality as cell data, bit for bit the quality module's (-1 on segments). */
+  pm_quality q = {0};
+  PM_ASSERT_OK(pm_quality_compute(m, NULL, &q, &e), e);
+  const char *names[3] = {"radius_ratio", "aspect_ratio", "min_angle_deg"};
+  const double *tri[3] = {q.tri.radius_ratio, q.tri.aspect_ratio, q.tri.min_angle};
+  const double *tet[3] = {q.tet.radius_ratio, q.tet.aspect_ratio, q.tet.min_angle};
+  for (int a = 0; a < 3; ++a) {
+    double *v = vtu_array(x, names[a], &n);
+    assert_int_equal(n, m->nseg + m->ntri + m->ntet);
+    for (int i = 0; i < m->nseg; ++i) assert_true(v[i] == -1);
+    for (int i = 0; i < m->ntri; ++i) assert_true(v[m->nseg + i] == tri[a][i]);
+    for (int i = 0; i < m->ntet; ++i) assert_true(v[m->nseg + m->ntri + i] == tet[a][i]);
+    assert_true(v[m->nseg] > 0);
+    free(v);
+  }
+  pm_quality_clear(&q);
   free(pts);
   free(conn);
   free(types);
