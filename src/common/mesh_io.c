@@ -144,6 +144,17 @@ static pm_status check_mesh(const pm_mesh *m, pm_error *err) {
   return PM_OK;
 }
 
+/* The elements in the order gmsh writes them: by dimension, entity tag, then index (ek holds
+ * nseg + ntri + ntet keys). Returns their number. */
+static size_t element_order(const pm_mesh *m, ent_key *ek) {
+  size_t ne = 0;
+  for (int32_t i = 0; i < m->nseg; ++i) ek[ne++] = (ent_key){1, cell_tag(m->seg_cell[i]), i};
+  for (int32_t i = 0; i < m->ntri; ++i) ek[ne++] = (ent_key){2, cell_tag(m->tri_cell[i]), i};
+  for (int32_t i = 0; i < m->ntet; ++i) ek[ne++] = (ent_key){3, cell_tag(m->tet_cell[i]), i};
+  qsort(ek, ne, sizeof *ek, cmp_ent_key);
+  return ne;
+}
+
 /* Build the mesh as discrete entities of the current gmsh model. gmsh's VTK and Medit writers
  * number nodes entity by entity; so that node i of the mesh stays point i of the file, those
  * formats get every node on one entity (they store no node classification anyway). */
@@ -171,12 +182,8 @@ static pm_status gmsh_build(const pm_mesh *m, int classify, int parametric, pm_e
     else
       nk[v] = (ent_key){topdim, PM_MSH_UNTAGGED, (int32_t)v};
   }
-  size_t ne = 0;
-  for (int32_t i = 0; i < m->nseg; ++i) ek[ne++] = (ent_key){1, cell_tag(m->seg_cell[i]), i};
-  for (int32_t i = 0; i < m->ntri; ++i) ek[ne++] = (ent_key){2, cell_tag(m->tri_cell[i]), i};
-  for (int32_t i = 0; i < m->ntet; ++i) ek[ne++] = (ent_key){3, cell_tag(m->tet_cell[i]), i};
+  size_t ne = element_order(m, ek);
   qsort(nk, nn, sizeof *nk, cmp_ent_key);
-  qsort(ek, ne, sizeof *ek, cmp_ent_key);
 
   /* Entities: every (dim, tag) used by a node or an element, created once. */
   size_t nent = 0;
@@ -246,6 +253,57 @@ done:
   return s;
 }
 
+/* %.17g: every double written comes back bit for bit. */
+static void put_double(FILE *f, double x) { fprintf(f, "%.17g", x); }
+
+/* Per-element quality as $ElementData, one block per measure, appended to the MSH file gmsh
+ * wrote: every element by its tag (segments first, then triangles, then tets, as gmsh_build
+ * numbers them) in the order of its $Elements blocks, so that gmsh (by tag) and meshio (by
+ * order) both colour each element with its own value; -1 on segments, which have no such
+ * measure. */
+static pm_status msh_append_quality(const pm_mesh *m, const char *tmp, const char *path,
+                                    pm_error *err) {
+  size_t nelem = (size_t)m->nseg + (size_t)m->ntri + (size_t)m->ntet;
+  if (nelem == 0) return PM_OK;
+  pm_quality q = {0};
+  pm_status s = pm_quality_compute(m, NULL, &q, err);
+  if (s) return s;
+  ent_key *ek = malloc((nelem ? nelem : 1) * sizeof *ek);
+  FILE *f = ek ? fopen(tmp, "a") : NULL;
+  if (!ek || !f) {
+    s = ek ? pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno))
+           : pm_error_setf(err, PM_ERR_NOMEM, "out of memory writing a mesh");
+    free(ek);
+    pm_quality_clear(&q);
+    return s;
+  }
+  element_order(m, ek);
+  const char *names[3] = {"radius_ratio", "aspect_ratio", "min_angle_deg"};
+  const double *tri[3] = {q.tri.radius_ratio, q.tri.aspect_ratio, q.tri.min_angle};
+  const double *tet[3] = {q.tet.radius_ratio, q.tet.aspect_ratio, q.tet.min_angle};
+  for (int a = 0; a < 3; ++a) {
+    /* string tag: the name; real tag: the time 0; integer tags: step 0, 1 component, count */
+    fprintf(f, "$ElementData\n1\n\"%s\"\n1\n0\n3\n0\n1\n%zu\n", names[a], nelem);
+    for (size_t k = 0; k < nelem; ++k) {
+      const ent_key *e = &ek[k];
+      size_t base = e->dim == 1 ? 0 : e->dim == 2 ? (size_t)m->nseg : (size_t)m->nseg + (size_t)m->ntri;
+      fprintf(f, "%zu ", base + (size_t)e->idx + 1);
+      if (e->dim == 1)
+        fputs("-1", f);
+      else
+        put_double(f, (e->dim == 2 ? tri[a] : tet[a])[e->idx]);
+      fputc('\n', f);
+    }
+    fputs("$EndElementData\n", f);
+  }
+  int bad = ferror(f);
+  if (fclose(f) != 0) bad = 1;
+  if (bad) s = pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
+  free(ek);
+  pm_quality_clear(&q);
+  return s;
+}
+
 static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, int parametric,
                             const char *tmp, const char *path, pm_error *err) {
   pm_gmsh_lock();
@@ -280,13 +338,12 @@ static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, int parametric
     if (stat(tmp, &st) != 0 || st.st_size == 0)
       s = pm_error_setf(err, PM_ERR_BACKEND, "writing %s: gmsh wrote nothing", path);
   }
+  if (!s && fmt == PM_MESH_MSH) s = msh_append_quality(m, tmp, path, err);
   return s;
 }
 
 /* ---- writing by hand: .vtu and .obj -------------------------------------------------------- */
 
-/* %.17g: every double written comes back bit for bit. */
-static void put_double(FILE *f, double x) { fprintf(f, "%.17g", x); }
 
 /* One quality measure per cell: segments first (-1: a segment has no such measure), then the
  * triangles' values, then the tets'. */

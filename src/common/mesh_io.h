@@ -7,7 +7,10 @@
  *          elements on the entity of their cell. The node's parameters (curve: t, face: u v;
  *          Mesh.SaveParametric) are written only on request (pm_mesh_write_opts.msh_parametric):
  *          meshio 7 refuses parametric nodes ("parametric nodes not implemented"), gmsh and
- *          packmesh read both. Unclassified nodes and untagged elements go on a catch-all entity of tag
+ *          packmesh read both. Three $ElementData blocks follow, the per-element quality of
+ *          quality.h ("radius_ratio", "aspect_ratio", "min_angle_deg"; -1 on segments), every
+ *          element by tag in the order of the $Elements blocks (gmsh reads by tag, meshio by
+ *          order). Unclassified nodes and untagged elements go on a catch-all entity of tag
  *          PM_MSH_UNTAGGED. Reading reverses this exactly (node and element order included, as
  *          they are stored by increasing node / element tag).
  *   .vtk   legacy VTK, ASCII, written by gmsh (points and cells; no tags).

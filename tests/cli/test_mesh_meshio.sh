@@ -2,8 +2,9 @@
 # The files packmesh writes are read by meshio (Debian's python3-meshio, which
 # scripts/install-deps.sh installs): a solid with segments, triangles and tets written as .msh
 # (the default: no parametric nodes, which meshio 7 refuses) and as .vtu, read back by meshio with
-# the node and element counts packmesh printed. Without python3-meshio the test is reported as
-# skipped (exit 77), never passed.
+# the node and element counts packmesh printed, and the per-element quality (.vtu cell data, .msh
+# $ElementData) with the median R / l_min packmesh quality gives. Without python3-meshio the test
+# is reported as skipped (exit 77), never passed.
 # Usage: test_mesh_meshio.sh PACKMESH PYTHON
 set -uo pipefail
 packmesh=${1:?usage: test_mesh_meshio.sh PACKMESH PYTHON}
@@ -28,12 +29,12 @@ for block in m.cells:
     if block.type in count:
         count[block.type] += len(block.data)
 print("counts", len(m.points), count["line"], count["triangle"], count["tetra"])
-if sys.argv[1].endswith(".vtu"):
-    # per-element quality for colouring: R / l_min of the triangles, as packmesh measures it
-    import numpy
-    rl = numpy.concatenate([a for b, a in zip(m.cells, m.cell_data["aspect_ratio"])
-                            if b.type == "triangle"])
-    print("tri_aspect_median %.9f" % numpy.median(rl))
+# per-element quality for colouring (.vtu cell data, .msh $ElementData): R / l_min of the
+# triangles, as packmesh measures it
+import numpy
+rl = numpy.concatenate([a for b, a in zip(m.cells, m.cell_data["aspect_ratio"])
+                        if b.type == "triangle"])
+print("tri_aspect_median %.9f" % numpy.median(rl))
 PY
 ) || { echo "FAIL: meshio cannot read m.$ext"; fails=$((fails + 1)); continue; }
   # meshio may print notes of its own before the line of counts
@@ -46,17 +47,15 @@ PY
     echo "m.$ext: meshio reads $got (points, lines, triangles, tets), as written"
   fi
   [ "$tets" -gt 0 ] || { echo "FAIL: no tets in m.$ext"; fails=$((fails + 1)); }
-  if [ "$ext" = vtu ]; then
-    # the cell data's median R / l_min equals packmesh quality's (the median of the triangles)
-    want=$("$packmesh" quality "$dir/m.vtu" --json | "$python" -c \
-      'import sys, json; print("%.9f" % json.load(sys.stdin)["tri"]["aspect_ratio"]["median"])')
-    med=$(echo "$raw" | sed -n 's/^tri_aspect_median //p')
-    if [ -z "$med" ] || [ "$med" != "$want" ]; then
-      echo "FAIL: m.vtu: cell data aspect_ratio median '$med', packmesh quality $want"
-      fails=$((fails + 1))
-    else
-      echo "m.vtu: cell data aspect_ratio (R/l_min) median $med, as packmesh quality measures"
-    fi
+  # the cell data's median R / l_min equals packmesh quality's (the median of the triangles)
+  want=$("$packmesh" quality "$dir/m.$ext" --json | "$python" -c \
+    'import sys, json; print("%.9f" % json.load(sys.stdin)["tri"]["aspect_ratio"]["median"])')
+  med=$(echo "$raw" | sed -n 's/^tri_aspect_median //p')
+  if [ -z "$med" ] || [ "$med" != "$want" ]; then
+    echo "FAIL: m.$ext: cell data aspect_ratio median '$med', packmesh quality $want"
+    fails=$((fails + 1))
+  else
+    echo "m.$ext: cell data aspect_ratio (R/l_min) median $med, as packmesh quality measures"
   fi
 done
 exit $((fails > 0))

@@ -163,6 +163,8 @@ static int first_block_parametric(const char *path) {
   return flag;
 }
 
+static char *slurp(const char *path);
+
 static void msh_round_trip(void **state) {
   (void)state;
   pm_mesh *m = sample_mesh();
@@ -190,8 +192,19 @@ static void msh_round_trip(void **state) {
   /* The file is MSH 4.1 with one entity per cell: read it with gmsh directly too. */
   int ierr = 0;
   pm_gmsh_lock();
+  int *views0 = NULL;
+  size_t nviews0 = 0;
+  gmshViewGetTags(&views0, &nviews0, &ierr);
+  gmshFree(views0);
   gmshModelAdd("direct", &ierr);
   gmshMerge(p, &ierr);
+  /* The per-element quality blocks ($ElementData) become three views. */
+  int *views = NULL;
+  size_t nviews = 0;
+  gmshViewGetTags(&views, &nviews, &ierr);
+  assert_int_equal(nviews, nviews0 + 3);
+  for (size_t k = nviews0; k < nviews; ++k) gmshViewRemove(views[k], &ierr);
+  gmshFree(views);
   int *dt = NULL;
   size_t ndt = 0;
   gmshModelGetEntities(&dt, &ndt, 2, &ierr);
@@ -208,6 +221,40 @@ static void msh_round_trip(void **state) {
   assert_non_null(fgets(line, sizeof line, f));
   fclose(f);
   assert_int_equal(strncmp(line, "4.1 0 8", 7), 0);
+  /* Each $ElementData block gives every element (by tag) its value: the quality module's, -1 on
+   * segments. */
+  pm_quality q = {0};
+  PM_ASSERT_OK(pm_quality_compute(m, NULL, &q, &e), e);
+  char *text = slurp(p);
+  const char *names[3] = {"radius_ratio", "aspect_ratio", "min_angle_deg"};
+  const double *tri[3] = {q.tri.radius_ratio, q.tri.aspect_ratio, q.tri.min_angle};
+  const double *tet[3] = {q.tet.radius_ratio, q.tet.aspect_ratio, q.tet.min_angle};
+  int32_t nelem = m->nseg + m->ntri + m->ntet;
+  for (int a = 0; a < 3; ++a) {
+    char head[128];
+    snprintf(head, sizeof head, "$ElementData\n1\n\"%s\"\n1\n0\n3\n0\n1\n%d\n", names[a], (int)nelem);
+    const char *at = strstr(text, head);
+    if (!at) fail_msg("no $ElementData block for %s", names[a]);
+    at += strlen(head);
+    int seen = 0;
+    for (int32_t k = 0; k < nelem; ++k) {
+      char *next;
+      long tag = strtol(at, &next, 10);
+      double v = strtod(next, &next);
+      at = next;
+      assert_true(tag >= 1 && tag <= nelem);
+      double want = tag <= m->nseg ? -1
+                    : tag <= m->nseg + m->ntri ? tri[a][tag - 1 - m->nseg]
+                                              : tet[a][tag - 1 - m->nseg - m->ntri];
+      if (v != want) fail_msg("%s of element %ld: %.17g, want %.17g", names[a], tag, v, want);
+      ++seen;
+    }
+    assert_int_equal(seen, nelem);
+    while (*at == '\n') ++at;
+    assert_int_equal(strncmp(at, "$EndElementData", 15), 0);
+  }
+  free(text);
+  pm_quality_clear(&q);
   pm_mesh_destroy(r);
   pm_mesh_destroy(m);
 }
