@@ -4,7 +4,7 @@
  *   packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]
  *                 [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]
  *                 -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--stats STATS.json] [--trace TRACE.csv]
- *                 [--frames DIR]
+ *                 [--frames DIR] [--msh-parametric] [--quiet | --progress]
  *   packmesh mesh --method M --help      the method's parameters, defaults and sources
  *
  * The outputs are one set (atomic_file.h): each is reserved before the run (an unwritable one is
@@ -20,6 +20,7 @@
 
 #include "cli/cli.h"
 #include "cli/cli_methods.h"
+#include "cli/cli_progress.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_size.h"
 #include "cli/cli_util.h"
@@ -44,7 +45,7 @@ typedef struct mesh_opts {
   int nset;
   unsigned long long seed;
   long threads;
-  int volume, help, msh_parametric;
+  int volume, help, msh_parametric, quiet, progress;
   long target_nodes, max_nodes;
   int method_given;
 } mesh_opts;
@@ -68,11 +69,15 @@ static int usage_text(void) {
          "                    [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]\n"
          "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--msh-parametric]\n"
          "                    [--stats STATS.json] [--trace TRACE.csv] [--frames DIR]\n"
+         "                    [--quiet | --progress]\n"
          "       packmesh mesh --method M --help\n\n"
          "INPUT is a CAD file (.step .stp .iges .igs .brep), case:NAME (packmesh cases) or a case\n"
          "file (.json). --size is the desired edge length: a number, an expression in x, y, z, r,\n"
          "or 'inferred' (psys's sizing inference). Without --size the input's own size (built-in\n"
          "cases, case files) or the method's default is used.\n"
+         "On a terminal a progress line shows the run in flight (method, phase, iteration,\n"
+         "particles, elapsed time); --progress shows it into a file or pipe too, a line every 2 s;\n"
+         "--quiet prints nothing but errors.\n"
          "--msh-parametric writes each .msh node's parameters on its curve or face (gmsh reads\n"
          "them; meshio 7 does not, so they are off by default).\n"
          "--volume also meshes the input's volumes with tets (an input without volumes is a usage\n"
@@ -118,6 +123,16 @@ static int parse(int argc, char **argv, mesh_opts *o) {
     }
     if (pm_cli_flag(a, "volume")) {
       o->volume = 1;
+      ++i;
+      continue;
+    }
+    if (pm_cli_flag(a, "quiet")) {
+      o->quiet = 1;
+      ++i;
+      continue;
+    }
+    if (pm_cli_flag(a, "progress")) {
+      o->progress = 1;
       ++i;
       continue;
     }
@@ -220,6 +235,7 @@ int pm_cli_mesh(int argc, char **argv) {
     return pm_cli_usage("mesh", "unknown method '%s' (known: %s)", o.method, names);
   }
   if (o.help) return method_help(method);
+  if (o.quiet && o.progress) return pm_cli_usage("mesh", "--quiet and --progress exclude each other");
   if (!o.input) return pm_cli_usage("mesh", "no INPUT given");
   if (!o.out) return pm_cli_usage("mesh", "no output file given (-o OUT.msh)");
   /* An option the method cannot honour is refused rather than written empty. */
@@ -314,10 +330,21 @@ int pm_cli_mesh(int argc, char **argv) {
   /* A usage error found once the input is open (an option that does not apply to it): the same
    * clean-up as a failure, exit 2. */
   int usage = 0;
+  /* The progress line reads the particle methods' trace rows: a trace of its own when --trace
+   * records none (never written). */
+  pm_cli_progress progress;
+  pm_cli_progress_init(&progress, o.quiet ? PM_PROGRESS_OFF : o.progress ? PM_PROGRESS_ON : PM_PROGRESS_AUTO,
+                       method->name);
+  pm_trace *progress_trace = NULL;
+  const int watch = progress.active && pm_cli_method_traces(method);
+  pm_cli_progress_stage(&progress, "loading the input");
   pm_status s = pm_input_open(o.input, &model, &input_size, &e);
   if (s) goto fail;
   const double t_load = pm_seconds() - t_start;
-  if (model->heal[0]) fprintf(stderr, "packmesh: %s: healed: %s\n", o.input, model->heal);
+  if (model->heal[0] && !o.quiet) {
+    pm_cli_progress_done(&progress);
+    fprintf(stderr, "packmesh: %s: healed: %s\n", o.input, model->heal);
+  }
   const int planar = model->dim == 2 && model->box[2] == 0 && model->box[5] == 0;
   if (method->planar_only && !planar) {
     s = pm_error_setf(&e, PM_ERR_ARG, "method %s meshes planar domains only; '%s' is not one",
@@ -343,6 +370,8 @@ int pm_cli_mesh(int argc, char **argv) {
   if (size && (s = pm_sizing_check(size, model, &e))) goto fail;
 
   if (o.trace && (s = pm_trace_create(&trace, &e))) goto fail;
+  if (!o.trace && watch && (s = pm_trace_create(&progress_trace, &e))) goto fail;
+  if (watch) pm_trace_observe(trace ? trace : progress_trace, pm_cli_progress_row, &progress);
   if (o.frames && (s = pm_frames_create(tmp[3], model, &frames, &e))) goto fail;
   pm_stats_set_run(&stats, method->name, o.input);
 
@@ -375,7 +404,9 @@ int pm_cli_mesh(int argc, char **argv) {
     pm_stats_init(&stats);
     pm_stats_set_run(&stats, method->name, o.input);
     pm_mesh_destroy(out.mesh);
-    s = run_once(method, params, model, use, &o, trace, frames, &stats, &out, &e);
+    pm_cli_progress_stage(&progress, "meshing");
+    s = run_once(method, params, model, use, &o, trace ? trace : progress_trace, frames, &stats,
+                 &out, &e);
     if (s) goto fail;
     if (!o.target_nodes) break;
     double n = (double)out.mesh->nnode, ratio = n / (double)o.target_nodes;
@@ -387,6 +418,13 @@ int pm_cli_mesh(int argc, char **argv) {
       pm_trace_destroy(trace);
       trace = NULL;
       if ((s = pm_trace_create(&trace, &e))) goto fail;
+      if (watch) pm_trace_observe(trace, pm_cli_progress_row, &progress);
+    }
+    if (progress_trace) {
+      pm_trace_destroy(progress_trace);
+      progress_trace = NULL;
+      if ((s = pm_trace_create(&progress_trace, &e))) goto fail;
+      pm_trace_observe(progress_trace, pm_cli_progress_row, &progress);
     }
   }
   const pm_sizing *final_size = scale != 1 ? scaled : base;
@@ -394,6 +432,7 @@ int pm_cli_mesh(int argc, char **argv) {
 
   /* Stats: the verdict of the checker, the quality module, the distance to the model. */
   if (o.stats) {
+    pm_cli_progress_stage(&progress, "measuring the mesh");
     /* The measuring stages are timed beside the method's own phases (time_s.check, .quality,
      * .distance), and the model's loading before them (time_s.load), so that a run shows
      * whether measuring costs more than meshing. */
@@ -454,6 +493,7 @@ int pm_cli_mesh(int argc, char **argv) {
 
   /* Files: the mesh, the stats, the trace and the frames' index under their temporary names,
    * then all of them into place. Messages name the destinations, not the temporaries. */
+  pm_cli_progress_stage(&progress, "writing");
   pm_mesh_write_opts wopts = {0};
   wopts.msh_parametric = o.msh_parametric;
   if ((s = pm_mesh_write_with(out.mesh, tmp[0], &wopts, &e)) ||
@@ -463,8 +503,9 @@ int pm_cli_mesh(int argc, char **argv) {
     goto fail;
   if ((s = pm_outputs_commit(outputs, &e))) goto fail;
 
+  pm_cli_progress_done(&progress);
   /* A format that cannot hold an element kind leaves it out: said in one line, not silently. */
-  {
+  if (!o.quiet) {
     const int32_t count[4] = {0, out.mesh->nseg, out.mesh->ntri, out.mesh->ntet};
     static const char *const kind[4] = {"", "segments", "triangles", "tets"};
     char left[160] = "";
@@ -481,13 +522,14 @@ int pm_cli_mesh(int argc, char **argv) {
   /* A missed target is a result, not a failure: the mesh of the last run is written; the line says
    * by how much it missed (a domain's corners alone may be more nodes than asked for, a cap or
    * the method's stopping rule may keep it from getting closer). */
-  if (o.target_nodes && !target_met)
+  if (o.target_nodes && !target_met && !o.quiet)
     fprintf(stderr,
             "packmesh: warning: --target-nodes %ld missed: %d nodes after %d runs (%+.1f%%; the "
             "tolerance is %g%%)\n",
             o.target_nodes, (int)out.mesh->nnode, runs,
             100.0 * ((double)out.mesh->nnode / (double)o.target_nodes - 1), 100 * TARGET_TOL);
-  printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
+  if (!o.quiet)
+    printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
          method->name, o.input, (int)out.mesh->nnode, (int)out.mesh->nseg, (int)out.mesh->ntri,
          (int)out.mesh->ntet, t_run, out.stop_reason[0] ? out.stop_reason : "done", o.out);
   rc = PM_EXIT_OK;
@@ -502,8 +544,10 @@ fail:
       snprintf(rest, sizeof rest, "%s", at + strlen(tmp[i]));
       snprintf(at, sizeof e.msg - (size_t)(at - e.msg), "%s%s", outs[i].path, rest);
     }
+  pm_cli_progress_done(&progress);
   rc = usage ? pm_cli_usage("mesh", "%s", e.msg) : pm_cli_error(&e);
 done:
+  pm_trace_destroy(progress_trace);
   pm_outputs_destroy(outputs);
   pm_stats_clear(&stats);
   pm_mesh_destroy(out.mesh);
