@@ -24,9 +24,9 @@ static void check_mesh(const pm_mesh *m) {
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-  static const pm_mesh_format formats[5] = {PM_MESH_MSH, PM_MESH_VTK, PM_MESH_VTU, PM_MESH_STL,
-                                            PM_MESH_MEDIT};
-  for (int f = 0; f < 5; ++f) {
+  static const pm_mesh_format formats[6] = {PM_MESH_MSH, PM_MESH_VTK, PM_MESH_VTU, PM_MESH_STL,
+                                            PM_MESH_MEDIT, PM_MESH_OBJ};
+  for (int f = 0; f < 6; ++f) {
     pm_mesh *m = NULL;
     pm_error e = {0};
     pm_status st = pm_mesh_read_buffer("fuzz", formats[f], data, size, &m, &e);

@@ -1,18 +1,53 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages packmesh builds and runs with. Run as root (or with sudo).
-# clang and libclang-rt-14-dev (libFuzzer) build the fuzz targets (fuzz/README.md); strace lets
-# test_cli_outputs deliver a signal at each rename of a run (the test is skipped without it).
+# Installs the Debian 12 packages packmesh builds and runs with.
+#
+#   scripts/install-deps.sh            as root: runs apt-get; as another user: through sudo
+#   scripts/install-deps.sh --print    prints the commands it would run, runs nothing
+#
+# A fresh Debian 12 machine run as root has no sudo, so the script never calls sudo as root and
+# the README runs it without sudo. clang and libclang-rt-14-dev (libFuzzer) build the fuzz targets
+# (fuzz/README.md); strace lets test_cli_outputs deliver a signal at each rename of a run (the
+# test is skipped without it); python3-meshio reads packmesh's files back in test_mesh_meshio.
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
-SUDO=""
-if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends \
-  build-essential cmake pkg-config \
-  libcgal-dev libgmp-dev libmpfr-dev libboost-dev \
-  libtet1.5-dev \
-  libembree-dev \
-  libgmsh-dev gmsh \
-  libmuparser-dev libcjson-dev libcmocka-dev \
-  gnuplot-nox \
+
+print=0
+case "${1:-}" in
+  "") ;;
+  --print) print=1 ;;
+  *) echo "install-deps.sh: unknown argument '$1' (usage: scripts/install-deps.sh [--print])" >&2
+     exit 2 ;;
+esac
+
+packages=(
+  build-essential cmake pkg-config
+  libcgal-dev libgmp-dev libmpfr-dev libboost-dev
+  libtet1.5-dev
+  libembree-dev
+  libgmsh-dev gmsh
+  libmuparser-dev libcjson-dev libcmocka-dev
+  gnuplot-nox
   clang libclang-rt-14-dev strace
+  python3-meshio python3-numpy
+)
+
+elevate=()
+if [ "$(id -u)" -ne 0 ]; then
+  if [ "$print" -eq 0 ] && ! command -v sudo >/dev/null 2>&1; then
+    echo "install-deps.sh: not running as root and sudo is not installed; run it as root" >&2
+    exit 1
+  fi
+  elevate=(sudo)
+fi
+
+run() {
+  if [ "$print" -eq 1 ]; then
+    echo "$*"
+  else
+    "$@"
+  fi
+}
+
+run "${elevate[@]}" apt-get update -qq
+run "${elevate[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+  --no-install-recommends "${packages[@]}"

@@ -4,7 +4,7 @@
  *   packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]
  *                 [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]
  *                 -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--stats STATS.json] [--trace TRACE.csv]
- *                 [--frames DIR]
+ *                 [--frames DIR] [--msh-parametric] [--quiet | --progress]
  *   packmesh mesh --method M --help      the method's parameters, defaults and sources
  *
  * The outputs are one set (atomic_file.h): each is reserved before the run (an unwritable one is
@@ -20,6 +20,7 @@
 
 #include "cli/cli.h"
 #include "cli/cli_methods.h"
+#include "cli/cli_progress.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_size.h"
 #include "cli/cli_util.h"
@@ -44,27 +45,52 @@ typedef struct mesh_opts {
   int nset;
   unsigned long long seed;
   long threads;
-  int volume, help;
+  int volume, help, msh_parametric, quiet, progress;
   long target_nodes, max_nodes;
   int method_given;
 } mesh_opts;
 
+/* "bubble, psys": the methods that record a trace and frames. */
+static void tracing_names(char *buf, size_t len) {
+  buf[0] = '\0';
+  for (int i = 0; i < pm_cli_method_count(); ++i) {
+    const pm_method *m = pm_cli_method_at(i);
+    if (!pm_cli_method_traces(m)) continue;
+    strncat(buf, buf[0] ? ", " : "", len - strlen(buf) - 1);
+    strncat(buf, m->name, len - strlen(buf) - 1);
+  }
+}
+
 static int usage_text(void) {
-  char names[512];
+  char names[512], tracing[512];
   pm_cli_method_names(names, sizeof names);
+  tracing_names(tracing, sizeof tracing);
   printf("usage: packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]\n"
          "                    [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]\n"
-         "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--stats STATS.json]\n"
-         "                    [--trace TRACE.csv] [--frames DIR]\n"
+         "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--msh-parametric]\n"
+         "                    [--stats STATS.json] [--trace TRACE.csv] [--frames DIR]\n"
+         "                    [--quiet | --progress]\n"
          "       packmesh mesh --method M --help\n\n"
          "INPUT is a CAD file (.step .stp .iges .igs .brep), case:NAME (packmesh cases) or a case\n"
          "file (.json). --size is the desired edge length: a number, an expression in x, y, z, r,\n"
          "or 'inferred' (psys's sizing inference). Without --size the input's own size (built-in\n"
          "cases, case files) or the method's default is used.\n"
+         "On a terminal a progress line shows the run in flight (method, phase, iteration,\n"
+         "particles, elapsed time); --progress shows it into a file or pipe too, a line every 2 s;\n"
+         "--quiet prints nothing but errors.\n"
+         "--msh-parametric writes each .msh node's parameters on its curve or face (gmsh reads\n"
+         "them; meshio 7 does not, so they are off by default).\n"
+         "--volume also meshes the input's volumes with tets (an input without volumes is a usage\n"
+         "error; 'packmesh cases' gives the cases' dimensions). --trace and --frames record the\n"
+         "iterations of the particle methods (%s); the others record none, and\n"
+         "asking them is a usage error. --target-nodes N scales the size field until the node\n"
+         "count is within %g%% of N (at most %d runs); a miss is a warning on stderr, and\n"
+         "target_nodes_met in --stats.\n"
          "The outputs (-o, --stats, --trace, --frames) are written together or not at all; two of\n"
          "them naming one file is a usage error; SIGINT / SIGTERM leave none (exit 130 / 143).\n"
-         "methods: %s (default bubble)\n",
-         names);
+         "methods: %s (default bubble)\n"
+         "'packmesh mesh --method M --help' lists M's parameters (--set KEY=VALUE).\n",
+         tracing, 100 * TARGET_TOL, TARGET_RUNS, names);
   return PM_EXIT_OK;
 }
 
@@ -74,6 +100,7 @@ static int method_help(const pm_method *m) {
     pm_params_help(m->params, stdout);
   else
     printf("(no parameters)\n");
+  printf("A number NNN in a SOURCE is the paper papers/NNN: 'packmesh references' cites them.\n");
   return PM_EXIT_OK;
 }
 
@@ -96,6 +123,21 @@ static int parse(int argc, char **argv, mesh_opts *o) {
     }
     if (pm_cli_flag(a, "volume")) {
       o->volume = 1;
+      ++i;
+      continue;
+    }
+    if (pm_cli_flag(a, "quiet")) {
+      o->quiet = 1;
+      ++i;
+      continue;
+    }
+    if (pm_cli_flag(a, "progress")) {
+      o->progress = 1;
+      ++i;
+      continue;
+    }
+    if (pm_cli_flag(a, "msh-parametric")) {
+      o->msh_parametric = 1;
       ++i;
       continue;
     }
@@ -193,12 +235,26 @@ int pm_cli_mesh(int argc, char **argv) {
     return pm_cli_usage("mesh", "unknown method '%s' (known: %s)", o.method, names);
   }
   if (o.help) return method_help(method);
+  if (o.quiet && o.progress) return pm_cli_usage("mesh", "--quiet and --progress exclude each other");
   if (!o.input) return pm_cli_usage("mesh", "no INPUT given");
   if (!o.out) return pm_cli_usage("mesh", "no output file given (-o OUT.msh)");
+  /* An option the method cannot honour is refused rather than written empty. */
+  if (!pm_cli_method_traces(method) && (o.trace || o.frames)) {
+    char tracing[512];
+    tracing_names(tracing, sizeof tracing);
+    return pm_cli_usage("mesh", "%s: method %s records no iterations (the methods that do: %s)",
+                        o.trace ? "--trace" : "--frames", method->name, tracing);
+  }
+  /* Where the parameters of this method are listed, for the hint of a bad --set. */
+  char params_see[160];
+  snprintf(params_see, sizeof params_see, "'packmesh mesh --method %s --help' lists the parameters",
+           method->name);
 
   pm_error e = {0};
   pm_mesh_format fmt;
   if (pm_mesh_format_of(o.out, &fmt, &e)) return pm_cli_usage("mesh", "%s", e.msg);
+  if (o.msh_parametric && fmt != PM_MESH_MSH)
+    return pm_cli_usage("mesh", "--msh-parametric applies to .msh output only, not '%s'", o.out);
   /* One file for two outputs would leave only the last one written. */
   const struct {
     const char *opt, *path;
@@ -224,16 +280,24 @@ int pm_cli_mesh(int argc, char **argv) {
   for (int k = 0; k < o.nset; ++k) {
     if (!method->params) {
       free(params);
-      return pm_cli_fail("method %s has no parameters (got --set %s)", method->name, o.sets[k]);
+      return pm_cli_usage_see(params_see, "method %s has no parameters (got --set %s)",
+                              method->name, o.sets[k]);
     }
     if (pm_params_set_pair(method->params, params, o.sets[k], &e)) {
       free(params);
-      return pm_cli_error(&e);
+      return pm_cli_usage_see(params_see, "%s", e.msg);
     }
   }
   if (method->params && pm_params_check(method->params, params, &e)) {
     free(params);
-    return pm_cli_error(&e);
+    return pm_cli_usage_see(params_see, "%s", e.msg);
+  }
+  /* --size is read before any file is: text that is neither a number, an expression nor
+   * 'inferred' is a usage error; a field that fails on the input is a failure (below). */
+  pm_sizing *parsed_size = NULL;
+  if (o.size && pm_cli_size_parse(o.size, &parsed_size, &e)) {
+    free(params);
+    return pm_cli_usage("mesh", "%s", e.msg);
   }
 
   /* Every output reserved before the run; written under these names, renamed at the end. */
@@ -241,12 +305,14 @@ int pm_cli_mesh(int argc, char **argv) {
   pm_outputs *outputs = pm_outputs_create();
   const char *tmp[4] = {NULL, NULL, NULL, NULL};
   if (!outputs) {
+    pm_sizing_destroy(parsed_size);
     free(params);
     return pm_cli_fail("out of memory");
   }
   for (int i = 0; i < 4; ++i)
     if (outs[i].path && pm_outputs_add(outputs, outs[i].path, i == 3, &tmp[i], &e)) {
       pm_outputs_destroy(outputs);
+      pm_sizing_destroy(parsed_size);
       free(params);
       return pm_cli_error(&e);
     }
@@ -261,19 +327,42 @@ int pm_cli_mesh(int argc, char **argv) {
   memset(&out, 0, sizeof out);
   pm_stats stats;
   pm_stats_init(&stats);
+  /* A usage error found once the input is open (an option that does not apply to it): the same
+   * clean-up as a failure, exit 2. */
+  int usage = 0;
+  /* The progress line reads the particle methods' trace rows: a trace of its own when --trace
+   * records none (never written). */
+  pm_cli_progress progress;
+  pm_cli_progress_init(&progress, o.quiet ? PM_PROGRESS_OFF : o.progress ? PM_PROGRESS_ON : PM_PROGRESS_AUTO,
+                       method->name);
+  pm_trace *progress_trace = NULL;
+  const int watch = progress.active && pm_cli_method_traces(method);
+  pm_cli_progress_stage(&progress, "loading the input");
   pm_status s = pm_input_open(o.input, &model, &input_size, &e);
   if (s) goto fail;
   const double t_load = pm_seconds() - t_start;
-  if (model->heal[0]) fprintf(stderr, "packmesh: %s: healed: %s\n", o.input, model->heal);
-  if (method->planar_only && !(model->dim == 2 && model->box[2] == 0 && model->box[5] == 0)) {
+  if (model->heal[0] && !o.quiet) {
+    pm_cli_progress_done(&progress);
+    fprintf(stderr, "packmesh: %s: healed: %s\n", o.input, model->heal);
+  }
+  const int planar = model->dim == 2 && model->box[2] == 0 && model->box[5] == 0;
+  if (method->planar_only && !planar) {
     s = pm_error_setf(&e, PM_ERR_ARG, "method %s meshes planar domains only; '%s' is not one",
                       method->name, o.input);
+    usage = 1;
+    goto fail;
+  }
+  if (o.volume && pm_model_count(model, PM_VOLUME) == 0) {
+    s = pm_error_setf(&e, PM_ERR_ARG, "--volume: '%s' has no volumes to mesh (%s)", o.input,
+                      planar ? "a planar domain" : "a model of faces, curves and vertices only");
+    usage = 1;
     goto fail;
   }
 
   /* The size field: --size, else the input's own, else the method's default (NULL). */
   if (o.size) {
-    s = pm_cli_size_resolve(o.size, method, model, o.seed, (int)o.threads, &size, &e);
+    s = pm_cli_size_resolve(parsed_size, method, model, o.seed, (int)o.threads, &size, &e);
+    parsed_size = NULL;
     if (s) goto fail;
   } else {
     size = input_size, input_size = NULL;
@@ -281,6 +370,8 @@ int pm_cli_mesh(int argc, char **argv) {
   if (size && (s = pm_sizing_check(size, model, &e))) goto fail;
 
   if (o.trace && (s = pm_trace_create(&trace, &e))) goto fail;
+  if (!o.trace && watch && (s = pm_trace_create(&progress_trace, &e))) goto fail;
+  if (watch) pm_trace_observe(trace ? trace : progress_trace, pm_cli_progress_row, &progress);
   if (o.frames && (s = pm_frames_create(tmp[3], model, &frames, &e))) goto fail;
   pm_stats_set_run(&stats, method->name, o.input);
 
@@ -292,13 +383,14 @@ int pm_cli_mesh(int argc, char **argv) {
       s = pm_error_setf(&e, PM_ERR_ARG,
                         "--target-nodes needs --size for method %s (it has no default field to scale)",
                         method->name);
+      usage = 1;
       goto fail;
     }
     if ((s = method->default_size(model, params, o.seed, (int)o.threads, &size, &e))) goto fail;
     base = size;
   }
   double scale = 1;
-  int runs = 0;
+  int runs = 0, target_met = 1;
   for (;;) {
     ++runs;
     const pm_sizing *use = base;
@@ -312,17 +404,27 @@ int pm_cli_mesh(int argc, char **argv) {
     pm_stats_init(&stats);
     pm_stats_set_run(&stats, method->name, o.input);
     pm_mesh_destroy(out.mesh);
-    s = run_once(method, params, model, use, &o, trace, frames, &stats, &out, &e);
+    pm_cli_progress_stage(&progress, "meshing");
+    s = run_once(method, params, model, use, &o, trace ? trace : progress_trace, frames, &stats,
+                 &out, &e);
     if (s) goto fail;
     if (!o.target_nodes) break;
     double n = (double)out.mesh->nnode, ratio = n / (double)o.target_nodes;
-    if (fabs(ratio - 1) <= TARGET_TOL || runs >= TARGET_RUNS) break;
+    target_met = fabs(ratio - 1) <= TARGET_TOL;
+    if (target_met || runs >= TARGET_RUNS) break;
     scale *= pow(ratio, 1.0 / (o.volume && out.mesh->ntet ? 3.0 : 2.0));
     /* The trace and the frames describe the last run only. */
     if (trace) {
       pm_trace_destroy(trace);
       trace = NULL;
       if ((s = pm_trace_create(&trace, &e))) goto fail;
+      if (watch) pm_trace_observe(trace, pm_cli_progress_row, &progress);
+    }
+    if (progress_trace) {
+      pm_trace_destroy(progress_trace);
+      progress_trace = NULL;
+      if ((s = pm_trace_create(&progress_trace, &e))) goto fail;
+      pm_trace_observe(progress_trace, pm_cli_progress_row, &progress);
     }
   }
   const pm_sizing *final_size = scale != 1 ? scaled : base;
@@ -330,6 +432,7 @@ int pm_cli_mesh(int argc, char **argv) {
 
   /* Stats: the verdict of the checker, the quality module, the distance to the model. */
   if (o.stats) {
+    pm_cli_progress_stage(&progress, "measuring the mesh");
     /* The measuring stages are timed beside the method's own phases (time_s.check, .quality,
      * .distance), and the model's loading before them (time_s.load), so that a run shows
      * whether measuring costs more than meshing. */
@@ -377,6 +480,7 @@ int pm_cli_mesh(int argc, char **argv) {
       pm_stats_add_number(&stats, "target_nodes", (double)o.target_nodes, NULL);
       pm_stats_add_number(&stats, "size_scale", scale, NULL);
       pm_stats_add_number(&stats, "target_runs", runs, NULL);
+      pm_stats_add_bool(&stats, "target_nodes_met", target_met, NULL);
     }
     if (method->params)
       for (int k = 0; k < method->params->n; ++k) {
@@ -389,14 +493,43 @@ int pm_cli_mesh(int argc, char **argv) {
 
   /* Files: the mesh, the stats, the trace and the frames' index under their temporary names,
    * then all of them into place. Messages name the destinations, not the temporaries. */
-  if ((s = pm_mesh_write(out.mesh, tmp[0], &e)) ||
+  pm_cli_progress_stage(&progress, "writing");
+  pm_mesh_write_opts wopts = {0};
+  wopts.msh_parametric = o.msh_parametric;
+  if ((s = pm_mesh_write_with(out.mesh, tmp[0], &wopts, &e)) ||
       (o.stats && (s = pm_stats_write_json(&stats, tmp[1], &e))) ||
       (trace && (s = pm_trace_write_csv(trace, tmp[2], &e))) ||
       (frames && (s = pm_frames_finish(frames, &e))))
     goto fail;
   if ((s = pm_outputs_commit(outputs, &e))) goto fail;
 
-  printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
+  pm_cli_progress_done(&progress);
+  /* A format that cannot hold an element kind leaves it out: said in one line, not silently. */
+  if (!o.quiet) {
+    const int32_t count[4] = {0, out.mesh->nseg, out.mesh->ntri, out.mesh->ntet};
+    static const char *const kind[4] = {"", "segments", "triangles", "tets"};
+    char left[160] = "";
+    for (int d = 1; d <= 3; ++d)
+      if (count[d] > 0 && !pm_mesh_format_holds(fmt, d))
+        snprintf(left + strlen(left), sizeof left - strlen(left), "%s%d %s",
+                 left[0] ? " and " : "", (int)count[d], kind[d]);
+    if (left[0])
+      fprintf(stderr,
+              "packmesh: warning: a .%s file cannot hold %s; they are not in %s (.msh, .vtu, "
+              ".vtk and .mesh hold every kind)\n",
+              pm_mesh_format_ext(fmt), left, o.out);
+  }
+  /* A missed target is a result, not a failure: the mesh of the last run is written; the line says
+   * by how much it missed (a domain's corners alone may be more nodes than asked for, a cap or
+   * the method's stopping rule may keep it from getting closer). */
+  if (o.target_nodes && !target_met && !o.quiet)
+    fprintf(stderr,
+            "packmesh: warning: --target-nodes %ld missed: %d nodes after %d runs (%+.1f%%; the "
+            "tolerance is %g%%)\n",
+            o.target_nodes, (int)out.mesh->nnode, runs,
+            100.0 * ((double)out.mesh->nnode / (double)o.target_nodes - 1), 100 * TARGET_TOL);
+  if (!o.quiet)
+    printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
          method->name, o.input, (int)out.mesh->nnode, (int)out.mesh->nseg, (int)out.mesh->ntri,
          (int)out.mesh->ntet, t_run, out.stop_reason[0] ? out.stop_reason : "done", o.out);
   rc = PM_EXIT_OK;
@@ -411,8 +544,10 @@ fail:
       snprintf(rest, sizeof rest, "%s", at + strlen(tmp[i]));
       snprintf(at, sizeof e.msg - (size_t)(at - e.msg), "%s%s", outs[i].path, rest);
     }
-  rc = pm_cli_error(&e);
+  pm_cli_progress_done(&progress);
+  rc = usage ? pm_cli_usage("mesh", "%s", e.msg) : pm_cli_error(&e);
 done:
+  pm_trace_destroy(progress_trace);
   pm_outputs_destroy(outputs);
   pm_stats_clear(&stats);
   pm_mesh_destroy(out.mesh);
@@ -421,6 +556,7 @@ done:
   pm_sizing_destroy(scaled);
   pm_sizing_destroy(size);
   pm_sizing_destroy(input_size);
+  pm_sizing_destroy(parsed_size);
   pm_model_destroy(model);
   free(params);
   return rc;

@@ -7,29 +7,32 @@
 #include "peers/peers.h"
 #include "psys/psys.h"
 
-/* In the order `packmesh mesh --help` lists them: ours first, then the classic peers. */
-static const pm_method *const methods[] = {
-    &bub_method,
-    &psys_method,
-    &peer_gmsh_frontal,
-    &peer_gmsh_delaunay,
-    &peer_gmsh_meshadapt,
-    &peer_cgal,
+/* In the order `packmesh mesh --help` lists them: ours first, then the classic peers. `traces`:
+ * the method fills in->trace and in->frames (method.h) with its iterations; the peers run to
+ * completion inside their libraries and record none, so --trace and --frames are refused for
+ * them rather than written empty. */
+static const struct {
+  const pm_method *method;
+  int traces;
+} methods[] = {
+    {&bub_method, 1},
+    {&psys_method, 1},
+    {&peer_gmsh_frontal, 0},
+    {&peer_gmsh_delaunay, 0},
+    {&peer_gmsh_meshadapt, 0},
+    {&peer_cgal, 0},
 };
 
-static int count(void) {
-  int n = 0;
-  for (size_t i = 0; i < sizeof methods / sizeof methods[0]; ++i) n += methods[i] != NULL;
-  return n;
-}
+static int count(void) { return (int)(sizeof methods / sizeof methods[0]); }
 
 int pm_cli_method_count(void) { return count(); }
 
-const pm_method *pm_cli_method_at(int i) {
-  int k = 0;
-  for (size_t j = 0; j < sizeof methods / sizeof methods[0]; ++j)
-    if (methods[j] && k++ == i) return methods[j];
-  return NULL;
+const pm_method *pm_cli_method_at(int i) { return i >= 0 && i < count() ? methods[i].method : NULL; }
+
+int pm_cli_method_traces(const pm_method *m) {
+  for (int i = 0; i < count(); ++i)
+    if (methods[i].method == m) return methods[i].traces;
+  return 0;
 }
 
 const pm_method *pm_cli_method_find(const char *name) {

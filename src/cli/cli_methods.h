@@ -13,6 +13,9 @@ const pm_method *pm_cli_method_find(const char *name);
 int pm_cli_method_count(void);
 const pm_method *pm_cli_method_at(int i);
 
+/* 1 when the method records its iterations for --trace and --frames. */
+int pm_cli_method_traces(const pm_method *m);
+
 /* "bubble, psys, gmsh-frontal, ..." for messages. */
 void pm_cli_method_names(char *buf, size_t len);
 

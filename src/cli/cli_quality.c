@@ -30,7 +30,7 @@
 static const char *const usage_text =
     "usage: packmesh quality MESH [--size EXPR|NUMBER] [--geometry INPUT] [--json | --csv]\n"
     "\n"
-    "Measure the elements of MESH (.msh, .vtk, .vtu, .stl or .mesh) and check its validity.\n"
+    "Measure the elements of MESH (.msh, .vtk, .vtu, .stl, .mesh or .obj) and check its validity.\n"
     "  --size S      the desired edge length d(x, y, z), a number or an expression in x, y, z, r\n"
     "                (\"0.1\", \"0.2*abs(r-2)+0.15\"): adds edge length / d at the edge midpoints\n"
     "  --geometry IN the model MESH discretizes: a CAD file (.step, .stp, .iges, .igs, .brep),\n"
@@ -187,7 +187,7 @@ int pm_cli_quality(int argc, char **argv) {
   int code = PM_EXIT_FAIL;
   /* The size field first: a bad --size is reported before any file is read. */
   if (size_text && pm_sizing_parse(size_text, &size, &e)) {
-    code = pm_cli_fail("--size: %s", e.msg);
+    code = pm_cli_usage("quality", "--size: %s", e.msg);
     goto done;
   }
   if (geometry && pm_input_open(geometry, &model, &input_size, &e)) {

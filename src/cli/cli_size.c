@@ -5,17 +5,20 @@
 
 #include "psys/psys.h"
 
-pm_status pm_cli_size_resolve(const char *text, const pm_method *method, const pm_model *model,
-                              uint64_t seed, int threads, pm_sizing **out, pm_error *err) {
+pm_status pm_cli_size_parse(const char *text, pm_sizing **out, pm_error *err) {
   *out = NULL;
-  if (strcmp(text, "inferred") == 0) {
-    if (strcmp(method->name, "psys") == 0) return PM_OK; /* psys infers its own field */
-    /* psys's inference with its default parameters, handed over as a sampled field. */
-    pm_status s = psys_infer_size(model, NULL, seed, threads, out, err);
-    if (s) pm_error_prefix(err, "--size inferred");
-    return s;
-  }
+  if (strcmp(text, "inferred") == 0) return PM_OK;
   pm_status s = pm_sizing_parse(text, out, err);
   if (s) pm_error_prefix(err, "--size");
+  return s;
+}
+
+pm_status pm_cli_size_resolve(pm_sizing *parsed, const pm_method *method, const pm_model *model,
+                              uint64_t seed, int threads, pm_sizing **out, pm_error *err) {
+  *out = parsed;
+  if (parsed || strcmp(method->name, "psys") == 0) return PM_OK; /* psys infers its own field */
+  /* psys's inference with its default parameters, handed over as a sampled field. */
+  pm_status s = psys_infer_size(model, NULL, seed, threads, out, err);
+  if (s) pm_error_prefix(err, "--size inferred");
   return s;
 }

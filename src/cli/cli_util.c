@@ -44,6 +44,17 @@ int pm_cli_usage(const char *cmd, const char *fmt, ...) {
   return PM_EXIT_USAGE;
 }
 
+int pm_cli_usage_see(const char *see, const char *fmt, ...) {
+  char msg[1024], tail[256];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(msg, sizeof msg, fmt, ap);
+  va_end(ap);
+  snprintf(tail, sizeof tail, " (%s)", see);
+  put_line(NULL, msg, tail);
+  return PM_EXIT_USAGE;
+}
+
 int pm_cli_error(const pm_error *e) {
   put_line(NULL, e->msg[0] ? e->msg : pm_status_name(e->code), NULL);
   return PM_EXIT_FAIL;

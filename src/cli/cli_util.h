@@ -24,6 +24,14 @@ int pm_cli_usage(const char *cmd, const char *fmt, ...)
 #endif
     ;
 
+/* A usage error whose hint is `see` itself, for errors whose valid values are listed elsewhere
+ * than the subcommand's --help: "packmesh: <message> (<see>)"; returns PM_EXIT_USAGE. */
+int pm_cli_usage_see(const char *see, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
 /* Print a library error (its one-line message) and return PM_EXIT_FAIL. */
 int pm_cli_error(const pm_error *e);
 

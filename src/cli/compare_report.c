@@ -12,6 +12,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cli/cli_references.h"
 #include "cli/compare_study.h"
 #include "common/atomic_file.h"
 
@@ -447,6 +448,22 @@ static void inputs(doc *d, const pm_cmp_study *st) {
   doc_code(d, su->text, "json");
 }
 
+/* The papers the report has cited so far (papers/NNN in its Markdown text: the summary, the
+ * figure captions, the suite's description), in full. */
+static void references(doc *d) {
+  int any = 0;
+  for (int i = 0; i < pm_cli_reference_count(); ++i) {
+    const pm_cli_reference *r = pm_cli_reference_at(i);
+    char key[32];
+    snprintf(key, sizeof key, "papers/%s", r->key);
+    if (!d->md.s || !strstr(d->md.s, key)) continue;
+    if (!any++) doc_h(d, 2, "References");
+    char p[1200];
+    snprintf(p, sizeof p, "%s: %s", key, r->citation);
+    doc_p(d, p);
+  }
+}
+
 pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
                         const char *invocation, pm_error *err) {
   const pm_cmp_suite *su = &st->suite;
@@ -584,6 +601,7 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
   inputs(d, st);
   doc_h(d, 2, "Environment");
   environment(d, figs);
+  references(d);
   SB(&d->html, "</body>\n</html>\n");
 
   pm_status s = PM_OK;

@@ -22,6 +22,7 @@ static const subcommand commands[] = {
     {"cases", pm_cli_cases, "list the built-in cases (INPUT case:NAME)"},
     {"compare", pm_cli_compare, "run a comparison suite into a folder: CSV, plots, report"},
     {"demo", pm_cli_demo, "run the default comparison on built-in cases (-o DIR)"},
+    {"references", pm_cli_references, "the full citations of the papers cited as papers/NNN"},
 };
 static const int ncommands = (int)(sizeof commands / sizeof commands[0]);
 

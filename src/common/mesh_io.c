@@ -19,6 +19,7 @@
 
 #include "common/atomic_file.h"
 #include "common/gmsh_session.h"
+#include "common/quality.h"
 
 static const char *const format_ext[PM_MESH_FORMAT_COUNT] = {"msh", "vtk", "vtu",
                                                              "stl", "obj", "mesh"};
@@ -33,6 +34,12 @@ static const char *path_ext(const char *path) {
   const char *base = slash ? slash + 1 : path;
   const char *dot = strrchr(base, '.');
   return (dot && dot != base && dot[1]) ? dot + 1 : NULL;
+}
+
+int pm_mesh_format_holds(pm_mesh_format fmt, int dim) {
+  if (fmt == PM_MESH_STL) return dim == 2;
+  if (fmt == PM_MESH_OBJ) return dim == 1 || dim == 2;
+  return dim >= 1 && dim <= 3;
 }
 
 pm_status pm_mesh_format_of(const char *path, pm_mesh_format *fmt, pm_error *err) {
@@ -137,10 +144,21 @@ static pm_status check_mesh(const pm_mesh *m, pm_error *err) {
   return PM_OK;
 }
 
+/* The elements in the order gmsh writes them: by dimension, entity tag, then index (ek holds
+ * nseg + ntri + ntet keys). Returns their number. */
+static size_t element_order(const pm_mesh *m, ent_key *ek) {
+  size_t ne = 0;
+  for (int32_t i = 0; i < m->nseg; ++i) ek[ne++] = (ent_key){1, cell_tag(m->seg_cell[i]), i};
+  for (int32_t i = 0; i < m->ntri; ++i) ek[ne++] = (ent_key){2, cell_tag(m->tri_cell[i]), i};
+  for (int32_t i = 0; i < m->ntet; ++i) ek[ne++] = (ent_key){3, cell_tag(m->tet_cell[i]), i};
+  qsort(ek, ne, sizeof *ek, cmp_ent_key);
+  return ne;
+}
+
 /* Build the mesh as discrete entities of the current gmsh model. gmsh's VTK and Medit writers
  * number nodes entity by entity; so that node i of the mesh stays point i of the file, those
  * formats get every node on one entity (they store no node classification anyway). */
-static pm_status gmsh_build(const pm_mesh *m, int classify, pm_error *err) {
+static pm_status gmsh_build(const pm_mesh *m, int classify, int parametric, pm_error *err) {
   int topdim = m->ntet ? 3 : m->ntri ? 2 : m->nseg ? 1 : 0;
   size_t nn = (size_t)m->nnode;
   size_t nelem = (size_t)m->nseg + (size_t)m->ntri + (size_t)m->ntet;
@@ -164,12 +182,8 @@ static pm_status gmsh_build(const pm_mesh *m, int classify, pm_error *err) {
     else
       nk[v] = (ent_key){topdim, PM_MSH_UNTAGGED, (int32_t)v};
   }
-  size_t ne = 0;
-  for (int32_t i = 0; i < m->nseg; ++i) ek[ne++] = (ent_key){1, cell_tag(m->seg_cell[i]), i};
-  for (int32_t i = 0; i < m->ntri; ++i) ek[ne++] = (ent_key){2, cell_tag(m->tri_cell[i]), i};
-  for (int32_t i = 0; i < m->ntet; ++i) ek[ne++] = (ent_key){3, cell_tag(m->tet_cell[i]), i};
+  size_t ne = element_order(m, ek);
   qsort(nk, nn, sizeof *nk, cmp_ent_key);
-  qsort(ek, ne, sizeof *ek, cmp_ent_key);
 
   /* Entities: every (dim, tag) used by a node or an element, created once. */
   size_t nent = 0;
@@ -192,7 +206,9 @@ static pm_status gmsh_build(const pm_mesh *m, int classify, pm_error *err) {
   for (size_t i = 0; i < nn;) {
     size_t j = i;
     while (j < nn && nk[j].dim == nk[i].dim && nk[j].tag == nk[i].tag) ++j;
-    int npar = nk[i].tag == PM_MSH_UNTAGGED ? 0 : (nk[i].dim == 1 || nk[i].dim == 2) ? nk[i].dim : 0;
+    int npar = !parametric || nk[i].tag == PM_MSH_UNTAGGED ? 0
+               : (nk[i].dim == 1 || nk[i].dim == 2) ? nk[i].dim
+                                                     : 0;
     for (size_t k = i; k < j; ++k) {
       int32_t v = nk[k].idx;
       tags[k - i] = (size_t)v + 1;
@@ -237,8 +253,59 @@ done:
   return s;
 }
 
-static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, const char *tmp,
-                            const char *path, pm_error *err) {
+/* %.17g: every double written comes back bit for bit. */
+static void put_double(FILE *f, double x) { fprintf(f, "%.17g", x); }
+
+/* Per-element quality as $ElementData, one block per measure, appended to the MSH file gmsh
+ * wrote: every element by its tag (segments first, then triangles, then tets, as gmsh_build
+ * numbers them) in the order of its $Elements blocks, so that gmsh (by tag) and meshio (by
+ * order) both colour each element with its own value; -1 on segments, which have no such
+ * measure. */
+static pm_status msh_append_quality(const pm_mesh *m, const char *tmp, const char *path,
+                                    pm_error *err) {
+  size_t nelem = (size_t)m->nseg + (size_t)m->ntri + (size_t)m->ntet;
+  if (nelem == 0) return PM_OK;
+  pm_quality q = {0};
+  pm_status s = pm_quality_compute(m, NULL, &q, err);
+  if (s) return s;
+  ent_key *ek = malloc((nelem ? nelem : 1) * sizeof *ek);
+  FILE *f = ek ? fopen(tmp, "a") : NULL;
+  if (!ek || !f) {
+    s = ek ? pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno))
+           : pm_error_setf(err, PM_ERR_NOMEM, "out of memory writing a mesh");
+    free(ek);
+    pm_quality_clear(&q);
+    return s;
+  }
+  element_order(m, ek);
+  const char *names[3] = {"radius_ratio", "aspect_ratio", "min_angle_deg"};
+  const double *tri[3] = {q.tri.radius_ratio, q.tri.aspect_ratio, q.tri.min_angle};
+  const double *tet[3] = {q.tet.radius_ratio, q.tet.aspect_ratio, q.tet.min_angle};
+  for (int a = 0; a < 3; ++a) {
+    /* string tag: the name; real tag: the time 0; integer tags: step 0, 1 component, count */
+    fprintf(f, "$ElementData\n1\n\"%s\"\n1\n0\n3\n0\n1\n%zu\n", names[a], nelem);
+    for (size_t k = 0; k < nelem; ++k) {
+      const ent_key *e = &ek[k];
+      size_t base = e->dim == 1 ? 0 : e->dim == 2 ? (size_t)m->nseg : (size_t)m->nseg + (size_t)m->ntri;
+      fprintf(f, "%zu ", base + (size_t)e->idx + 1);
+      if (e->dim == 1)
+        fputs("-1", f);
+      else
+        put_double(f, (e->dim == 2 ? tri[a] : tet[a])[e->idx]);
+      fputc('\n', f);
+    }
+    fputs("$EndElementData\n", f);
+  }
+  int bad = ferror(f);
+  if (fclose(f) != 0) bad = 1;
+  if (bad) s = pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
+  free(ek);
+  pm_quality_clear(&q);
+  return s;
+}
+
+static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, int parametric,
+                            const char *tmp, const char *path, pm_error *err) {
   pm_gmsh_lock();
   pm_gmsh_scope scope;
   char name[64];
@@ -248,13 +315,13 @@ static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, const char *tm
     pm_gmsh_unlock();
     return s;
   }
-  s = gmsh_build(m, fmt == PM_MESH_MSH, err);
+  s = gmsh_build(m, fmt == PM_MESH_MSH, parametric, err);
   if (!s) {
     gm_option opt[] = {{"Mesh.MshFileVersion", 4.1, 0},  {"Mesh.Binary", 0, 0},
                        {"Mesh.SaveAll", 1, 0},           {"Mesh.SaveParametric", 1, 0},
                        {"Mesh.StlOneSolidPerSurface", 1, 0}};
     int nopt = (int)(sizeof opt / sizeof opt[0]);
-    if (fmt != PM_MESH_MSH) opt[3].value = 0; /* parameters are an MSH feature */
+    if (fmt != PM_MESH_MSH || !parametric) opt[3].value = 0; /* parameters are an MSH feature */
     options_set(opt, nopt);
     int ierr = 0;
     char msg[400];
@@ -271,15 +338,31 @@ static pm_status gmsh_write(const pm_mesh *m, pm_mesh_format fmt, const char *tm
     if (stat(tmp, &st) != 0 || st.st_size == 0)
       s = pm_error_setf(err, PM_ERR_BACKEND, "writing %s: gmsh wrote nothing", path);
   }
+  if (!s && fmt == PM_MESH_MSH) s = msh_append_quality(m, tmp, path, err);
   return s;
 }
 
 /* ---- writing by hand: .vtu and .obj -------------------------------------------------------- */
 
-/* %.17g: every double written comes back bit for bit. */
-static void put_double(FILE *f, double x) { fprintf(f, "%.17g", x); }
 
-static int write_vtu(const pm_mesh *m, FILE *f) {
+/* One quality measure per cell: segments first (-1: a segment has no such measure), then the
+ * triangles' values, then the tets'. */
+static void vtu_quality_array(FILE *f, const pm_mesh *m, const char *name, const double *tri,
+                              const double *tet) {
+  fprintf(f, "        <DataArray type=\"Float64\" Name=\"%s\" format=\"ascii\">\n", name);
+  for (int32_t i = 0; i < m->nseg; ++i) fputs("-1\n", f);
+  for (int32_t i = 0; i < m->ntri; ++i) {
+    put_double(f, tri[i]);
+    fputc('\n', f);
+  }
+  for (int32_t i = 0; i < m->ntet; ++i) {
+    put_double(f, tet[i]);
+    fputc('\n', f);
+  }
+  fputs("        </DataArray>\n", f);
+}
+
+static int write_vtu(const pm_mesh *m, const pm_quality *q, FILE *f) {
   int64_t ncell = (int64_t)m->nseg + m->ntri + m->ntet;
   fprintf(f,
           "<?xml version=\"1.0\"?>\n"
@@ -310,7 +393,13 @@ static int write_vtu(const pm_mesh *m, FILE *f) {
   for (int32_t i = 0; i < m->nseg; ++i) fprintf(f, "%ld\n", (long)m->seg_cell[i]);
   for (int32_t i = 0; i < m->ntri; ++i) fprintf(f, "%ld\n", (long)m->tri_cell[i]);
   for (int32_t i = 0; i < m->ntet; ++i) fprintf(f, "%ld\n", (long)m->tet_cell[i]);
-  fprintf(f, "        </DataArray>\n      </CellData>\n"
+  fprintf(f, "        </DataArray>\n");
+  /* Per-element quality (quality.h), for colouring in ParaView: radius ratio, R / l_min and the
+   * smallest angle (a tet's smallest dihedral angle). */
+  vtu_quality_array(f, m, "radius_ratio", q->tri.radius_ratio, q->tet.radius_ratio);
+  vtu_quality_array(f, m, "aspect_ratio", q->tri.aspect_ratio, q->tet.aspect_ratio);
+  vtu_quality_array(f, m, "min_angle_deg", q->tri.min_angle, q->tet.min_angle);
+  fprintf(f, "      </CellData>\n"
              "      <Points>\n"
              "        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n");
   for (int32_t v = 0; v < m->nnode; ++v) {
@@ -387,13 +476,28 @@ static int write_obj(const pm_mesh *m, FILE *f) {
 
 static pm_status hand_write(const pm_mesh *m, pm_mesh_format fmt, FILE *f, const char *path,
                             pm_error *err) {
-  int ok = fmt == PM_MESH_VTU ? write_vtu(m, f) : write_obj(m, f);
+  int ok;
+  if (fmt == PM_MESH_VTU) {
+    pm_quality q = {0};
+    pm_status s = pm_quality_compute(m, NULL, &q, err);
+    if (s) return s;
+    ok = write_vtu(m, &q, f);
+    pm_quality_clear(&q);
+  } else {
+    ok = write_obj(m, f);
+  }
   if (!ok) return pm_error_setf(err, PM_ERR_IO, "cannot write %s: %s", path, strerror(errno));
   return PM_OK;
 }
 
 pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err) {
+  return pm_mesh_write_with(m, path, NULL, err);
+}
+
+pm_status pm_mesh_write_with(const pm_mesh *m, const char *path, const pm_mesh_write_opts *opts,
+                             pm_error *err) {
   if (!m) return pm_error_setf(err, PM_ERR_ARG, "pm_mesh_write: no mesh");
+  const int parametric = opts && opts->msh_parametric;
   pm_mesh_format fmt;
   pm_status s = pm_mesh_format_of(path, &fmt, err);
   if (s) return s;
@@ -409,7 +513,7 @@ pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err) {
   if (by_hand)
     s = hand_write(m, fmt, a.f, path, err);
   else
-    s = gmsh_write(m, fmt, a.tmp, path, err);
+    s = gmsh_write(m, fmt, parametric, a.tmp, path, err);
   if (s) {
     pm_atomic_abort(&a);
     return s;

@@ -565,11 +565,10 @@ static pm_status parse_buffer(const char *name, pm_mesh_format fmt, const char *
     case PM_MESH_VTU: s = pm_rd_parse_vtu(&r); break;
     case PM_MESH_STL: s = pm_rd_parse_stl(&r); break;
     case PM_MESH_MEDIT: s = pm_rd_parse_medit(&r); break;
+    case PM_MESH_OBJ: s = pm_rd_parse_obj(&r); break;
     default:
-      s = pm_error_setf(err, PM_ERR_ARG,
-                        "%s: packmesh does not read .%s files (it reads .msh, .vtk, .vtu, .stl "
-                        "and .mesh)",
-                        name, pm_mesh_format_ext(fmt));
+      s = pm_error_setf(err, PM_ERR_ARG, "%s: packmesh does not read .%s files", name,
+                        pm_mesh_format_ext(fmt));
   }
   if (!s) s = pm_rd_finish(&r, out);
   free(r.node);
@@ -600,11 +599,6 @@ pm_status pm_mesh_read(const char *path, pm_mesh **out, pm_error *err) {
   pm_mesh_format fmt;
   pm_status s = pm_mesh_format_of(path, &fmt, err);
   if (s) return s;
-  if (fmt == PM_MESH_OBJ)
-    return pm_error_setf(err, PM_ERR_ARG,
-                         "%s: packmesh does not read .obj files (it reads .msh, .vtk, .vtu, .stl "
-                         "and .mesh)",
-                         path);
   /* stat before opening: opening a FIFO would wait for a writer. */
   struct stat st;
   if (stat(path, &st) != 0)

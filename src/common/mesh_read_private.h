@@ -1,5 +1,6 @@
 /* The mesh readers' shared machinery (mesh_read.c), used by one parser per format
- * (mesh_read_msh.c, mesh_read_vtk.c, mesh_read_vtu.c, mesh_read_stl.c, mesh_read_medit.c).
+ * (mesh_read_msh.c, mesh_read_vtk.c, mesh_read_vtu.c, mesh_read_stl.c, mesh_read_medit.c,
+ * mesh_read_obj.c).
  *
  * A parser never trusts the file: it reads from a buffer holding the whole file (with a '\0'
  * after its last byte), every count the file declares is checked against the bytes left before
@@ -164,5 +165,6 @@ pm_status pm_rd_parse_vtk(pm_rd *r);
 pm_status pm_rd_parse_vtu(pm_rd *r);
 pm_status pm_rd_parse_stl(pm_rd *r);
 pm_status pm_rd_parse_medit(pm_rd *r);
+pm_status pm_rd_parse_obj(pm_rd *r);
 
 #endif /* PM_MESH_READ_PRIVATE_H */

@@ -77,7 +77,7 @@ pm_status pm_params_set(const pm_param_table *t, void *params, const char *key,
                         const char *value, pm_error *err) {
   const pm_param_desc *d = pm_params_find(t, key);
   if (!d)
-    return pm_error_setf(err, PM_ERR_ARG, "unknown %s parameter '%s' (see --help for the list)",
+    return pm_error_setf(err, PM_ERR_ARG, "unknown %s parameter '%s'",
                          t->owner, key);
   double v = 0;
   if (d->type == PM_PARAM_BOOL) {

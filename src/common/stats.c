@@ -209,6 +209,13 @@ pm_status pm_stats_add_text(pm_stats *s, const char *key, const char *text, pm_e
   return push_item(&s->extra, &s->nextra, key, 1, 0, text, err);
 }
 
+pm_status pm_stats_add_bool(pm_stats *s, const char *key, int value, pm_error *err) {
+  pm_status st = check_extra_key(s, key, err);
+  if (!st) st = push_item(&s->extra, &s->nextra, key, 0, value != 0, NULL, err);
+  if (!st) s->extra[s->nextra - 1].is_bool = 1;
+  return st;
+}
+
 /* ---- JSON --------------------------------------------------------------------------------- */
 
 /* cJSON reports allocation failures by returning NULL; every add below is checked through this
@@ -329,6 +336,8 @@ static void add_extra(jb *b, cJSON *root, const pm_stats_item *it) {
   if (cJSON_GetObjectItemCaseSensitive(at, part)) return; /* never clobber a standard key */
   if (it->is_text)
     add_str(b, at, part, it->text);
+  else if (it->is_bool)
+    add_bool(b, at, part, it->num != 0);
   else
     add_num(b, at, part, it->num);
 }

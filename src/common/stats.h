@@ -48,6 +48,7 @@ extern "C" {
 typedef struct pm_stats_item {
   char *key;   /* owned */
   int is_text;
+  int is_bool; /* a number written as true (num != 0) or false */
   double num;  /* when !is_text */
   char *text;  /* owned, when is_text */
 } pm_stats_item;
@@ -116,6 +117,7 @@ void pm_stats_set_distance(pm_stats *s, double mean, double max, double bbox_dia
  * was added before, is PM_ERR_ARG. */
 pm_status pm_stats_add_number(pm_stats *s, const char *key, double value, pm_error *err);
 pm_status pm_stats_add_text(pm_stats *s, const char *key, const char *text, pm_error *err);
+pm_status pm_stats_add_bool(pm_stats *s, const char *key, int value, pm_error *err);
 
 /* The JSON text (indented, ending with a newline); *out is malloc'ed, free() it. Non-finite
  * numbers are written as null. */

@@ -12,7 +12,14 @@ struct pm_trace {
   char **name;      /* [ncol] owned */
   double *v;        /* [ncol * cap] */
   int64_t nrow, cap, dropped;
+  pm_trace_observer observer; /* may be NULL */
+  void *observer_user;
 };
+
+void pm_trace_observe(pm_trace *t, pm_trace_observer fn, void *user) {
+  t->observer = fn;
+  t->observer_user = user;
+}
 
 pm_status pm_trace_create(pm_trace **out, pm_error *err) {
   *out = calloc(1, sizeof **out);
@@ -44,6 +51,7 @@ pm_status pm_trace_add(pm_trace *t, const double *row, pm_error *err) {
   }
   memcpy(&t->v[t->nrow * t->ncol], row, sizeof(double) * (size_t)t->ncol);
   t->nrow++;
+  if (t->observer) t->observer(t->observer_user, t, row);
   return PM_OK;
 }
 

@@ -21,6 +21,11 @@ pm_status pm_trace_columns(pm_trace *t, int ncol, const char *const *names, pm_e
 pm_status pm_trace_add(pm_trace *t, const double *row, pm_error *err);
 #define PM_TRACE_MAX_ROWS 10000000
 
+/* Called with every row pm_trace_add records (the trace's columns and the row, both borrowed),
+ * on the thread that adds it: a caller's progress display. NULL removes it. */
+typedef void (*pm_trace_observer)(void *user, const pm_trace *t, const double *row);
+void pm_trace_observe(pm_trace *t, pm_trace_observer fn, void *user);
+
 int pm_trace_ncol(const pm_trace *t);
 const char *pm_trace_column(const pm_trace *t, int col);
 int64_t pm_trace_nrow(const pm_trace *t);

@@ -81,6 +81,7 @@ static void target_nodes_and_threads(void **state) {
   cJSON *j = pm_test_read_json(js);
   double n = pm_test_stat(j, "nodes", NULL, NULL);
   assert_true(fabs(n - 1500) <= 0.03 * 1500);
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "target_nodes_met")));
   assert_true(pm_test_stat(j, "size_scale", NULL, NULL) < 1); /* more nodes than the case's own field */
   cJSON_Delete(j);
   /* The same seed gives the identical mesh with one or two threads. */
@@ -97,6 +98,128 @@ static void target_nodes_and_threads(void **state) {
   free(x2);
 }
 
+/* A target the method cannot reach: qi3's square has 4 corners, and 5 nodes is within 3% of
+ * nothing bubble can place (it ends with the 4 corners). The mesh is written (exit 0), stderr has
+ * one warning line naming the target and the count, and the stats say target_nodes_met false. */
+static void target_nodes_missed(void **state) {
+  (void)state;
+  char args[1024], js[300], msh[300];
+  snprintf(js, sizeof js, "%s/miss.json", dir);
+  snprintf(msh, sizeof msh, "%s/miss.msh", dir);
+  snprintf(args, sizeof args, "mesh case:qi3 --method bubble --target-nodes 5 -o '%s' --stats '%s'",
+           msh, js);
+  char *out = NULL, *err = NULL;
+  assert_int_equal(pm_test_cli(dir, args, &out, &err), 0);
+  int lines = 0;
+  for (const char *c = err; *c; ++c) lines += *c == '\n';
+  if (lines != 1 || !strstr(err, "warning: --target-nodes 5 missed: 4 nodes after 8 runs"))
+    fail_msg("stderr '%s'", err);
+  free(out), free(err);
+  cJSON *j = pm_test_read_json(js);
+  assert_int_equal((int)pm_test_stat(j, "nodes", NULL, NULL), 4);
+  assert_int_equal((int)pm_test_stat(j, "target_runs", NULL, NULL), 8);
+  assert_true(cJSON_IsFalse(cJSON_GetObjectItemCaseSensitive(j, "target_nodes_met")));
+  cJSON_Delete(j);
+  assert_true(exists(msh));
+}
+
+/* Every usage error exits 2 with one line that names where the valid values are listed, and
+ * leaves nothing behind: bad option values, unknown parameters and parameters out of range (the
+ * method's --help lists them), size text that is neither a number nor an expression, and options
+ * that do not apply (--volume on an input without volumes, --trace and --frames with a method
+ * that records no iterations, a planar-only method on a solid). */
+static void usage_errors_exit_2(void **state) {
+  (void)state;
+  char out[300], args[1200];
+  snprintf(out, sizeof out, "%s/usage.msh", dir);
+  static const char *const cases[][2] = {
+      {"case:qi3 --method bubble --set foo=1", "'packmesh mesh --method bubble --help' lists the parameters"},
+      {"case:qi3 --method psys --set s_tau=0", "'packmesh mesh --method psys --help' lists the parameters"},
+      {"case:qi3 --method bubble --set k0", "'packmesh mesh --method bubble --help' lists the parameters"},
+      {"case:qi3 --method gmsh-frontal --set algorithm=1", "'packmesh mesh --method gmsh-frontal --help' lists"},
+      {"case:qi3 --size abc", "see 'packmesh mesh --help'"},
+      {"case:qi3 --size 0", "see 'packmesh mesh --help'"},
+      {"case:qi3 --volume", "--volume: 'case:qi3' has no volumes to mesh (a planar domain) (see 'packmesh mesh --help')"},
+      {"case:qi3 --method gmsh-frontal --trace T.csv", "--trace: method gmsh-frontal records no iterations (the methods that do: bubble, psys)"},
+      {"case:qi3 --method cgal --frames FR", "--frames: method cgal records no iterations"},
+      {"case:sphere --method cgal", "planar domains only"},
+      {"case:qi3 --threads x", "see 'packmesh mesh --help'"},
+      {"case:qi3 --method bubbel", "(known: bubble, psys"},
+  };
+  for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+    snprintf(args, sizeof args, "mesh %s -o '%s' --stats '%s/usage.json'", cases[k][0], out, dir);
+    pm_test_cli_error(dir, args, 2, cases[k][1]);
+    assert_false(exists(out));
+  }
+  assert_false(exists("T.csv"));
+  assert_false(exists("FR"));
+  char *err = NULL;
+  assert_int_equal(pm_test_cli(dir, "quality x.msh --size abc", NULL, &err), 2);
+  assert_non_null(strstr(err, "see 'packmesh quality --help'"));
+  free(err);
+}
+
+/* A format that cannot hold an element kind leaves it out with one warning line naming the kinds
+ * and counts (.stl: triangles only; .obj: no tets); a format that holds them all says nothing.
+ * The counts are those of the summary line. `packmesh quality` reads every format back with the
+ * counts it holds (.stl: the triangles and their corners). */
+static void formats_that_drop_elements_warn(void **state) {
+  (void)state;
+  static const struct {
+    const char *ext, *warning;
+  } runs[] = {{"stl", "warning: a .stl file cannot hold 147 segments and "},
+              {"obj", "warning: a .obj file cannot hold "},
+              {"vtu", NULL},
+              {"msh", NULL},
+              {"vtk", NULL},
+              {"mesh", NULL}};
+  for (size_t k = 0; k < sizeof runs / sizeof runs[0]; ++k) {
+    char args[1024], *out = NULL, *err = NULL;
+    snprintf(args, sizeof args, "mesh case:boxhole --method bubble --volume -o '%s/drop.%s'", dir,
+             runs[k].ext);
+    assert_int_equal(pm_test_cli(dir, args, &out, &err), 0);
+    int tets = 0, segs = 0;
+    const char *at = strstr(out, " segments, ");
+    assert_non_null(at);
+    while (at > out && at[-1] != ' ') --at;
+    segs = atoi(at);
+    at = strstr(out, " tets in ");
+    assert_non_null(at);
+    while (at > out && at[-1] != ' ') --at;
+    tets = atoi(at);
+    assert_int_equal(segs, 147);
+    assert_true(tets > 1000);
+    int nodes = atoi(out + (strstr(out, ": ") - out) + 2), tris = atoi(strstr(out, " segments, ") + 11);
+    int is_stl = strcmp(runs[k].ext, "stl") == 0, is_obj = strcmp(runs[k].ext, "obj") == 0;
+    char q[600], *qout = NULL;
+    snprintf(q, sizeof q, "quality '%s/drop.%s' --json", dir, runs[k].ext);
+    assert_int_equal(pm_test_cli(dir, q, &qout, NULL), 0);
+    cJSON *j = cJSON_Parse(qout);
+    free(qout);
+    assert_non_null(j);
+    const int want[4] = {is_stl ? -1 : nodes, is_stl ? 0 : segs, tris, is_stl || is_obj ? 0 : tets};
+    const char *keys[4] = {"nodes", "segments", "triangles", "tets"};
+    for (int c = 0; c < 4; ++c)
+      if (want[c] >= 0 && (int)pm_test_stat(j, keys[c], NULL, NULL) != want[c])
+        fail_msg("quality of .%s: %s %g, written %d", runs[k].ext, keys[c],
+                 pm_test_stat(j, keys[c], NULL, NULL), want[c]);
+    /* .stl: the triangles' corners only, the interior nodes of the tets are not in it */
+    if (is_stl && !(pm_test_stat(j, "nodes", NULL, NULL) < nodes)) fail_msg(".stl kept every node");
+    cJSON_Delete(j);
+    if (!runs[k].warning) {
+      if (err[0]) fail_msg(".%s: stderr '%s'", runs[k].ext, err);
+    } else {
+      char want[160];
+      snprintf(want, sizeof want, "%d tets; they are not in ", tets);
+      int lines = 0;
+      for (const char *c = err; *c; ++c) lines += *c == '\n';
+      if (lines != 1 || !strstr(err, runs[k].warning) || !strstr(err, want))
+        fail_msg(".%s: stderr '%s'", runs[k].ext, err);
+    }
+    free(out), free(err);
+  }
+}
+
 static void one_line_errors(void **state) {
   (void)state;
   char args[1024], bad[300], out[300];
@@ -111,19 +234,19 @@ static void one_line_errors(void **state) {
   snprintf(args, sizeof args, "mesh '%s' -o '%s'", bad, out);
   pm_test_cli_error(dir, args, 1, "corrupt.step");
   snprintf(args, sizeof args, "mesh case:qi1 --size -0.1 -o '%s'", out);
-  pm_test_cli_error(dir, args, 1, "-0.1");
+  pm_test_cli_error(dir, args, 2, "-0.1");
   snprintf(args, sizeof args, "mesh case:qi1 --size nan -o '%s'", out);
-  pm_test_cli_error(dir, args, 1, "nan");
+  pm_test_cli_error(dir, args, 2, "nan");
   snprintf(args, sizeof args, "mesh case:qi1 --size '0.1*(x' -o '%s'", out);
-  pm_test_cli_error(dir, args, 1, "--size");
+  pm_test_cli_error(dir, args, 2, "--size");
   snprintf(args, sizeof args, "mesh case:qi1 --size '0.5-x' -o '%s'", out); /* <= 0 in the domain */
   pm_test_cli_error(dir, args, 1, "size");
   snprintf(args, sizeof args, "mesh case:qi1 --bogus -o '%s'", out);
   pm_test_cli_error(dir, args, 2, "--bogus");
   snprintf(args, sizeof args, "mesh case:qi1 --method bubble --set nokey=1 -o '%s'", out);
-  pm_test_cli_error(dir, args, 1, "nokey");
+  pm_test_cli_error(dir, args, 2, "nokey");
   snprintf(args, sizeof args, "mesh case:qi1 --method bubble --set k0=-1 -o '%s'", out);
-  pm_test_cli_error(dir, args, 1, "k0");
+  pm_test_cli_error(dir, args, 2, "k0");
   snprintf(args, sizeof args, "mesh case:qi1 --method nomethod -o '%s'", out);
   pm_test_cli_error(dir, args, 2, "nomethod");
   snprintf(args, sizeof args, "mesh case:qi1 -o '%s/x.docx'", dir);
@@ -133,7 +256,7 @@ static void one_line_errors(void **state) {
   pm_test_cli_error(dir, "mesh case:qi1", 2, "-o");
   pm_test_cli_error(dir, "mesh -o x.msh", 2, "INPUT");
   snprintf(args, sizeof args, "mesh case:sphere --method cgal -o '%s'", out);
-  pm_test_cli_error(dir, args, 1, "planar");
+  pm_test_cli_error(dir, args, 2, "planar");
   pm_test_cli_error(dir, "mesh case:qi1 --threads 0 -o x.msh", 2, "--threads");
   /* Nothing was left behind by the failures. */
   assert_false(exists(out));
@@ -153,6 +276,9 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(stats_keys_of_design),
       cmocka_unit_test(target_nodes_and_threads),
+      cmocka_unit_test(target_nodes_missed),
+      cmocka_unit_test(usage_errors_exit_2),
+      cmocka_unit_test(formats_that_drop_elements_warn),
       cmocka_unit_test(one_line_errors),
   };
   int rc = cmocka_run_group_tests(tests, NULL, NULL);

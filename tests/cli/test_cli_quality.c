@@ -423,14 +423,14 @@ static void errors(void **state) {
   write_file("plain.txt", "1 2 3\n", p);
   snprintf(args, sizeof args, "quality '%s'", p);
   expect_error(args, 1, "'.txt'");
-  /* Bad sizes: reported before the mesh is read (so even for a missing mesh). */
+  /* Bad sizes: usage errors, reported before the mesh is read (so even for a missing mesh). */
   snprintf(args, sizeof args, "quality '%s/missing.msh' --size -0.1", dir);
-  expect_error(args, 1, "size '-0.1'");
-  expect_error("quality x.msh --size nan", 1, "nan");
-  expect_error("quality x.msh --size inf", 1, "inf");
-  expect_error("quality x.msh --size '0.1*(x'", 1, "Missing parenthesis");
-  expect_error("quality x.msh --size 'foo+1'", 1, "foo");
-  expect_error("quality x.msh --size '0*x'", 1, "0*x");
+  expect_error(args, 2, "size '-0.1'");
+  expect_error("quality x.msh --size nan", 2, "nan");
+  expect_error("quality x.msh --size inf", 2, "inf");
+  expect_error("quality x.msh --size '0.1*(x'", 2, "Missing parenthesis");
+  expect_error("quality x.msh --size 'foo+1'", 2, "foo");
+  expect_error("quality x.msh --size '0*x'", 2, "0*x");
   expect_error("quality x.msh --size", 2, "--size needs a value");
   expect_error("quality x.msh --size 1 --size 2", 2, "twice");
   snprintf(args, sizeof args, "quality '%s/missing.msh' --geometry '%s/nope.step'", dir, dir);

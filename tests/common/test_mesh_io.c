@@ -15,6 +15,7 @@
 #include "common/gmsh_session.h"
 #include "common/mesh.h"
 #include "common/mesh_io.h"
+#include "common/quality.h"
 
 static char dir[256];
 
@@ -108,8 +109,9 @@ static void assert_close_rel(double a, double b, double rel) {
 
 /* ---- .msh: everything round-trips, order included ------------------------------------------ */
 
-/* r is m read back: the same nodes (within rel), classification, elements and cells. */
-static void same_mesh(const pm_mesh *m, const pm_mesh *r, double rel) {
+/* r is m read back: the same nodes (within rel), classification, elements and cells; the
+ * parameters too when with_par (else r's are 0). */
+static void same_mesh_par(const pm_mesh *m, const pm_mesh *r, double rel, int with_par) {
   assert_int_equal(r->nnode, m->nnode);
   assert_int_equal(r->nseg, m->nseg);
   assert_int_equal(r->ntri, m->ntri);
@@ -119,7 +121,7 @@ static void same_mesh(const pm_mesh *m, const pm_mesh *r, double rel) {
     assert_int_equal(r->node_dim[v], m->node_dim[v]);
     assert_int_equal(r->node_cell[v], m->node_cell[v]);
     for (int k = 0; k < 2; ++k)
-      assert_close_rel(r->node_par[2 * v + k], m->node_par[2 * v + k], rel);
+      assert_close_rel(r->node_par[2 * v + k], with_par ? m->node_par[2 * v + k] : 0, rel);
   }
   assert_memory_equal(r->seg, m->seg, 2 * sizeof(int32_t) * (size_t)m->nseg);
   assert_memory_equal(r->tri, m->tri, 3 * sizeof(int32_t) * (size_t)m->ntri);
@@ -129,13 +131,59 @@ static void same_mesh(const pm_mesh *m, const pm_mesh *r, double rel) {
   assert_memory_equal(r->tet_cell, m->tet_cell, sizeof(int32_t) * (size_t)m->ntet);
 }
 
+static void same_mesh(const pm_mesh *m, const pm_mesh *r, double rel) { same_mesh_par(m, r, rel, 1); }
+
+/* The "parametric" flag of the first $Entities-ordered node block on a curve or face: the
+ * third number of a block header "dim tag parametric n" with dim 1 or 2. */
+static int first_block_parametric(const char *path) {
+  FILE *f = fopen(path, "r");
+  assert_non_null(f);
+  char line[256];
+  int in_nodes = 0, header_next = 0, flag = -1;
+  while (flag < 0 && fgets(line, sizeof line, f)) {
+    if (strncmp(line, "$Nodes", 6) == 0) {
+      in_nodes = 1;
+      if (!fgets(line, sizeof line, f)) break; /* numEntityBlocks numNodes min max */
+      header_next = 1;
+      continue;
+    }
+    if (!in_nodes || !header_next) continue;
+    int dim, tag, par;
+    long n;
+    if (sscanf(line, "%d %d %d %ld", &dim, &tag, &par, &n) != 4) break;
+    if (dim == 1 || dim == 2) {
+      flag = par;
+      break;
+    }
+    /* skip the block: n tags, then n coordinate lines (no parameters on dim 0 / 3) */
+    for (long k = 0; k < 2 * n && fgets(line, sizeof line, f); ++k) {
+    }
+  }
+  fclose(f);
+  return flag;
+}
+
+static char *slurp(const char *path);
+
 static void msh_round_trip(void **state) {
   (void)state;
   pm_mesh *m = sample_mesh();
   pm_error e = {0};
   char p[512];
-  PM_ASSERT_OK(pm_mesh_write(m, path_in("a.msh", p), &e), e);
+  /* By default no parameters (meshio 7 refuses parametric nodes): classification and elements
+   * round-trip, the parameters read back as 0. */
+  PM_ASSERT_OK(pm_mesh_write(m, path_in("plain.msh", p), &e), e);
+  assert_int_equal(first_block_parametric(p), 0);
   pm_mesh *r = NULL;
+  PM_ASSERT_OK(pm_mesh_read(p, &r, &e), e);
+  same_mesh_par(m, r, 1e-15, 0);
+  pm_mesh_destroy(r);
+  r = NULL;
+  /* On request the parameters too. */
+  pm_mesh_write_opts wo = {0};
+  wo.msh_parametric = 1;
+  PM_ASSERT_OK(pm_mesh_write_with(m, path_in("a.msh", p), &wo, &e), e);
+  assert_int_equal(first_block_parametric(p), 1);
   PM_ASSERT_OK(pm_mesh_read(p, &r, &e), e);
   same_mesh(m, r, 1e-15);
   assert_true(r->node_par[2 * 9] != 0 && r->node_par[2 * 10 + 1] != 0);
@@ -144,8 +192,19 @@ static void msh_round_trip(void **state) {
   /* The file is MSH 4.1 with one entity per cell: read it with gmsh directly too. */
   int ierr = 0;
   pm_gmsh_lock();
+  int *views0 = NULL;
+  size_t nviews0 = 0;
+  gmshViewGetTags(&views0, &nviews0, &ierr);
+  gmshFree(views0);
   gmshModelAdd("direct", &ierr);
   gmshMerge(p, &ierr);
+  /* The per-element quality blocks ($ElementData) become three views. */
+  int *views = NULL;
+  size_t nviews = 0;
+  gmshViewGetTags(&views, &nviews, &ierr);
+  assert_int_equal(nviews, nviews0 + 3);
+  for (size_t k = nviews0; k < nviews; ++k) gmshViewRemove(views[k], &ierr);
+  gmshFree(views);
   int *dt = NULL;
   size_t ndt = 0;
   gmshModelGetEntities(&dt, &ndt, 2, &ierr);
@@ -162,6 +221,40 @@ static void msh_round_trip(void **state) {
   assert_non_null(fgets(line, sizeof line, f));
   fclose(f);
   assert_int_equal(strncmp(line, "4.1 0 8", 7), 0);
+  /* Each $ElementData block gives every element (by tag) its value: the quality module's, -1 on
+   * segments. */
+  pm_quality q = {0};
+  PM_ASSERT_OK(pm_quality_compute(m, NULL, &q, &e), e);
+  char *text = slurp(p);
+  const char *names[3] = {"radius_ratio", "aspect_ratio", "min_angle_deg"};
+  const double *tri[3] = {q.tri.radius_ratio, q.tri.aspect_ratio, q.tri.min_angle};
+  const double *tet[3] = {q.tet.radius_ratio, q.tet.aspect_ratio, q.tet.min_angle};
+  int32_t nelem = m->nseg + m->ntri + m->ntet;
+  for (int a = 0; a < 3; ++a) {
+    char head[128];
+    snprintf(head, sizeof head, "$ElementData\n1\n\"%s\"\n1\n0\n3\n0\n1\n%d\n", names[a], (int)nelem);
+    const char *at = strstr(text, head);
+    if (!at) fail_msg("no $ElementData block for %s", names[a]);
+    at += strlen(head);
+    int seen = 0;
+    for (int32_t k = 0; k < nelem; ++k) {
+      char *next;
+      long tag = strtol(at, &next, 10);
+      double v = strtod(next, &next);
+      at = next;
+      assert_true(tag >= 1 && tag <= nelem);
+      double want = tag <= m->nseg ? -1
+                    : tag <= m->nseg + m->ntri ? tri[a][tag - 1 - m->nseg]
+                                              : tet[a][tag - 1 - m->nseg - m->ntri];
+      if (v != want) fail_msg("%s of element %ld: %.17g, want %.17g", names[a], tag, v, want);
+      ++seen;
+    }
+    assert_int_equal(seen, nelem);
+    while (*at == '\n') ++at;
+    assert_int_equal(strncmp(at, "$EndElementData", 15), 0);
+  }
+  free(text);
+  pm_quality_clear(&q);
   pm_mesh_destroy(r);
   pm_mesh_destroy(m);
 }
@@ -364,6 +457,22 @@ static void vtu_round_trip(void **state) {
     assert_true(nc[v] == m->node_cell[v]);
     assert_true(np[2 * v] == m->node_par[2 * v] && np[2 * v + 1] == m->node_par[2 * v + 1]);
   }
+  /* Per-element quality as cell data, bit for bit the quality module's (-1 on segments). */
+  pm_quality q = {0};
+  PM_ASSERT_OK(pm_quality_compute(m, NULL, &q, &e), e);
+  const char *names[3] = {"radius_ratio", "aspect_ratio", "min_angle_deg"};
+  const double *tri[3] = {q.tri.radius_ratio, q.tri.aspect_ratio, q.tri.min_angle};
+  const double *tet[3] = {q.tet.radius_ratio, q.tet.aspect_ratio, q.tet.min_angle};
+  for (int a = 0; a < 3; ++a) {
+    double *v = vtu_array(x, names[a], &n);
+    assert_int_equal(n, m->nseg + m->ntri + m->ntet);
+    for (int i = 0; i < m->nseg; ++i) assert_true(v[i] == -1);
+    for (int i = 0; i < m->ntri; ++i) assert_true(v[m->nseg + i] == tri[a][i]);
+    for (int i = 0; i < m->ntet; ++i) assert_true(v[m->nseg + m->ntri + i] == tet[a][i]);
+    assert_true(v[m->nseg] > 0);
+    free(v);
+  }
+  pm_quality_clear(&q);
   free(pts);
   free(conn);
   free(types);
@@ -424,6 +533,20 @@ static void obj_round_trip(void **state) {
   assert_int_equal(nv, m->nnode);
   assert_int_equal(nl, m->nseg);
   assert_int_equal(nf, m->ntri);
+  /* packmesh reads it back: the same vertices (bit for bit), segments, triangles and their cells
+   * (the tets have no OBJ form). */
+  pm_mesh *r = NULL;
+  PM_ASSERT_OK(pm_mesh_read(p, &r, &e), e);
+  assert_int_equal(r->nnode, m->nnode);
+  assert_int_equal(r->nseg, m->nseg);
+  assert_int_equal(r->ntri, m->ntri);
+  assert_int_equal(r->ntet, 0);
+  assert_memory_equal(r->xyz, m->xyz, 3 * sizeof(double) * (size_t)m->nnode);
+  assert_memory_equal(r->seg, m->seg, 2 * sizeof(int32_t) * (size_t)m->nseg);
+  assert_memory_equal(r->tri, m->tri, 3 * sizeof(int32_t) * (size_t)m->ntri);
+  assert_memory_equal(r->seg_cell, m->seg_cell, sizeof(int32_t) * (size_t)m->nseg);
+  assert_memory_equal(r->tri_cell, m->tri_cell, sizeof(int32_t) * (size_t)m->ntri);
+  pm_mesh_destroy(r);
   pm_mesh_destroy(m);
 }
 
@@ -488,7 +611,7 @@ static void read_errors(void **state) {
   write_text(path_in("bad.stl", p), "solid x\nfacet normal 0 0 1\n outer loop\n  vertex 0 0\n");
   assert_int_equal(pm_mesh_read(p, &r, &e), PM_ERR_PARSE);
   assert_int_equal(pm_mesh_read(path_in("x.vtu", p), &r, &e), PM_ERR_IO); /* read, but missing */
-  assert_int_equal(pm_mesh_read(path_in("x.obj", p), &r, &e), PM_ERR_ARG);  /* never read */
+  assert_int_equal(pm_mesh_read(path_in("x.obj", p), &r, &e), PM_ERR_IO);  /* read, but missing */
   assert_non_null(strstr(e.msg, ".obj"));
   assert_int_equal(pm_mesh_read(path_in("x.step", p), &r, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "'.step'"));

@@ -75,6 +75,48 @@ static void refused(const char *name, const char *text, const char *needle) {
   expect_refused(name, text, strlen(text), PM_ERR_PARSE, needle);
 }
 
+/* ---- .obj ------------------------------------------------------------------------------------ */
+
+/* Other tools' OBJ: corners written a/t/n, negative indices, a polyline, texture and normal
+ * records, groups other than cell_N (untagged); and the refusals, each naming the fault. */
+static void obj_variants(void **state) {
+  (void)state;
+  const char *text = "# a square in two triangles\nmtllib x.mtl\no square\n"
+                     "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0 1.0\nvt 0 0\nvn 0 0 1\n"
+                     "g cell_4\nf 1/1/1 2/1/1 3/1/1\ng walls\nf -4 -2 -1\n"
+                     "g cell_7\nl 1 2 3\ns off\n";
+  pm_mesh *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(read_mem("a.obj", text, strlen(text), &m, &e), e);
+  assert_int_equal(m->nnode, 4);
+  assert_int_equal(m->ntri, 2);
+  assert_int_equal(m->nseg, 2);
+  assert_int_equal(m->tri[3], 0);
+  assert_int_equal(m->tri[4], 2);
+  assert_int_equal(m->tri[5], 3);
+  assert_int_equal(m->tri_cell[0], 4);
+  assert_int_equal(m->tri_cell[1], -1);
+  assert_int_equal(m->seg_cell[0], 7);
+  assert_int_equal(m->seg[2], 1);
+  assert_int_equal(m->seg[3], 2);
+  assert_int_equal(m->node_dim[0], -1);
+  assert_true(m->xyz[3 * 3 + 1] == 1.0);
+  pm_mesh_destroy(m);
+  refused("b.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n", "3");
+  refused("c.obj", "v 0 0\n", "vertex 1: 3 coordinates");
+  refused("d.obj", "v 0 0 nan\n", "non-finite");
+  refused("e.obj", "v 0 0 1e308\n", "beyond");
+  refused("f.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 x\n", "'x' is not a vertex index");
+  refused("g.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 -4\n", "goes back beyond the 3 vertices");
+  refused("h.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "face on line 3 has 2 vertices");
+  refused("i.obj", "v 0 0 0\nl 1\n", "a line needs 2 at least");
+  refused("j.obj", "v 0 0 0\ncurv 1 2\n", "unknown record 'curv'");
+  refused("k.obj", "# nothing\n", "no vertices");
+  refused("l.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 0\n", "'0' is not a vertex index");
+  expect_refused("m.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", 42, PM_ERR_ARG,
+                 "not polygons");
+}
+
 /* ---- gmsh's table ----------------------------------------------------------------------------- */
 
 static void element_types_match_gmsh(void **state) {
@@ -532,7 +574,8 @@ int main(void) {
       cmocka_unit_test(element_types_match_gmsh), cmocka_unit_test(msh_binary_and_swapped),
       cmocka_unit_test(msh_written_by_gmsh),      cmocka_unit_test(vtk_variants),
       cmocka_unit_test(stl_variants),             cmocka_unit_test(medit_variants),
-      cmocka_unit_test(vtu_variants),             cmocka_unit_test(hostile_files),
+      cmocka_unit_test(vtu_variants),             cmocka_unit_test(obj_variants),
+      cmocka_unit_test(hostile_files),
       cmocka_unit_test(truncated_and_mutated),
   };
   int rc = cmocka_run_group_tests(tests, NULL, NULL);

@@ -173,9 +173,9 @@ static void parameters_and_errors(void **state) {
   char args[1024], msh[300];
   snprintf(msh, sizeof msh, "%s/bad.msh", dir);
   snprintf(args, sizeof args, "mesh case:cylinder --method psys --set s_tau=0 -o '%s'", msh);
-  pm_test_cli_error(dir, args, 1, "s_tau");
+  pm_test_cli_error(dir, args, 2, "s_tau");
   snprintf(args, sizeof args, "mesh case:cylinder --method psys --set nokey=1 -o '%s'", msh);
-  pm_test_cli_error(dir, args, 1, "nokey");
+  pm_test_cli_error(dir, args, 2, "nokey");
   snprintf(args, sizeof args,
            "mesh case:cylinder --method psys --set lambda_min=0.9 --set lambda_init=0.5 -o '%s'",
            msh);

@@ -1,0 +1,72 @@
+/* The progress line (cli_progress.h). */
+#include "cli/cli_progress.h"
+
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cli/cli_util.h"
+
+/* A terminal line at most 4 times a second; into a file or pipe (--progress) one every 2 s. */
+#define TTY_PERIOD 0.25
+#define PIPE_PERIOD 2.0
+
+void pm_cli_progress_init(pm_cli_progress *p, pm_cli_progress_mode mode, const char *method) {
+  memset(p, 0, sizeof *p);
+  p->tty = isatty(STDERR_FILENO);
+  p->active = mode == PM_PROGRESS_ON || (mode == PM_PROGRESS_AUTO && p->tty);
+  p->method = method;
+  p->t0 = pm_cli_now();
+  p->last = -1e30;
+}
+
+static void put(pm_cli_progress *p, const char *text) {
+  double t = pm_cli_now() - p->t0;
+  int min = (int)(t / 60);
+  if (p->tty)
+    fprintf(stderr, "\r\033[K%s: %s, %d:%04.1f", p->method, text, min, t - 60 * min);
+  else
+    fprintf(stderr, "packmesh: %s: %s, %d:%04.1f\n", p->method, text, min, t - 60 * min);
+  fflush(stderr);
+  p->shown = p->tty;
+}
+
+void pm_cli_progress_stage(pm_cli_progress *p, const char *stage) {
+  if (!p->active) return;
+  p->last = pm_cli_now();
+  put(p, stage);
+}
+
+/* The column named one of names, or -1. */
+static int column(const pm_trace *t, const char *const *names) {
+  for (int c = 0; c < pm_trace_ncol(t); ++c)
+    for (int k = 0; names[k]; ++k)
+      if (strcmp(pm_trace_column(t, c), names[k]) == 0) return c;
+  return -1;
+}
+
+void pm_cli_progress_row(void *user, const pm_trace *t, const double *row) {
+  pm_cli_progress *p = user;
+  if (!p->active) return;
+  double now = pm_cli_now();
+  if (now - p->last < (p->tty ? TTY_PERIOD : PIPE_PERIOD)) return;
+  p->last = now;
+  static const char *const phase_names[] = {"phase", NULL};
+  static const char *const step_names[] = {"step", "iteration", NULL};
+  static const char *const count_names[] = {"bubbles", "particles", NULL};
+  int cp = column(t, phase_names), cs = column(t, step_names), cn = column(t, count_names);
+  char text[160];
+  int n = snprintf(text, sizeof text, "placing nodes");
+  if (cp >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", phase %.0f", row[cp]);
+  if (cs >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", iteration %.0f", row[cs]);
+  if (cn >= 0) snprintf(text + n, sizeof text - (size_t)n, ", %.0f %s", row[cn], pm_trace_column(t, cn));
+  put(p, text);
+}
+
+void pm_cli_progress_done(pm_cli_progress *p) {
+  if (p->shown) {
+    fputs("\r\033[K", stderr);
+    fflush(stderr);
+  }
+  p->shown = 0;
+}

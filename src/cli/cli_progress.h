@@ -1,0 +1,37 @@
+/* The progress line of `packmesh mesh`: method, phase, iteration, particles and elapsed time of
+ * the run in flight, one line rewritten in place on a terminal (stderr), nothing when stderr is
+ * not one unless asked (--progress: then a line every few seconds), nothing at all with --quiet.
+ * It reads the rows the particle methods record in their trace (trace.h: "phase", "step" or
+ * "iteration", "bubbles" or "particles"); methods that record none show the stages the command
+ * itself runs (loading, meshing, measuring). */
+#ifndef PM_CLI_PROGRESS_H
+#define PM_CLI_PROGRESS_H
+
+#include "common/trace.h"
+
+typedef enum pm_cli_progress_mode {
+  PM_PROGRESS_AUTO = 0, /* on a terminal only */
+  PM_PROGRESS_ON,       /* --progress: also into a file or pipe */
+  PM_PROGRESS_OFF       /* --quiet */
+} pm_cli_progress_mode;
+
+typedef struct pm_cli_progress {
+  int active;        /* lines are shown */
+  int tty;           /* stderr is a terminal: one line rewritten in place */
+  const char *method;
+  double t0, last;   /* start and last line, pm_cli_now() seconds */
+  int shown;         /* a line is on the terminal (to be cleared before other output) */
+} pm_cli_progress;
+
+void pm_cli_progress_init(pm_cli_progress *p, pm_cli_progress_mode mode, const char *method);
+
+/* A stage of the command ("loading", "measuring"): shown at once. */
+void pm_cli_progress_stage(pm_cli_progress *p, const char *stage);
+
+/* Observer for pm_trace_observe (user: the pm_cli_progress). */
+void pm_cli_progress_row(void *user, const pm_trace *t, const double *row);
+
+/* Clear the line (before the command's own output and at the end). */
+void pm_cli_progress_done(pm_cli_progress *p);
+
+#endif /* PM_CLI_PROGRESS_H */
