@@ -166,6 +166,11 @@ static const pm_param_desc desc[] = {
      "connection: flip each face's parameter-space triangulation towards the Delaunay criterion "
      "of the surface's local metric (0: 001 eq. 16's one affine map per face alone)",
      "our addition (connect.c)", NULL},
+    {"drop_crossed", PM_PARAM_BOOL, F(drop_crossed), 1, 0, 1, 0, "",
+     "connection: drop the face nodes that lie beyond a boundary segment in 3D but inside it in "
+     "(u, v) -- a pcurve off its curve, a chord sagging inside a coarse arc (0: keep every node, "
+     "as the papers do)",
+     "our addition (connect.c, step 1b)", NULL},
     /* output */
     {"frame_every", PM_PARAM_INT, F(frame_every), 10, 1, 1000000, PM_RANGE_CLOSED, "steps",
      "--frames: one snapshot every this many steps", "-", NULL},

@@ -185,6 +185,9 @@ typedef struct bub_params {
                        Delaunay criterion of the surface's local metric before the 3D flips
                        (connect.c, metric_flips); 0: the affine map of 001 eq. 16 alone;
                        default 1 (our addition) */
+  int drop_crossed; /* 1: face nodes beyond a boundary segment in 3D but inside it in (u, v) are
+                       dropped before the connection (connect.c, step 1b); 0: every node is kept,
+                       as in the papers; default 1 (our addition) */
   /* ---- output ---- */
   int frame_every;  /* --frames: a snapshot every this many steps; [1, 1e6], default 10 */
 } bub_params;

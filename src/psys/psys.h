@@ -97,6 +97,8 @@ typedef struct psys_params {
   int flips;            /* connection: diametric-ball edge flips of section 4.3; on */
   int metric_flips;     /* connection: parameter-space flips under the surface's local metric
                            (connect.c; our addition); on */
+  int drop_crossed;     /* connection: face nodes beyond a boundary segment in 3D but inside it
+                           in (u, v) dropped (connect.c, step 1b; our addition); on */
   double tet_radius_edge; /* --volume: TetGen radius-edge bound (-q); 1.5 */
 } psys_params;
 

@@ -116,6 +116,11 @@ static const pm_param_desc desc[] = {
      "connection: flip each face's parameter-space triangulation towards the Delaunay criterion "
      "of the surface's local metric (0: eq. 16's one affine map per face alone)",
      "ours (connect.c)", NULL},
+    {"drop_crossed", B, F(drop_crossed), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "connection: drop the face nodes that lie beyond a boundary segment in 3D but inside it in "
+     "(u, v) -- a pcurve off its curve, a chord sagging inside a coarse arc (0: keep every node, "
+     "as the paper does)",
+     "ours (connect.c, step 1b)", NULL},
     {"flips", B, F(flips), 1, 0, 1, PM_RANGE_CLOSED, "",
      "connection: flip edges towards empty diametric balls", "001 sec. 4.3", NULL},
     {"tet_radius_edge", D, F(tet_radius_edge), 1.5, 1, 100, PM_RANGE_LO_OPEN, "",

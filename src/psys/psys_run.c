@@ -17,6 +17,7 @@ static void connect_params(const psys_params *p, int volume, int64_t max_nodes,
   pm_connect_params_init(cp);
   cp->affine = p->affine;                                  /* eq. 16 */
   cp->metric_flips = p->metric_flips;
+  cp->drop_crossed = p->drop_crossed;
   cp->flips = p->flips ? PM_FLIP_DIAMETRIC : PM_FLIP_NONE; /* section 4.3 */
   cp->volume = volume ? PM_VOLUME_REFINE : PM_VOLUME_NONE; /* section 4.4: TetGen refinement */
   cp->radius_edge = p->tet_radius_edge;
