@@ -15,15 +15,8 @@ static int usage_text(void) {
 }
 
 int pm_cli_cases(int argc, char **argv) {
-  int json = 0;
-  for (int i = 1; i < argc; ++i) {
-    if (pm_cli_flag(argv[i], "help") || strcmp(argv[i], "-h") == 0) return usage_text();
-    if (pm_cli_flag(argv[i], "json")) {
-      json = 1;
-      continue;
-    }
-    return pm_cli_usage("cases", "unknown option '%s'", argv[i]);
-  }
+  int json = 0, rc = pm_cli_listing_args(argc, argv, "cases", usage_text, &json);
+  if (rc >= 0) return rc;
   int n = 0;
   const pm_case_info *c = pm_cases(&n);
   if (!json) {

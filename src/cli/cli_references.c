@@ -55,15 +55,8 @@ static int usage_text(void) {
 }
 
 int pm_cli_references(int argc, char **argv) {
-  int json = 0;
-  for (int i = 1; i < argc; ++i) {
-    if (pm_cli_flag(argv[i], "help") || strcmp(argv[i], "-h") == 0) return usage_text();
-    if (pm_cli_flag(argv[i], "json")) {
-      json = 1;
-      continue;
-    }
-    return pm_cli_usage("references", "unknown option '%s'", argv[i]);
-  }
+  int json = 0, rc = pm_cli_listing_args(argc, argv, "references", usage_text, &json);
+  if (rc >= 0) return rc;
   if (!json) {
     for (int i = 0; i < pm_cli_reference_count(); ++i)
       printf("%spapers/%s  %s\n            used for %s.\n", i ? "\n" : "", refs[i].key,

@@ -113,3 +113,16 @@ double pm_cli_now(void) {
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
+
+int pm_cli_listing_args(int argc, char **argv, const char *cmd, int (*usage)(void), int *json) {
+  *json = 0;
+  for (int i = 1; i < argc; ++i) {
+    if (pm_cli_flag(argv[i], "help") || strcmp(argv[i], "-h") == 0) return usage();
+    if (pm_cli_flag(argv[i], "json")) {
+      *json = 1;
+      continue;
+    }
+    return pm_cli_usage(cmd, "unknown option '%s'", argv[i]);
+  }
+  return -1;
+}

@@ -38,6 +38,11 @@ int pm_cli_error(const pm_error *e);
 /* 1 when arg is the flag --name (no value). */
 int pm_cli_flag(const char *arg, const char *name);
 
+/* The arguments of a listing command that takes --json and --help only (`cases`,
+ * `references`): *json is set for --json; returns -1 to go on, or the exit code (--help
+ * printed by usage(), or a usage error naming cmd). */
+int pm_cli_listing_args(int argc, char **argv, const char *cmd, int (*usage)(void), int *json);
+
 /* When argv[*i] is the option --name, written "--name VALUE" or "--name=VALUE": set *value,
  * advance *i past it and return 1; return 0 when it is another argument; return -1 when the
  * value is missing (the caller reports a usage error). */
