@@ -1047,31 +1047,22 @@ static int64_t metric_flips(const pm_cell *f, face_work *w, int64_t max_flips, p
     /* Strictly convex: c and d on either side of (a, b), a and b on either side of (c, d). */
     if (pm_orient2d(A, B, C) * pm_orient2d(A, B, D) >= 0) continue;
     if (pm_orient2d(C, D, A) * pm_orient2d(C, D, B) >= 0) continue;
-    if (wrap) {
-      flip_pair(w, t1, q1, t2, q2);
-      ++flips;
-      int32_t re[4] = {3 * t1 + 0, 3 * t1 + 2, 3 * t2 + 0, 3 * t2 + 2};
-      for (int k = 0; k < 4; ++k)
-        if (!inq[re[k]] && w->nbr[re[k]] >= 0 && !w->fixed[re[k]] && size < cap) {
-          queue[(head + size++) % cap] = re[k];
-          inq[re[k]] = 1;
-        }
-      continue;
+    if (!wrap) {
+      double E = 0, F = 0, G = 0;
+      for (int i = 0; i < 4; ++i) E += met[3 * v[i]], F += met[3 * v[i] + 1], G += met[3 * v[i] + 2];
+      double det = E * G - F * F;
+      if (!(E > 0) || !(det > 1e-12 * (E + G) * (E + G))) continue;
+      /* Cholesky factor L of [E F; F G] (upper triangular, det L > 0 keeps orientations): the
+       * metric lengths are Euclidean lengths of L (uv - uv_a). */
+      double l00 = sqrt(E), l01 = F / l00, l11 = sqrt(det) / l00;
+      double X[4][2];
+      for (int i = 0; i < 4; ++i) {
+        double du = w->uv[2 * v[i]] - A[0], dv = w->uv[2 * v[i] + 1] - A[1];
+        X[i][0] = l00 * du + l01 * dv, X[i][1] = l11 * dv;
+      }
+      int o = pm_orient2d(X[0], X[1], X[2]);
+      if (o == 0 || o * pm_incircle(X[0], X[1], X[2], X[3]) <= 0) continue;
     }
-    double E = 0, F = 0, G = 0;
-    for (int i = 0; i < 4; ++i) E += met[3 * v[i]], F += met[3 * v[i] + 1], G += met[3 * v[i] + 2];
-    double det = E * G - F * F;
-    if (!(E > 0) || !(det > 1e-12 * (E + G) * (E + G))) continue;
-    /* Cholesky factor L of [E F; F G] (upper triangular, det L > 0 keeps orientations): the
-     * metric lengths are Euclidean lengths of L (uv - uv_a). */
-    double l00 = sqrt(E), l01 = F / l00, l11 = sqrt(det) / l00;
-    double X[4][2];
-    for (int i = 0; i < 4; ++i) {
-      double du = w->uv[2 * v[i]] - A[0], dv = w->uv[2 * v[i] + 1] - A[1];
-      X[i][0] = l00 * du + l01 * dv, X[i][1] = l11 * dv;
-    }
-    int o = pm_orient2d(X[0], X[1], X[2]);
-    if (o == 0 || o * pm_incircle(X[0], X[1], X[2], X[3]) <= 0) continue;
     flip_pair(w, t1, q1, t2, q2);
     ++flips;
     int32_t re[4] = {3 * t1 + 0, 3 * t1 + 2, 3 * t2 + 0, 3 * t2 + 2};
