@@ -15,8 +15,8 @@ static int usage_text(void) {
 }
 
 int pm_cli_cases(int argc, char **argv) {
-  int json = 0, rc = pm_cli_listing_args(argc, argv, "cases", usage_text, &json);
-  if (rc >= 0) return rc;
+  int json = 0, done = pm_cli_listing_args(argc, argv, "cases", usage_text, &json);
+  if (done >= 0) return done;
   int n = 0;
   const pm_case_info *c = pm_cases(&n);
   if (!json) {

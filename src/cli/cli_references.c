@@ -55,8 +55,8 @@ static int usage_text(void) {
 }
 
 int pm_cli_references(int argc, char **argv) {
-  int json = 0, rc = pm_cli_listing_args(argc, argv, "references", usage_text, &json);
-  if (rc >= 0) return rc;
+  int json = 0, done = pm_cli_listing_args(argc, argv, "references", usage_text, &json);
+  if (done >= 0) return done;
   if (!json) {
     for (int i = 0; i < pm_cli_reference_count(); ++i)
       printf("%spapers/%s  %s\n            used for %s.\n", i ? "\n" : "", refs[i].key,
