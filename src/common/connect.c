@@ -280,7 +280,7 @@ static pm_status emit_segments(const pm_model *m, pm_mesh *mesh, const chains *c
 typedef struct cross_seg {
   double qa[2], qb[2]; /* the segment's ends in (u, v) */
   double gap;          /* the larger of its ends' gaps |S(pcurve(t)) - C(t)| */
-  double sag;          /* how far the chord cuts inside the curve, at its middle */
+  int sagging;         /* its chord cuts inside the curve by more than CROSSED_GAP of its length */
   const double *xa, *xb; /* ... and in 3D (the nodes' positions) */
 } cross_seg;
 
@@ -316,7 +316,8 @@ static int crossed_segments(const pm_model *m, const pm_cell *f, const pm_use *u
         }
         cross_seg *cs = &(*seg)[(*nseg)++];
         memcpy(cs->qa, prev_uv, sizeof prev_uv), memcpy(cs->qb, uv, sizeof uv);
-        cs->xa = xp, cs->xb = x, cs->gap = fmax(gap, prev_gap), cs->sag = sag;
+        cs->xa = xp, cs->xb = x, cs->gap = fmax(gap, prev_gap);
+        cs->sagging = sag > CROSSED_GAP * len;
       }
     }
     memcpy(prev_uv, uv, sizeof uv), prev_gap = gap;
@@ -374,7 +375,7 @@ static int32_t flag_crossed_nodes(const pm_model *m, const pm_cell *f, const pm_
       double steep = STEEP_COS * pm_v3_norm(c3) * pm_v3_norm(nrm);
       if ((side_uv > 0 && side_3d <= 0) || (side_uv < 0 && side_3d >= 0) ||
           pm_v3_dot(o3, o3) <= cs->gap * cs->gap ||
-          (cs->sag > CROSSED_GAP * sqrt(pm_v3_dist2(cs->xa, cs->xb)) && fabs(side_3d) <= steep)) {
+          (cs->sagging && fabs(side_3d) <= steep)) {
         drop[id] = 1, ++n;
         break;
       }
