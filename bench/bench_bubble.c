@@ -16,17 +16,17 @@
 #include <time.h>
 
 #include "bubble/bub_private.h"
-#include "common/cases.h"
-#include "common/clock.h"
-#include "common/geom_analytic.h"
-#include "common/geom_cad.h"
-#include "common/input.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
-#include "common/rng.h"
-#include "common/vec3.h"
-#include "common/stats.h"
-#include "common/trace.h"
+#include "common/input/cases.h"
+#include "common/base/clock.h"
+#include "common/geom/geom_analytic.h"
+#include "common/geom/geom_cad.h"
+#include "common/input/input.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
+#include "common/base/rng.h"
+#include "common/base/vec3.h"
+#include "common/report/stats.h"
+#include "common/report/trace.h"
 #include "peers/peers.h"
 
 typedef struct result {

@@ -17,12 +17,12 @@
 #include <string.h>
 
 #include "bubble/bubble.h"
-#include "common/clock.h"
-#include "common/geom_cad.h"
-#include "common/mesh_check.h"
-#include "common/params.h"
-#include "common/quality.h"
-#include "common/sizing.h"
+#include "common/base/clock.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh_check.h"
+#include "common/base/params.h"
+#include "common/measure/quality.h"
+#include "common/sizing/sizing.h"
 #include "peers/peers.h"
 
 #ifndef PM_CAD_DIR

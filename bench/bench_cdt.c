@@ -1,8 +1,8 @@
 /* Throughput of the constrained Delaunay adapter (cdt_cgal.h): n random points in the unit
  * square plus a constrained loop of 4 sqrt(n) points on its boundary, exterior removal on.
  * Prints points per second for n = 10^4, 10^5, 10^6 (best of a few runs for the small sizes). */
-#include "common/cdt_cgal.h"
-#include "common/rng.h"
+#include "common/backends/cdt_cgal.h"
+#include "common/base/rng.h"
 
 #include <math.h>
 #include <stdio.h>

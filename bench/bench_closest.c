@@ -14,12 +14,12 @@
 #include <stdlib.h>
 #include <time.h>
 
-#include "common/closest_embree.h"
-#include "common/distance.h"
-#include "common/geom_cad.h"
-#include "common/mesh.h"
-#include "common/rng.h"
-#include "common/self_intersect.h"
+#include "common/backends/closest_embree.h"
+#include "common/measure/distance.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh.h"
+#include "common/base/rng.h"
+#include "common/mesh/self_intersect.h"
 
 static double now(void) {
   struct timespec t;

@@ -19,10 +19,10 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "common/geom.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
-#include "common/rng.h"
+#include "common/geom/geom.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
+#include "common/base/rng.h"
 
 static double now_s(void) {
   struct timespec t;

@@ -19,8 +19,8 @@
 #include <string.h>
 #include <time.h>
 
-#include "common/grid.h"
-#include "common/rng.h"
+#include "common/sizing/grid.h"
+#include "common/base/rng.h"
 
 /* Serial figures use this thread's CPU time, so that other programs sharing the machine do not
  * distort them; the multi-threaded figure uses wall time. */

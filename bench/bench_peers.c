@@ -15,12 +15,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "common/cases.h"
-#include "common/clock.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
+#include "common/input/cases.h"
+#include "common/base/clock.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
 #include "peers/peers.h"
 
 typedef struct variant {

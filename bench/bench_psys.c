@@ -38,10 +38,10 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "common/clock.h"
-#include "common/input.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
+#include "common/base/clock.h"
+#include "common/input/input.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
 #include "bubble/bubble.h"
 #include "peers/peers.h"
 #include "psys/psys.h"

@@ -6,10 +6,10 @@
 #include <stdlib.h>
 #include <time.h>
 
-#include "common/mesh.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
-#include "common/rng.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
+#include "common/base/rng.h"
 
 static double now(void) {
   struct timespec ts;

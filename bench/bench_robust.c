@@ -36,7 +36,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "common/clock.h"
+#include "common/base/clock.h"
 
 #define MAX_METHODS 8
 #define MAX_FILES 4096

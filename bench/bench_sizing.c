@@ -14,9 +14,9 @@
 #include <stdlib.h>
 #include <time.h>
 
-#include "common/mesh.h"
-#include "common/rng.h"
-#include "common/sizing.h"
+#include "common/mesh/mesh.h"
+#include "common/base/rng.h"
+#include "common/sizing/sizing.h"
 
 /* Serial figures use this thread's CPU time (robust on a shared machine); the multi-threaded
  * figure uses wall time. */

@@ -3,8 +3,8 @@
  * points jittered by up to 0.25/n; in PM_TET_REFINE mode the surface alone with radius-edge 1.5
  * and volume bound 1/(6 n^3) (the volume of a lattice cell's corner tet). Prints points, tets and
  * seconds (the exact-predicate surface check, TetGen and the output checks together). */
-#include "common/rng.h"
-#include "common/tet_tetgen.h"
+#include "common/base/rng.h"
+#include "common/backends/tet_tetgen.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -6,9 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/geom.h"
-#include "common/input.h"
-#include "common/sizing.h"
+#include "common/geom/geom.h"
+#include "common/input/input.h"
+#include "common/sizing/sizing.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   pm_model *m = NULL;

@@ -8,10 +8,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/mesh.h"
-#include "common/mesh_check.h"
-#include "common/mesh_io.h"
-#include "common/quality.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_check.h"
+#include "common/mesh/mesh_io.h"
+#include "common/measure/quality.h"
 
 static void check_mesh(const pm_mesh *m) {
   if (m->nseg + m->ntri + m->ntet <= 0) abort();

@@ -92,10 +92,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/rng.h"
-#include "common/trim.h"
-#include "common/vec3.h"
+#include "common/base/clock.h"
+#include "common/base/rng.h"
+#include "common/geom/trim.h"
+#include "common/base/vec3.h"
 
 #ifdef _OPENMP
 #include <omp.h>

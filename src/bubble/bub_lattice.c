@@ -58,8 +58,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/keyindex.h"
-#include "common/vec3.h"
+#include "common/base/keyindex.h"
+#include "common/base/vec3.h"
 
 /* A place closer than this x l0 to a bubble it feels is crowded (header). */
 #define CROWDED 0.7

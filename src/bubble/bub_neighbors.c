@@ -64,8 +64,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/vec3.h"
+#include "common/base/clock.h"
+#include "common/base/vec3.h"
 
 #ifdef _OPENMP
 #include <omp.h>

@@ -42,7 +42,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/vec3.h"
+#include "common/base/vec3.h"
 
 /* The overlap boundary and normalization of a volume bubble (above). */
 #define VOL_REACH 0.9

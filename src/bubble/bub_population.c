@@ -59,8 +59,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/vec3.h"
+#include "common/base/clock.h"
+#include "common/base/vec3.h"
 
 /* ---- a lazy priority queue (highest priority first, ties: smaller id) ------------------------ */
 

@@ -20,9 +20,9 @@
 #define BUB_PRIVATE_H
 
 #include "bubble/bubble.h"
-#include "common/grid.h"
-#include "common/mesh.h"
-#include "common/volume_inside.h"
+#include "common/sizing/grid.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/volume_inside.h"
 
 #include <math.h>
 #include <stdint.h>

@@ -75,11 +75,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/connect.h"
-#include "common/node_budget.h"
-#include "common/quality.h"
-#include "common/vec3.h"
+#include "common/base/clock.h"
+#include "common/connect/connect.h"
+#include "common/sizing/node_budget.h"
+#include "common/measure/quality.h"
+#include "common/base/vec3.h"
 
 /* Re-tetrahedralizations of the sliver step at most (header). */
 #define SLIVER_ROUNDS 10

@@ -20,9 +20,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/connect.h"
-#include "common/sizing_features.h"
-#include "common/vec3.h"
+#include "common/connect/connect.h"
+#include "common/sizing/sizing_features.h"
+#include "common/base/vec3.h"
 
 pm_status bub_size_rule_create(const pm_model *m, const bub_params *p, pm_sizing **field,
                                void **rule, pm_error *err) {

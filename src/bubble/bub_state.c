@@ -23,7 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/vec3.h"
+#include "common/base/vec3.h"
 
 /* ---- closure tables ----------------------------------------------------------------------- */
 

@@ -52,8 +52,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/keyindex.h"
-#include "common/vec3.h"
+#include "common/base/keyindex.h"
+#include "common/base/vec3.h"
 
 /* ---- the phase and the rule ------------------------------------------------------------------ */
 

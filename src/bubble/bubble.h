@@ -23,7 +23,7 @@
 
 #include <packmesh/packmesh.h>
 
-#include "common/method.h"
+#include "common/method/method.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -6,7 +6,7 @@
 
 #include "cli/cli.h"
 #include "cli/cli_util.h"
-#include "common/cases.h"
+#include "common/input/cases.h"
 
 static int usage_text(void) {
   printf("usage: packmesh cases [--json]\n"

@@ -15,8 +15,8 @@
 #include "cli/cli_signal.h"
 #include "cli/cli_util.h"
 #include "cli/compare_study.h"
-#include "common/atomic_file.h"
-#include "common/clock.h"
+#include "common/base/atomic_file.h"
+#include "common/base/clock.h"
 
 static const char *const usage_text =
     "usage: packmesh compare SUITE.json -o DIR [--jobs N] [--timeout SECONDS] [--retry-failed]\n"

@@ -24,14 +24,14 @@
 #include "cli/cli_signal.h"
 #include "cli/cli_size.h"
 #include "cli/cli_util.h"
-#include "common/atomic_file.h"
-#include "common/clock.h"
-#include "common/distance.h"
-#include "common/input.h"
-#include "common/mesh_check.h"
-#include "common/mesh_io.h"
-#include "common/quality.h"
-#include "common/stats.h"
+#include "common/base/atomic_file.h"
+#include "common/base/clock.h"
+#include "common/measure/distance.h"
+#include "common/input/input.h"
+#include "common/mesh/mesh_check.h"
+#include "common/mesh/mesh_io.h"
+#include "common/measure/quality.h"
+#include "common/report/stats.h"
 
 
 #define MAX_SETS 256

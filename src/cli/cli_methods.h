@@ -4,7 +4,7 @@
 
 #include <stdio.h>
 
-#include "common/method.h"
+#include "common/method/method.h"
 
 /* The method named `name`, or NULL. */
 const pm_method *pm_cli_method_find(const char *name);

@@ -7,7 +7,7 @@
 #ifndef PM_CLI_PROGRESS_H
 #define PM_CLI_PROGRESS_H
 
-#include "common/trace.h"
+#include "common/report/trace.h"
 
 typedef enum pm_cli_progress_mode {
   PM_PROGRESS_AUTO = 0, /* on a terminal only */

@@ -10,7 +10,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "common/atomic_file.h"
+#include "common/base/atomic_file.h"
 
 #define GROUPS 64
 

@@ -29,8 +29,8 @@
 #include <unistd.h>
 
 #include "cli/compare_study.h"
-#include "common/atomic_file.h"
-#include "common/quality.h"
+#include "common/base/atomic_file.h"
+#include "common/measure/quality.h"
 
 #define GNUPLOT_TIMEOUT_S 60
 #define MAX_TRACE_POINTS 2000 /* a curve keeps at most this many points (every k-th row) */

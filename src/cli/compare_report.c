@@ -14,7 +14,7 @@
 
 #include "cli/cli_references.h"
 #include "cli/compare_study.h"
-#include "common/atomic_file.h"
+#include "common/base/atomic_file.h"
 
 #define CELL 1100 /* bytes of a table cell (an error message is up to 1024) */
 

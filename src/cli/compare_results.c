@@ -18,7 +18,7 @@
 #include <string.h>
 
 #include "cli/compare_study.h"
-#include "common/atomic_file.h"
+#include "common/base/atomic_file.h"
 
 static const char *const lead[] = {"case",   "method", "seed",  "sweep_key", "sweep_value",
                                    "status", "error",  "command", "row",     "label",

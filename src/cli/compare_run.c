@@ -34,8 +34,8 @@
 
 #include "cli/cli_methods.h"
 #include "cli/compare_study.h"
-#include "common/atomic_file.h"
-#include "common/clock.h"
+#include "common/base/atomic_file.h"
+#include "common/base/clock.h"
 
 #define MAX_ARGS 600
 /* Seconds a child has between SIGTERM and SIGKILL. */

@@ -20,8 +20,8 @@
 #include <stddef.h>
 #include <stdio.h>
 
-#include "common/stats.h"
-#include "common/versions.h"
+#include "common/report/stats.h"
+#include "common/backends/versions.h"
 
 #ifdef __cplusplus
 extern "C" {

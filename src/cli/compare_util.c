@@ -15,7 +15,7 @@
 
 #include "cli/cli_signal.h"
 #include "cli/compare_study.h"
-#include "common/clock.h"
+#include "common/base/clock.h"
 
 int pm_cmp_strcat(char **buf, size_t *len, size_t *cap, const char *text) {
   size_t n = strlen(text);

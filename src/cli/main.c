@@ -7,7 +7,7 @@
 #include "cli/cli.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_util.h"
-#include "common/gmsh_session.h"
+#include "common/backends/gmsh_session.h"
 
 typedef struct subcommand {
   const char *name;

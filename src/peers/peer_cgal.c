@@ -28,9 +28,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/node_budget.h"
-#include "common/predicates.h"
+#include "common/base/clock.h"
+#include "common/sizing/node_budget.h"
+#include "common/backends/predicates.h"
 #include "peers/cgal_mesh2.h"
 #include "peers/peer_common.h"
 

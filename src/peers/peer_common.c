@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/geom_cad.h"
-#include "common/sizing_features.h"
-#include "common/vec3.h"
+#include "common/geom/geom_cad.h"
+#include "common/sizing/sizing_features.h"
+#include "common/base/vec3.h"
 
 int peer_is_planar_domain(const pm_model *m) {
   if (!m || pm_cad_gmsh_model(m) != NULL) return 0;

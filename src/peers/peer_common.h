@@ -9,10 +9,10 @@
 
 #include <stdint.h>
 
-#include "common/geom.h"
-#include "common/mesh.h"
-#include "common/sizing.h"
-#include "common/stats.h"
+#include "common/geom/geom.h"
+#include "common/mesh/mesh.h"
+#include "common/sizing/sizing.h"
+#include "common/report/stats.h"
 
 /* 1 when m is a planar analytic domain (geom_analytic.h): no gmsh model behind it, no volume,
  * one face in the plane z = 0 parametrized by S(u, v) = (u, v, 0), curves of the analytic kinds

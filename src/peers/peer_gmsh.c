@@ -44,14 +44,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/node_budget.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
-#include "common/vec3.h"
+#include "common/base/clock.h"
+#include "common/sizing/node_budget.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
+#include "common/base/vec3.h"
 #include "peers/peer_common.h"
 #include "peers/peer_gmsh_planar.h"
-#include "common/connect.h"
+#include "common/connect/connect.h"
 
 /* ---- parameters ------------------------------------------------------------------------- */
 

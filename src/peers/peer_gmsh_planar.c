@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/gmsh_session.h"
+#include "common/backends/gmsh_session.h"
 
 /* The geometry of one model curve, read back through the evaluation interface (geom_analytic
  * keeps its own data private): arcs are parametrized by arc length, so C'' = -(C - centre) / R^2

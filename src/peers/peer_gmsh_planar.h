@@ -8,7 +8,7 @@
 
 #include <packmesh/packmesh.h>
 
-#include "common/geom.h"
+#include "common/geom/geom.h"
 #include "peers/peer_common.h"
 
 /* Build m's geometry in gmsh's current model, which must be empty (a fresh model made current

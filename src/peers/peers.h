@@ -31,7 +31,7 @@
 #ifndef PM_PEERS_H
 #define PM_PEERS_H
 
-#include "common/method.h"
+#include "common/method/method.h"
 
 #ifdef __cplusplus
 extern "C" {

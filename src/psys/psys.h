@@ -23,10 +23,10 @@
 
 #include <stdint.h>
 
-#include "common/geom.h"
-#include "common/method.h"
-#include "common/params.h"
-#include "common/sizing.h"
+#include "common/geom/geom.h"
+#include "common/method/method.h"
+#include "common/base/params.h"
+#include "common/sizing/sizing.h"
 
 #ifdef __cplusplus
 extern "C" {

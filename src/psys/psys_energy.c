@@ -23,7 +23,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "common/vec3.h"
+#include "common/base/vec3.h"
 #include "psys/psys_private.h"
 
 /* Distances below this fraction of sigma are treated as this fraction: eq. 1 diverges as r -> 0

@@ -68,8 +68,8 @@
 #include <omp.h>
 #endif
 
-#include "common/clock.h"
-#include "common/vec3.h"
+#include "common/base/clock.h"
+#include "common/base/vec3.h"
 #include "psys/psys_private.h"
 
 #define CHUNK 16384 /* particles of a colour stepped together */

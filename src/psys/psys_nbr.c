@@ -45,7 +45,7 @@
 #include <omp.h>
 #endif
 
-#include "common/clock.h"
+#include "common/base/clock.h"
 #include "psys/psys_private.h"
 
 /* Budgets (see the file comment). The neighbour lists are read by every loop over a particle's

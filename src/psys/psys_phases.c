@@ -68,9 +68,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/mesh.h"
-#include "common/rng.h"
+#include "common/base/clock.h"
+#include "common/mesh/mesh.h"
+#include "common/base/rng.h"
 #include "psys/psys_private.h"
 
 /* ---- seeding --------------------------------------------------------------------------------- */

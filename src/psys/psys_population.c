@@ -77,7 +77,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/vec3.h"
+#include "common/base/vec3.h"
 #include "psys/psys_private.h"
 
 enum { RND_EPS = 1, RND_DIR = 2 };

@@ -24,9 +24,9 @@
 
 #include <stdint.h>
 
-#include "common/frames.h"
-#include "common/grid.h"
-#include "common/trace.h"
+#include "common/report/frames.h"
+#include "common/sizing/grid.h"
+#include "common/report/trace.h"
 #include "psys/psys.h"
 
 #ifdef __cplusplus

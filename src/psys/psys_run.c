@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/connect.h"
-#include "common/node_budget.h"
+#include "common/base/clock.h"
+#include "common/connect/connect.h"
+#include "common/sizing/node_budget.h"
 #include "psys/psys_private.h"
 
 static void init_params(void *p) { psys_params_init(p); }

@@ -33,7 +33,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/vec3.h"
+#include "common/base/vec3.h"
 #include "psys/psys_private.h"
 
 /* A candidate is kept when no particle lies within SEED_KEEP x its spacing: below 1, so that a

@@ -77,8 +77,8 @@
 #include <omp.h>
 #endif
 
-#include "common/clock.h"
-#include "common/vec3.h"
+#include "common/base/clock.h"
+#include "common/base/vec3.h"
 #include "psys/psys_private.h"
 
 /* ---- curvature ---------------------------------------------------------------------------- */

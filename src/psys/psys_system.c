@@ -6,9 +6,9 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "common/geom_cad.h"
-#include "common/rng.h"
-#include "common/vec3.h"
+#include "common/geom/geom_cad.h"
+#include "common/base/rng.h"
+#include "common/base/vec3.h"
 #include "psys/psys_private.h"
 
 /* ---- cell closures ------------------------------------------------------------------------ */

@@ -8,9 +8,9 @@
 #include <string.h>
 
 #include "bubble/bub_private.h"
-#include "common/geom_analytic.h"
-#include "common/rng.h"
-#include "common/vec3.h"
+#include "common/geom/geom_analytic.h"
+#include "common/base/rng.h"
+#include "common/base/vec3.h"
 
 /* The square [x0, x0 + a] x [y0, y0 + a]: vertices 0..3 at its corners (counter-clockwise from
  * (x0, y0)), curve 0 the bottom edge from (x0, y0) to (x0 + a, y0), one face. */

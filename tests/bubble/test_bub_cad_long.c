@@ -4,9 +4,9 @@
  * slivers of its own. One ctest entry per model (long: minutes in all). */
 #include "bub_test_util.h"
 
-#include "common/geom_cad.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
 
 static const char *path;
 

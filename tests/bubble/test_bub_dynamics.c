@@ -3,7 +3,7 @@
  * RK2 works too, forces are thread-count independent, a clipped bubble stays in its face. */
 #include "bub_test_util.h"
 
-#include "common/sizing.h"
+#include "common/sizing/sizing.h"
 
 static pm_sizing *const_size(double d) {
   pm_sizing *s = NULL;

@@ -3,9 +3,9 @@
  * determinism. */
 #include "bub_test_util.h"
 
-#include "common/cases.h"
-#include "common/geom_cad.h"
-#include "common/sizing.h"
+#include "common/input/cases.h"
+#include "common/geom/geom_cad.h"
+#include "common/sizing/sizing.h"
 
 static pm_sizing *const_size(double d) {
   pm_sizing *s = NULL;

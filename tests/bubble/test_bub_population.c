@@ -4,7 +4,7 @@
  * the packing would continue; a short curve does not oscillate between two counts. */
 #include "bub_test_util.h"
 
-#include "common/sizing.h"
+#include "common/sizing/sizing.h"
 
 static pm_sizing *const_size(double d) {
   pm_sizing *s = NULL;

@@ -6,14 +6,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "common/cases.h"
-#include "common/frames.h"
-#include "common/geom_cad.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
-#include "common/sizing.h"
-#include "common/stats.h"
-#include "common/trace.h"
+#include "common/input/cases.h"
+#include "common/report/frames.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
+#include "common/sizing/sizing.h"
+#include "common/report/stats.h"
+#include "common/report/trace.h"
 
 static pm_mesh *run(const pm_model *m, const pm_sizing *size, const bub_params *p, int threads,
                     pm_trace *tr, pm_frames *fr, pm_run_output *out) {

@@ -4,12 +4,12 @@
  * connection's flips under the local metric. */
 #include "bub_test_util.h"
 
-#include "common/cases.h"
-#include "common/geom_cad.h"
-#include "common/mesh_check.h"
-#include "common/needles.h"
-#include "common/quality.h"
-#include "common/sizing.h"
+#include "common/input/cases.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/needles.h"
+#include "common/measure/quality.h"
+#include "common/sizing/sizing.h"
 
 static void check_valid(const pm_mesh *mesh, const pm_model *m) {
   pm_check_report r;

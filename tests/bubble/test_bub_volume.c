@@ -8,14 +8,14 @@
 
 #include <math.h>
 
-#include "common/geom_cad.h"
-#include "common/mesh_check.h"
-#include "common/mesh_topo.h"
-#include "common/predicates.h"
-#include "common/quality.h"
-#include "common/stats.h"
-#include "common/sizing.h"
-#include "common/volume_inside.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh_check.h"
+#include "common/mesh/mesh_topo.h"
+#include "common/backends/predicates.h"
+#include "common/measure/quality.h"
+#include "common/report/stats.h"
+#include "common/sizing/sizing.h"
+#include "common/mesh/volume_inside.h"
 
 /* A run's state up to a relaxed packing of volume bubbles: the built-in solid `name` at uniform
  * size d. *model, *size, *surf are the caller's. */

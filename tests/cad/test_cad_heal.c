@@ -23,12 +23,12 @@
 #include <math.h>
 #include <unistd.h>
 
-#include "common/connect.h"
-#include "common/geom_cad.h"
-#include "common/mesh_check.h"
-#include "common/gmsh_session.h"
-#include "common/trim.h"
-#include "common/vec3.h"
+#include "common/connect/connect.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh_check.h"
+#include "common/backends/gmsh_session.h"
+#include "common/geom/trim.h"
+#include "common/base/vec3.h"
 
 /* Stop with the gmsh lock released (a failed assertion leaves by longjmp). */
 #define LOCKED_CHECK(cond)                                     \

@@ -14,8 +14,8 @@
 #include <unistd.h>
 
 #include "cli_run.h"
-#include "common/mesh.h"
-#include "common/mesh_io.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_io.h"
 
 /* Names under folder d (recursively), except the captured stdout / stderr; how many. When
  * `part` is given, only names containing it are counted. */

@@ -14,7 +14,7 @@
 #include <string.h>
 #include <sys/wait.h>
 
-#include "common/gmsh_session.h"
+#include "common/backends/gmsh_session.h"
 
 static char dir[256];
 

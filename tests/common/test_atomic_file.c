@@ -10,7 +10,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "common/atomic_file.h"
+#include "common/base/atomic_file.h"
 
 static int exists(const char *p) {
   struct stat st;

@@ -9,10 +9,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/cad_declared.h"
-#include "common/geom.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
+#include "common/geom/cad_declared.h"
+#include "common/geom/geom.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
 
 static char dir[256];
 

@@ -3,9 +3,9 @@
  * the constrained Delaunay property, crossing constraints, duplicates and degenerate input. */
 #include "test_support.h"
 
-#include "common/cdt_cgal.h"
-#include "common/predicates.h"
-#include "common/rng.h"
+#include "common/backends/cdt_cgal.h"
+#include "common/backends/predicates.h"
+#include "common/base/rng.h"
 
 #include <stdlib.h>
 #include <string.h>

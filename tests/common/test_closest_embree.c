@@ -7,8 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/closest_embree.h"
-#include "common/rng.h"
+#include "common/backends/closest_embree.h"
+#include "common/base/rng.h"
 
 /* ---- helpers ------------------------------------------------------------------------------- */
 

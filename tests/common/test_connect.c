@@ -6,11 +6,11 @@
 #include <math.h>
 #include <string.h>
 
-#include "common/connect.h"
-#include "common/geom_analytic.h"
-#include "common/geom_cad.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
+#include "common/connect/connect.h"
+#include "common/geom/geom_analytic.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
 
 /* Nodes for a planar model: every curve sampled every ~h (its own nodes only), the face filled
  * with a triangular lattice of spacing h kept h/2 away from the boundary curves. */

@@ -14,12 +14,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/clock.h"
-#include "common/connect.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
-#include "common/mesh_check.h"
-#include "common/rng.h"
+#include "common/base/clock.h"
+#include "common/connect/connect.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
+#include "common/mesh/mesh_check.h"
+#include "common/base/rng.h"
 
 static const char *model_path;
 static double size_fraction = 1.0 / 15;

@@ -13,10 +13,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/connect.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
-#include "common/vec3.h"
+#include "common/connect/connect.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
+#include "common/base/vec3.h"
 
 static const char *model_path = PM_CAD_DIR "/fusee.stp";
 

@@ -8,12 +8,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/closest_embree.h"
-#include "common/distance.h"
-#include "common/geom_analytic.h"
-#include "common/geom_cad.h"
-#include "common/mesh.h"
-#include "common/sizing.h"
+#include "common/backends/closest_embree.h"
+#include "common/measure/distance.h"
+#include "common/geom/geom_analytic.h"
+#include "common/geom/geom_cad.h"
+#include "common/mesh/mesh.h"
+#include "common/sizing/sizing.h"
 
 /* ---- models and meshes ----------------------------------------------------------------------- */
 

@@ -4,11 +4,11 @@
 
 #include <string.h>
 
-#include "common/cases.h"
-#include "common/geom.h"
-#include "common/geom_analytic.h"
-#include "common/rng.h"
-#include "common/trim.h"
+#include "common/input/cases.h"
+#include "common/geom/geom.h"
+#include "common/geom/geom_analytic.h"
+#include "common/base/rng.h"
+#include "common/geom/trim.h"
 
 static pm_model *open_case(const char *name) {
   pm_model *m = NULL;

@@ -6,7 +6,7 @@
 
 #include <pthread.h>
 
-#include "common/rng.h"
+#include "common/base/rng.h"
 
 /* Central differences with step h = FD_STEP x the parameter span: truncation ~ (1e-5)^2 and
  * rounding ~ 1e-16 / 1e-5 of the scale, so 1e-6 relative is a safe bar for first derivatives and

@@ -3,8 +3,8 @@
  * (cyl_loop_seam.brep); volume orientation across faces shared by two volumes. */
 #include "test_geom_cad_util.h"
 
-#include "common/rng.h"
-#include "common/trim.h"
+#include "common/base/rng.h"
+#include "common/geom/trim.h"
 
 /* Distance in (u, v) from p to the loop polylines of face f. */
 static double dist_to_loops(const pm_cell *f, const double p[2]) {

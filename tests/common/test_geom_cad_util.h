@@ -10,10 +10,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/geom.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
-#include "common/vec3.h"
+#include "common/geom/geom.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
+#include "common/base/vec3.h"
 
 /* Skip the calling test when the shared CAD folder is missing. */
 #define CAD_REQUIRE()                                                               \

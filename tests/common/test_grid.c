@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/grid.h"
-#include "common/rng.h"
+#include "common/sizing/grid.h"
+#include "common/base/rng.h"
 
 /* The reference set: the same points kept in plain arrays. */
 typedef struct ref {

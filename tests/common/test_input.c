@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/input.h"
+#include "common/input/input.h"
 
 static char dir[256];
 

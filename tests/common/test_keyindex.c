@@ -2,7 +2,7 @@
  * keys are not, and the table stays at most half full. */
 #include "test_support.h"
 
-#include "common/keyindex.h"
+#include "common/base/keyindex.h"
 
 /* Lattice-like keys: packed (i, j) of a square, the pattern the placement uses. */
 static uint64_t key_of(int32_t i, int32_t j) { return ((uint64_t)(uint32_t)i << 32) | (uint32_t)j; }

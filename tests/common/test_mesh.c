@@ -3,7 +3,7 @@
 
 #include <string.h>
 
-#include "common/mesh.h"
+#include "common/mesh/mesh.h"
 
 static void add_and_grow(void **state) {
   (void)state;

@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/geom.h"
-#include "common/mesh.h"
-#include "common/mesh_check.h"
+#include "common/geom/geom.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_check.h"
 
 /* ---- hand-built models (plain structs; geom.c is not needed to describe a complex) ---------- */
 

@@ -10,12 +10,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/geom.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
-#include "common/mesh.h"
-#include "common/mesh_check.h"
-#include "common/mesh_io.h"
+#include "common/geom/geom.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_check.h"
+#include "common/mesh/mesh_io.h"
 
 static char dir[256];
 

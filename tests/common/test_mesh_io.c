@@ -12,10 +12,10 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "common/gmsh_session.h"
-#include "common/mesh.h"
-#include "common/mesh_io.h"
-#include "common/quality.h"
+#include "common/backends/gmsh_session.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_io.h"
+#include "common/measure/quality.h"
 
 static char dir[256];
 

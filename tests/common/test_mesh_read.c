@@ -9,11 +9,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/gmsh_session.h"
-#include "common/mesh.h"
-#include "common/mesh_io.h"
-#include "common/mesh_read_private.h"
-#include "common/rng.h"
+#include "common/backends/gmsh_session.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_io.h"
+#include "common/mesh/mesh_read_private.h"
+#include "common/base/rng.h"
 
 static char dir[256];
 

@@ -4,9 +4,9 @@
 
 #include <stdlib.h>
 
-#include "common/geom_analytic.h"
-#include "common/mesh.h"
-#include "common/needles.h"
+#include "common/geom/geom_analytic.h"
+#include "common/mesh/mesh.h"
+#include "common/measure/needles.h"
 
 /* The rectangle [0, 1] x [0, w]: curve 0 the bottom (0,0)-(1,0), 1 the right side, 2 the top
  * (1,w)-(0,w), 3 the left side; vertex k starts curve k. */

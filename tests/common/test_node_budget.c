@@ -7,8 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/input.h"
-#include "common/node_budget.h"
+#include "common/input/input.h"
+#include "common/sizing/node_budget.h"
 #include "peers/peers.h"
 
 /* case:qi1 is the rectangle [-1,1] x [-2,2] (area 8): at d = 0.1 the lattice of equilateral

@@ -3,7 +3,7 @@
 
 #include <string.h>
 
-#include "common/params.h"
+#include "common/base/params.h"
 
 typedef struct demo_params {
   double k0;

@@ -2,7 +2,7 @@
  * naive floating-point determinant gets wrong. */
 #include "test_support.h"
 
-#include "common/predicates.h"
+#include "common/backends/predicates.h"
 
 static void orient2d_signs(void **state) {
   (void)state;

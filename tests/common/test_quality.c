@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/mesh.h"
-#include "common/quality.h"
-#include "common/sizing.h"
+#include "common/mesh/mesh.h"
+#include "common/measure/quality.h"
+#include "common/sizing/sizing.h"
 
 #define DEG(x) ((x) * 57.295779513082320876798154814105)
 

@@ -1,7 +1,7 @@
 /* pm_rng: reproducible, stream-independent, uniform. */
 #include "test_support.h"
 
-#include "common/rng.h"
+#include "common/base/rng.h"
 
 static void same_seed_same_sequence(void **state) {
   (void)state;

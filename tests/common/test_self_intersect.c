@@ -6,9 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/mesh.h"
-#include "common/rng.h"
-#include "common/self_intersect.h"
+#include "common/mesh/mesh.h"
+#include "common/base/rng.h"
+#include "common/mesh/self_intersect.h"
 
 /* ---- hand-made pairs --------------------------------------------------------------------------- */
 

@@ -6,9 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/cases.h"
-#include "common/rng.h"
-#include "common/sizing.h"
+#include "common/input/cases.h"
+#include "common/base/rng.h"
+#include "common/sizing/sizing.h"
 
 static double eval3(const pm_sizing *s, double x, double y, double z) {
   double p[3] = {x, y, z};

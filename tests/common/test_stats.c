@@ -6,10 +6,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/mesh.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
-#include "common/stats.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
+#include "common/report/stats.h"
 
 /* Two right isosceles triangles (the unit square) and one regular tet off to the side. */
 static pm_mesh *sample(void) {

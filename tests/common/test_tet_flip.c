@@ -3,8 +3,8 @@
  * positive), and a ring with a reflex corner never gets a triangle folded over its neighbours. */
 #include "test_support.h"
 
-#include "common/predicates.h"
-#include "common/tet_flip.h"
+#include "common/backends/predicates.h"
+#include "common/connect/tet_flip.h"
 
 #include <stdlib.h>
 #include <string.h>

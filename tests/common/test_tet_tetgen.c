@@ -5,8 +5,8 @@
  * bad input refused without a crash or a word on stdout. */
 #include "test_support.h"
 
-#include "common/predicates.h"
-#include "common/tet_tetgen.h"
+#include "common/backends/predicates.h"
+#include "common/backends/tet_tetgen.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/cases.h"
-#include "common/frames.h"
-#include "common/trace.h"
+#include "common/input/cases.h"
+#include "common/report/frames.h"
+#include "common/report/trace.h"
 
 static char dir[256];
 

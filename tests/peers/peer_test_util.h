@@ -7,13 +7,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/cases.h"
-#include "common/geom.h"
-#include "common/input.h"
-#include "common/mesh.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
-#include "common/sizing.h"
+#include "common/input/cases.h"
+#include "common/geom/geom.h"
+#include "common/input/input.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
+#include "common/sizing/sizing.h"
 #include "peers/peers.h"
 
 /* Run `method` with its default parameters plus "KEY=VALUE" settings (NULL-terminated, may be

@@ -4,10 +4,10 @@
  * parameters, fields and caps. */
 #include "peer_test_util.h"
 
-#include "common/geom_analytic.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
-#include "common/stats.h"
+#include "common/geom/geom_analytic.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
+#include "common/report/stats.h"
 
 static int teardown(void **state) {
   (void)state;

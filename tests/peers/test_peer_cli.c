@@ -13,9 +13,9 @@
 #include <sys/wait.h>
 
 #include "cli/cli_stats.h"
-#include "common/gmsh_session.h"
-#include "common/mesh.h"
-#include "common/mesh_io.h"
+#include "common/backends/gmsh_session.h"
+#include "common/mesh/mesh.h"
+#include "common/mesh/mesh_io.h"
 
 static char dir[256];
 static int have_peers = -1;

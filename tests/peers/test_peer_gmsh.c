@@ -7,9 +7,9 @@
 
 #include <gmshc.h>
 
-#include "common/geom_analytic.h"
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
+#include "common/geom/geom_analytic.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
 
 static const pm_method *const gmsh_methods[3] = {&peer_gmsh_meshadapt, &peer_gmsh_delaunay,
                                                  &peer_gmsh_frontal};

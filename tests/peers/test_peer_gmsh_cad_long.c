@@ -11,8 +11,8 @@
 #include <dirent.h>
 #include <sys/wait.h>
 
-#include "common/geom_cad.h"
-#include "common/gmsh_session.h"
+#include "common/geom/geom_cad.h"
+#include "common/backends/gmsh_session.h"
 
 static char **files;
 static int nfiles;

@@ -6,9 +6,9 @@
  * model (long: minutes in all). */
 #include "test_psys_util.h"
 
-#include "common/input.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
+#include "common/input/input.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
 
 static const char *path;
 

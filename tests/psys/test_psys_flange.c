@@ -2,7 +2,7 @@
  * flange base_interface.step, 4.76 thick and 600 across. */
 #include "test_psys_util.h"
 
-#include "common/input.h"
+#include "common/input/input.h"
 
 /* The thin flange (4.76 thick, 600 across): after phases 1-2, and phase 3 on the faces of its
  * rim and notches (the faces across the thickness), the gap size is active where it should be:

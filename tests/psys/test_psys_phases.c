@@ -2,7 +2,7 @@
  * particles is still growing into an empty stretch of its cell. */
 #include "test_psys_run_util.h"
 
-#include "common/input.h"
+#include "common/input/input.h"
 
 typedef struct on_curve {
   double t, sigma;

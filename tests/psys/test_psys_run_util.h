@@ -5,9 +5,9 @@
 
 #include "test_psys_util.h"
 
-#include "common/input.h"
-#include "common/mesh_check.h"
-#include "common/quality.h"
+#include "common/input/input.h"
+#include "common/mesh/mesh_check.h"
+#include "common/measure/quality.h"
 
 static inline pm_model *psys_test_open(const char *spec) {
   pm_model *m = NULL;

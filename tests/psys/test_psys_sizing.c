@@ -3,7 +3,7 @@
  * tested on the thin flange in test_psys_flange.c). */
 #include "test_psys_util.h"
 
-#include "common/input.h"
+#include "common/input/input.h"
 
 /* After an update, no neighbour pair (|r_ij| < max(sigma_i, sigma_j)) violates
  * |sigma_i - sigma_j| <= L |r_ij|, every sigma lies within [sigma_min, its own bound], and each

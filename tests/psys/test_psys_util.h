@@ -7,9 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/geom_analytic.h"
-#include "common/rng.h"
-#include "common/vec3.h"
+#include "common/geom/geom_analytic.h"
+#include "common/base/rng.h"
+#include "common/base/vec3.h"
 #include "psys/psys_private.h"
 
 /* The square [0, side]^2 in the plane z = 0 (one face, (u, v) = (x, y)). */

@@ -1,0 +1,1782 @@
+/* The two-sided mesh-to-model distance (see distance.h for what is measured and how). */
+#include "common/measure/distance.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/backends/cdt_cgal.h"
+#include "common/backends/closest_embree.h"
+#include "common/mesh/mesh_topo.h"
+#include "common/geom/trim.h"
+#include "common/base/vec3.h"
+
+void pm_distance_params_init(pm_distance_params *p) {
+  p->spacing = 0.25;
+  p->tri_level = 4;
+  p->refine = 16;
+  p->max_face_samples = 250000;
+  p->max_samples = 4000000;
+  p->ref_tol = 1e-4;
+  p->ref_spacing = 0.25;
+  p->ref_max_points = 100000;
+  p->ref_per_tri = 16;
+  p->model_per_tri = 16;
+  p->prune = 1;
+}
+
+pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
+  if (!(p->spacing > 0 && p->spacing <= 1))
+    return pm_error_setf(err, PM_ERR_ARG, "distance: spacing must be in (0, 1], got %g", p->spacing);
+  if (p->tri_level < 1 || p->tri_level > 32)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: tri_level must be in 1..32, got %d",
+                         (int)p->tri_level);
+  if (p->refine < 0 || p->refine > 256)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: refine must be in 0..256, got %d",
+                         (int)p->refine);
+  if (p->max_face_samples < 16)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: max_face_samples must be >= 16, got %lld",
+                         (long long)p->max_face_samples);
+  if (p->max_samples < 1000)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: max_samples must be >= 1000, got %lld",
+                         (long long)p->max_samples);
+  if (!(p->ref_tol >= 1e-7 && p->ref_tol <= 1e-2))
+    return pm_error_setf(err, PM_ERR_ARG, "distance: ref_tol must be in [1e-7, 1e-2], got %g",
+                         p->ref_tol);
+  if (!(p->ref_spacing > 0 && p->ref_spacing <= 1))
+    return pm_error_setf(err, PM_ERR_ARG, "distance: ref_spacing must be in (0, 1], got %g",
+                         p->ref_spacing);
+  if (p->ref_per_tri < 1 || p->ref_per_tri > 1000000)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: ref_per_tri must be in 1..1000000, got %d",
+                         (int)p->ref_per_tri);
+  if (p->model_per_tri < 1 || p->model_per_tri > 1000000)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: model_per_tri must be in 1..1000000, got %d",
+                         (int)p->model_per_tri);
+  if (p->prune != 0 && p->prune != 1)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: prune must be 0 or 1, got %d", (int)p->prune);
+  if (p->ref_max_points < 100)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: ref_max_points must be >= 100, got %lld",
+                         (long long)p->ref_max_points);
+  return PM_OK;
+}
+
+/* ---- projection onto one cell --------------------------------------------------------------- */
+
+/* Gauss-Newton iterations of a projection. From a start within a few mesh edges of the foot the
+ * iteration contracts by about (distance x curvature) per step; 40 is a cap for bad cases. Every
+ * accepted step decreases the distance (halving the step up to 12 times), so whatever the
+ * iteration count the result is a point of the cell at least as close as the start. */
+#define FOOT_MAX_IT 40
+#define FOOT_BACKTRACK 12
+/* Stop when the 3D step falls below this fraction of the model diagonal: far below any distance
+ * worth reporting (chordal errors of meshes are 1e-6 .. 1e-2 of the diagonal), and 12% fewer
+ * surface evaluations than going on to round-off (1e-14) with the same figures to 15 digits on
+ * simple_plane.brep. */
+#define FOOT_STEP_TOL 1e-10
+
+static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
+
+/* The foot of x on face f from uv (in place): returns the distance |x - S(uv)|; *inside says
+ * whether the final uv lies in the trimmed region by pm_face_inside (only then is S(uv) known to
+ * be a point of the model); foot and nrm (may be NULL) receive S(uv) and Su x Sv there. */
+static double face_foot(const pm_cell *f, const double x[3], double uv[2], int *inside,
+                        double foot[3], double nrm[3]) {
+  const double tol = FOOT_STEP_TOL * f->model->diagonal;
+  for (int k = 0; k < 2; ++k)
+    if (!f->periodic[k]) uv[k] = clampd(uv[k], f->lo[k], f->hi[k]);
+  pm_face_point fp;
+  pm_face_eval(f, uv, 1, &fp);
+  double d = pm_v3_dist(x, fp.p);
+  for (int it = 0; it < FOOT_MAX_IT && d > 0; ++it) {
+    /* Gauss-Newton: the parameter step whose image is the tangential part of x - S (the
+     * shared papers/001 eq. 7-9 routine, which also handles the singular metric at a pole). */
+    double r[3], dpar[2] = {0, 0}, der[6];
+    pm_v3_sub(r, x, fp.p);
+    pm_v3_copy(der, fp.su), pm_v3_copy(der + 3, fp.sv);
+    pm_cell_param_delta(f, uv, der, r, dpar);
+    /* The step's image Su du + Sv dv is the tangential part of x - S: when it is below the
+     * tolerance, S(uv) is already the foot to within it, and evaluating the step would only
+     * confirm so. */
+    double img[3];
+    for (int k = 0; k < 3; ++k) img[k] = dpar[0] * fp.su[k] + dpar[1] * fp.sv[k];
+    if (pm_v3_norm(img) <= tol) break;
+    double lam = 1, uvn[2] = {uv[0], uv[1]}, dn = d;
+    pm_face_point fn;
+    int ok = 0;
+    for (int bt = 0; bt < FOOT_BACKTRACK; ++bt, lam *= 0.5) {
+      uvn[0] = uv[0] + lam * dpar[0], uvn[1] = uv[1] + lam * dpar[1];
+      for (int k = 0; k < 2; ++k)
+        if (!f->periodic[k]) uvn[k] = clampd(uvn[k], f->lo[k], f->hi[k]);
+      pm_face_eval(f, uvn, 1, &fn);
+      dn = pm_v3_dist(x, fn.p);
+      if (dn <= d) {
+        ok = 1;
+        break;
+      }
+    }
+    if (!ok) break;
+    double step = pm_v3_dist(fn.p, fp.p);
+    uv[0] = uvn[0], uv[1] = uvn[1], fp = fn, d = dn;
+    if (step <= tol) break;
+  }
+  pm_cell_wrap(f, uv);
+  *inside = pm_face_inside(f, uv);
+  if (foot) pm_v3_copy(foot, fp.p);
+  if (nrm) pm_v3_cross(nrm, fp.su, fp.sv);
+  return d;
+}
+
+/* The foot of x on curve c from t (in place); every C(t) with t in range is a model point. *at
+ * (may be NULL) receives C and C' at the final t. */
+static double curve_foot_at(const pm_cell *c, const double x[3], double *t, pm_curve_point *at) {
+  const double tol = FOOT_STEP_TOL * c->model->diagonal;
+  if (!c->periodic[0]) *t = clampd(*t, c->lo[0], c->hi[0]);
+  pm_curve_point cp;
+  pm_curve_eval(c, *t, 1, &cp);
+  double d = pm_v3_dist(x, cp.p);
+  if (c->degenerate) {
+    if (at) *at = cp;
+    return d;
+  }
+  for (int it = 0; it < FOOT_MAX_IT && d > 0; ++it) {
+    double r[3], dt = 0;
+    pm_v3_sub(r, x, cp.p);
+    pm_cell_param_delta(c, t, cp.d1, r, &dt); /* papers/003 eq. 15 */
+    if (fabs(dt) * pm_v3_norm(cp.d1) <= tol) break; /* as in face_foot */
+    double lam = 1, tn = *t, dn = d;
+    pm_curve_point cn;
+    int ok = 0;
+    for (int bt = 0; bt < FOOT_BACKTRACK; ++bt, lam *= 0.5) {
+      tn = *t + lam * dt;
+      if (!c->periodic[0]) tn = clampd(tn, c->lo[0], c->hi[0]);
+      pm_curve_eval(c, tn, 1, &cn);
+      dn = pm_v3_dist(x, cn.p);
+      if (dn <= d) {
+        ok = 1;
+        break;
+      }
+    }
+    if (!ok) break;
+    double step = pm_v3_dist(cn.p, cp.p);
+    *t = tn, cp = cn, d = dn;
+    if (step <= tol) break;
+  }
+  if (c->periodic[0]) pm_cell_wrap(c, t);
+  if (at) *at = cp;
+  return d;
+}
+
+static double curve_foot(const pm_cell *c, const double x[3], double *t) {
+  return curve_foot_at(c, x, t, NULL);
+}
+
+/* ---- growing arrays ---------------------------------------------------------------------------- */
+
+typedef struct dbuf {
+  double *v;
+  int64_t n, cap;
+} dbuf;
+typedef struct ibuf {
+  int32_t *v;
+  int64_t n, cap;
+} ibuf;
+
+static int dbuf_push(dbuf *b, const double *x, int64_t k) {
+  if (b->n + k > b->cap) {
+    int64_t cap = b->cap ? 2 * b->cap : 256;
+    while (cap < b->n + k) cap *= 2;
+    double *nv = realloc(b->v, sizeof(double) * (size_t)cap);
+    if (!nv) return 0;
+    b->v = nv, b->cap = cap;
+  }
+  for (int64_t i = 0; i < k; ++i) b->v[b->n++] = x[i];
+  return 1;
+}
+
+static int ibuf_push(ibuf *b, const int32_t *x, int64_t k) {
+  if (b->n + k > b->cap) {
+    int64_t cap = b->cap ? 2 * b->cap : 256;
+    while (cap < b->n + k) cap *= 2;
+    int32_t *nv = realloc(b->v, sizeof(int32_t) * (size_t)cap);
+    if (!nv) return 0;
+    b->v = nv, b->cap = cap;
+  }
+  for (int64_t i = 0; i < k; ++i) b->v[b->n++] = x[i];
+  return 1;
+}
+
+/* ---- reference tessellation of the faces ---------------------------------------------------------- */
+
+typedef struct ref_faces {
+  dbuf xyz, uv;   /* points: 3D and (u, v) on their face */
+  ibuf tri, face; /* triangles (global point indices) and their face */
+  pm_bvh *bvh;
+  double chord;   /* the largest chordal error bound over curved faces */
+  double gap;     /* the widest strip a degraded face's reference leaves along its boundary */
+  int32_t degraded;
+} ref_faces;
+
+/* Probe grid (per direction) for a face's derivative sizes and curvature. */
+#define PROBE 17
+/* Reference points lifted per evaluation call. */
+#define LIFT_BATCH 256
+/* Bounds on the subdivision of one trimming-polyline edge. */
+#define MAX_EDGE_SPLIT 4096
+
+/* The parameter box of the face's loops (the frame the polylines live in). */
+static void loop_box(const pm_cell *f, double box[4]) {
+  box[0] = box[1] = INFINITY, box[2] = box[3] = -INFINITY;
+  for (int32_t l = 0; l < f->nloop; ++l) {
+    box[0] = fmin(box[0], f->loop[l].box[0]), box[1] = fmin(box[1], f->loop[l].box[1]);
+    box[2] = fmax(box[2], f->loop[l].box[2]), box[3] = fmax(box[3], f->loop[l].box[3]);
+  }
+  if (!(box[2] > box[0]) || !(box[3] > box[1]))
+    box[0] = f->lo[0], box[1] = f->lo[1], box[2] = f->hi[0], box[3] = f->hi[1];
+}
+
+/* What the sampling needs to know of a face, probed once. */
+typedef struct face_info {
+  double box[4];      /* the loops' parameter box */
+  double su, sv;      /* largest |Su|, |Sv| over the probe grid */
+  double kappa;       /* largest principal curvature magnitude over the probe grid */
+} face_info;
+
+/* Largest |Su|, |Sv| and principal curvature over a probe grid of the box. */
+static void face_probe(const pm_cell *f, const double box[4], double *su, double *sv, double *kappa) {
+  *su = *sv = *kappa = 0;
+  for (int a = 0; a < PROBE; ++a)
+    for (int b = 0; b < PROBE; ++b) {
+      double uv[2] = {box[0] + (box[2] - box[0]) * (a + 0.5) / PROBE,
+                      box[1] + (box[3] - box[1]) * (b + 0.5) / PROBE};
+      pm_face_point fp;
+      pm_face_eval(f, uv, 1, &fp);
+      *su = fmax(*su, pm_v3_norm(fp.su)), *sv = fmax(*sv, pm_v3_norm(fp.sv));
+      double k1, k2;
+      pm_face_curvatures(f, uv, &k1, &k2, NULL);
+      if (isfinite(k1)) *kappa = fmax(*kappa, fabs(k1));
+    }
+}
+
+/* Append face f's reference triangles. The grid spacing h in 3D keeps the chordal error
+ * kappa h^2 / 8 (the sagitta of an arc of curvature kappa over a chord h) below eps, and h is at
+ * most h_mesh (a fraction of the mesh's edge length, so that the reference's chordal error is a
+ * small fraction of the mesh's own, whose edges are longer by 1 / ref_spacing); the trimming
+ * polylines are subdivided along their pcurves to the grid's (u, v) spacing so that the
+ * triangles along the boundary are no larger than the grid's. */
+static pm_status ref_face(ref_faces *rf, const pm_cell *f, const face_info *fi, double eps,
+                          double h_mesh, int64_t max_pts, pm_error *err) {
+  if (f->nloop <= 0) return PM_OK;
+  const double *box = fi->box, su = fi->su, sv = fi->sv, kappa = fi->kappa;
+  double Lu = su * (box[2] - box[0]), Lv = sv * (box[3] - box[1]);
+  double h = kappa > 0 ? fmin(sqrt(8 * eps / kappa), h_mesh) : INFINITY;
+  double nu = fmax(4, ceil(Lu / h)), nv = fmax(4, ceil(Lv / h));
+  if (nu * nv > (double)max_pts) {
+    double s = sqrt((double)max_pts / (nu * nv));
+    nu = fmax(2, floor(nu * s)), nv = fmax(2, floor(nv * s));
+  }
+  double hu = Lu / nu, hv = Lv / nv, hh = fmax(hu, hv);
+  if (kappa > 0) rf->chord = fmax(rf->chord, kappa * hh * hh / 8);
+  int inu = (int)nu, inv = (int)nv;
+  double du = (box[2] - box[0]) / inu, dv = (box[3] - box[1]) / inv;
+
+  dbuf uv = {0};
+  ibuf cons = {0};
+  pm_status s = PM_OK;
+  /* Loop polylines, subdivided. */
+  for (int32_t l = 0; l < f->nloop && !s; ++l) {
+    const pm_loop *lp = &f->loop[l];
+    int64_t first = uv.n / 2;
+    for (int32_t i = 0; i < lp->npts; ++i) {
+      int32_t j = (i + 1) % lp->npts;
+      const double *a = &lp->uv[2 * i], *b = &lp->uv[2 * j];
+      double m = ceil(fmax(fabs(b[0] - a[0]) / du, fabs(b[1] - a[1]) / dv));
+      int im = (int)clampd(m, 1, MAX_EDGE_SPLIT);
+      for (int q = 0; q < im; ++q) {
+        double p[2];
+        if (q == 0) {
+          p[0] = a[0], p[1] = a[1];
+        } else if (j == i + 1 && lp->pt_use[i] == lp->pt_use[j] &&
+                   fabs(lp->pt_t[j] - lp->pt_t[i]) <
+                       0.5 * (f->model->cells[PM_CURVE][lp->use[lp->pt_use[i]].cell].hi[0] -
+                              f->model->cells[PM_CURVE][lp->use[lp->pt_use[i]].cell].lo[0])) {
+          /* Within one pcurve (not across the closing point of a closed curve, where t jumps
+           * back): the pcurve's own point, closer to the curve than the chord. */
+          double t = lp->pt_t[i] + (lp->pt_t[j] - lp->pt_t[i]) * q / im;
+          pm_face_curve_uv(f, &lp->use[lp->pt_use[i]], t, p);
+        } else {
+          p[0] = a[0] + (b[0] - a[0]) * q / im, p[1] = a[1] + (b[1] - a[1]) * q / im;
+        }
+        if (!dbuf_push(&uv, p, 2)) goto nomem;
+      }
+    }
+    int64_t n = uv.n / 2 - first;
+    for (int64_t i = 0; i < n; ++i) {
+      int32_t e[2] = {(int32_t)(first + i), (int32_t)(first + (i + 1) % n)};
+      if (!ibuf_push(&cons, e, 2)) goto nomem;
+    }
+  }
+  int64_t nloop_pts = uv.n / 2;
+  /* Inside grid points (cell centres, in the polylines' frame). */
+  for (int a = 0; a < inu; ++a)
+    for (int b = 0; b < inv; ++b) {
+      double p[2] = {box[0] + (a + 0.5) * du, box[1] + (b + 0.5) * dv};
+      if (pm_trim_inside(f, p) && !dbuf_push(&uv, p, 2)) goto nomem;
+    }
+  int64_t npts = uv.n / 2;
+  if (npts > INT32_MAX / 4) {
+    free(uv.v), free(cons.v);
+    return pm_error_setf(err, PM_ERR_LIMIT, "distance: reference of face %d too large", f->tag);
+  }
+  pm_cdt_result res = {0};
+  pm_error cerr = {0};
+  int32_t *tris = NULL, ntris = 0;
+  if (pm_cdt_triangulate(uv.v, (int32_t)npts, cons.v, (int32_t)(cons.n / 2), 1, 0, &res, &cerr) ==
+      PM_OK) {
+    tris = res.tri, ntris = res.ntri;
+  } else {
+    /* The constrained triangulation failed (crossing polylines of a damaged face): triangulate
+     * the grid cells whose four corners are inside instead, leaving a gap of at most one cell
+     * along the boundary, which the curve reference and the projections cover. */
+    rf->degraded++;
+    /* The strip left uncovered: at most a cell between the polylines and the first inside cell
+     * centre, and the cell itself (3D diagonal sqrt(2) hh each). */
+    rf->gap = fmax(rf->gap, 3 * hh);
+    int64_t *idx = malloc(sizeof(int64_t) * (size_t)inu * (size_t)inv);
+    tris = malloc(sizeof(int32_t) * 6 * (size_t)inu * (size_t)inv);
+    if (!idx || !tris) {
+      free(idx), free(tris);
+      goto nomem;
+    }
+    int64_t k = nloop_pts;
+    for (int a = 0; a < inu; ++a)
+      for (int b = 0; b < inv; ++b) {
+        double p[2] = {box[0] + (a + 0.5) * du, box[1] + (b + 0.5) * dv};
+        idx[(int64_t)a * inv + b] = pm_trim_inside(f, p) ? k++ : -1;
+      }
+    for (int a = 0; a + 1 < inu; ++a)
+      for (int b = 0; b + 1 < inv; ++b) {
+        int64_t c00 = idx[(int64_t)a * inv + b], c10 = idx[(int64_t)(a + 1) * inv + b],
+                c01 = idx[(int64_t)a * inv + b + 1], c11 = idx[(int64_t)(a + 1) * inv + b + 1];
+        if (c00 < 0 || c10 < 0 || c01 < 0 || c11 < 0) continue;
+        int32_t *t = &tris[3 * (size_t)ntris];
+        t[0] = (int32_t)c00, t[1] = (int32_t)c10, t[2] = (int32_t)c11;
+        t[3] = (int32_t)c00, t[4] = (int32_t)c11, t[5] = (int32_t)c01;
+        ntris += 2;
+      }
+    free(idx);
+  }
+  /* Lift (in batches: one evaluation call per LIFT_BATCH points) and append. */
+  int64_t base = rf->xyz.n / 3;
+  for (int64_t i0 = 0; i0 < npts && !s; i0 += LIFT_BATCH) {
+    pm_face_point fp[LIFT_BATCH];
+    int32_t nb = (int32_t)(npts - i0 < LIFT_BATCH ? npts - i0 : LIFT_BATCH);
+    pm_face_eval_many(f, nb, &uv.v[2 * i0], 0, fp);
+    for (int32_t i = 0; i < nb && !s; ++i)
+      if (!dbuf_push(&rf->xyz, fp[i].p, 3) || !dbuf_push(&rf->uv, &uv.v[2 * (i0 + i)], 2))
+        s = PM_ERR_NOMEM;
+  }
+  for (int32_t t = 0; t < ntris && !s; ++t) {
+    int32_t v[3] = {(int32_t)(base + tris[3 * t]), (int32_t)(base + tris[3 * t + 1]),
+                    (int32_t)(base + tris[3 * t + 2])};
+    int32_t fidx = f->index;
+    if (!ibuf_push(&rf->tri, v, 3) || !ibuf_push(&rf->face, &fidx, 1)) s = PM_ERR_NOMEM;
+  }
+  if (tris == res.tri)
+    pm_cdt_result_free(&res);
+  else
+    free(tris);
+  free(uv.v), free(cons.v);
+  if (s) return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
+  return PM_OK;
+nomem:
+  free(uv.v), free(cons.v);
+  return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference of face %d)", f->tag);
+}
+
+static void ref_faces_free(ref_faces *rf) {
+  free(rf->xyz.v), free(rf->uv.v), free(rf->tri.v), free(rf->face.v);
+  pm_bvh_destroy(rf->bvh);
+  memset(rf, 0, sizeof *rf);
+}
+
+/* ---- reference polylines of the curves ------------------------------------------------------------ */
+
+typedef struct ref_curves {
+  dbuf xyz, t;    /* points and their curve parameter */
+  ibuf seg, curve; /* segments as (a, b, b) triples, and their curve */
+  pm_bvh *bvh;
+} ref_curves;
+
+#define CURVE_INITIAL 16
+#define CURVE_MAX_DEPTH 14
+
+static int curve_sample(ref_curves *rc, const pm_cell *c, double ta, const double pa[3], double tb,
+                        const double pb[3], double eps, int depth) {
+  double tm = 0.5 * (ta + tb);
+  pm_curve_point cp;
+  pm_curve_eval(c, tm, 0, &cp);
+  double mid[3] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])};
+  if (depth < CURVE_MAX_DEPTH && pm_v3_dist(mid, cp.p) > eps) {
+    if (!curve_sample(rc, c, ta, pa, tm, cp.p, eps, depth + 1)) return 0;
+    return curve_sample(rc, c, tm, cp.p, tb, pb, eps, depth + 1);
+  }
+  return dbuf_push(&rc->xyz, pb, 3) && dbuf_push(&rc->t, &tb, 1);
+}
+
+/* Append curve c's polyline: bisected until the chord's midpoint is within eps of the curve. */
+static pm_status ref_curve(ref_curves *rc, const pm_cell *c, double eps, pm_error *err) {
+  int64_t first = rc->xyz.n / 3;
+  pm_curve_point cp;
+  double t0 = c->lo[0];
+  pm_curve_eval(c, t0, 0, &cp);
+  if (!dbuf_push(&rc->xyz, cp.p, 3) || !dbuf_push(&rc->t, &t0, 1)) goto nomem;
+  int n = c->degenerate ? 1 : CURVE_INITIAL;
+  double pa[3];
+  pm_v3_copy(pa, cp.p);
+  for (int i = 0; i < n; ++i) {
+    double ta = c->lo[0] + (c->hi[0] - c->lo[0]) * i / n;
+    double tb = i + 1 == n ? c->hi[0] : c->lo[0] + (c->hi[0] - c->lo[0]) * (i + 1) / n;
+    pm_curve_point cb;
+    pm_curve_eval(c, tb, 0, &cb);
+    if (c->degenerate) {
+      if (!dbuf_push(&rc->xyz, cb.p, 3) || !dbuf_push(&rc->t, &tb, 1)) goto nomem;
+    } else if (!curve_sample(rc, c, ta, pa, tb, cb.p, eps, 0)) {
+      goto nomem;
+    }
+    pm_v3_copy(pa, cb.p);
+  }
+  int64_t last = rc->xyz.n / 3;
+  for (int64_t i = first; i + 1 < last; ++i) {
+    int32_t s[3] = {(int32_t)i, (int32_t)(i + 1), (int32_t)(i + 1)};
+    int32_t ci = c->index;
+    if (!ibuf_push(&rc->seg, s, 3) || !ibuf_push(&rc->curve, &ci, 1)) goto nomem;
+  }
+  return PM_OK;
+nomem:
+  return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference of curve %d)", c->tag);
+}
+
+static void ref_curves_free(ref_curves *rc) {
+  free(rc->xyz.v), free(rc->t.v), free(rc->seg.v), free(rc->curve.v);
+  pm_bvh_destroy(rc->bvh);
+  memset(rc, 0, sizeof *rc);
+}
+
+/* See model_dist: the reference's distance to its faces is taken as this many times its chordal
+ * bound. */
+#define REF_REACH_MARGIN 4
+
+/* What lies near a mesh triangle, measured once from its centroid so that the samples inside it
+ * can skip the searches that cannot find anything (model_dist): a sample x of the triangle is
+ * |x - g| <= r from the centroid g, so every reference triangle T of another face is farther
+ * than other - |x - g| + reach(T) from x (reach: face_reach of T's face), and every boundary
+ * curve farther than curve - |x - g|. Both are computed from exact (double) distances, or are
+ * lower bounds when nothing was found within the search radius. */
+typedef struct tri_nbhd {
+  double g[3];   /* the centroid */
+  double r;      /* the largest distance from the centroid to a corner */
+  double other;  /* the smallest distance from the centroid to a reference triangle of a face
+                    other than the triangle's own, less that face's reach */
+  double curve;  /* distance from the centroid to the boundary curves' reference polylines */
+} tri_nbhd;
+
+/* Bounds compared with a tiny relative slack, so that the rounding of the triangle inequality
+ * never turns a search that would find something into a skipped one. */
+#define NBHD_SLACK (1 + 1e-9)
+
+/* ---- the context ---------------------------------------------------------------------------------- */
+
+enum { PART_SURF = 0, PART_WIRE = 1 };
+
+typedef struct dctx {
+  const pm_mesh *mesh;
+  const pm_model *m;
+  const pm_sizing *size;
+  const pm_distance_params *p;
+  int surf, wire;            /* which parts are measured */
+  pm_bvh *mesh_tri;          /* the mesh's triangles */
+  pm_bvh *mesh_wire;         /* the wire part's segments as (a, b, b), or NULL */
+  int32_t nwire;
+  int32_t *wire_seg;         /* [nwire] indices of the wire part's mesh segments */
+  int8_t *dangling;          /* [count[CURVE]] 1 for curves that bound no face */
+  ref_faces rf;              /* faces */
+  double band;               /* inside_exact's search radius */
+  const struct tri_nbhd *nb; /* [mesh->ntri] neighbourhood bounds of the triangles, or NULL */
+  double *face_reach;        /* [nface] how far a point of the face may lie from its reference,
+                                but for the gap: REF_REACH_MARGIN x its chordal bound */
+  double reach_max;          /* the largest face_reach */
+  double *face_box;          /* [6 nface] each face's reference box (lo, hi); a face without
+                                a reference has lo = +inf, hi = -inf: every distance to it is
+                                infinite */
+  double ref_reach;          /* how far a face point may lie from the reference: the largest
+                                chordal bound (at least eps) with a margin, and the widest gap */
+  ref_curves rc_surf;        /* curves bounding faces */
+  ref_curves rc_wire;        /* dangling curves */
+  int level;                 /* lattice level */
+  int npt_tri, npt_seg;      /* lattice points per triangle / segment */
+} dctx;
+
+/* A mesh point's classification hint: a cell and a starting parameter, or cell = -1. */
+typedef struct hint {
+  int32_t cell;
+  double par[2];
+  int32_t tri;    /* the mesh triangle the point lies in (its neighbourhood bounds), or -1 */
+} hint;
+
+/* A face candidate of model_dist. */
+typedef struct fcand {
+  int32_t f;
+  double d, p[3], n[3];
+  int in;
+} fcand;
+
+/* The trimming polylines cut the corners of curved boundaries (by up to 2e-4 of the parameter
+ * box, trim.c): next to a convex piece of boundary the polyline region misses a sliver of the
+ * face, next to a concave piece (a hole) it takes in a sliver outside the face. A point of the
+ * untrimmed surface close to a boundary curve is therefore judged against the curve itself: it is
+ * inside when it lies on the face's side of the curve, along n x T from the curve's closest point,
+ * with n = Su x Sv and T the curve's tangent in the loop's direction (the trimmed region lies to
+ * the left of its loops in (u, v): outer loops counter-clockwise, holes clockwise). This applies
+ * within BOUNDARY_BAND x diagonal of a boundary curve of f that f uses once (a seam is no
+ * boundary), at an interior point of the curve (at a corner the tangent says nothing); elsewhere
+ * pm_face_inside decides. Returns the corrected verdict. */
+#define BOUNDARY_BAND 1e-3
+
+/* inside_exact searching the curves within `radius` (at least c->band) of p: *dcurve (may be
+ * NULL) receives the distance to the nearest curve's polyline, or radius when none is within
+ * it, so that a caller can skip the searches of points nearer than dcurve - band to p. The
+ * verdict is inside_exact's: the nearest polyline within the band is the same in both. */
+static int inside_exact_far(const dctx *c, int32_t fi, int poly_in, const double p[3],
+                            const double n[3], double radius, double *dcurve) {
+  const pm_model *m = c->m;
+  if (dcurve) *dcurve = INFINITY;
+  if (!c->rc_surf.bvh) return poly_in;
+  double band = BOUNDARY_BAND * m->diagonal;
+  pm_bvh_hit hit;
+  int found = pm_bvh_closest(c->rc_surf.bvh, p, radius, &hit);
+  if (dcurve) *dcurve = found ? hit.dist : radius;
+  if (!found || hit.dist > c->band) return poly_in;
+  int32_t cu = c->rc_surf.curve.v[hit.tri];
+  const pm_cell *f = &m->cells[PM_FACE][fi], *cc = &m->cells[PM_CURVE][cu];
+  int uses = 0, sense = 0;
+  for (int32_t k = 0; k < f->nbound; ++k)
+    if (f->bound[k].cell == cu) ++uses, sense = f->bound[k].sense;
+  if (uses != 1 || cc->degenerate) return poly_in;
+  const int32_t *v = &c->rc_surf.seg.v[3 * (size_t)hit.tri];
+  double t = hit.bary[0] * c->rc_surf.t.v[v[0]] + (hit.bary[1] + hit.bary[2]) * c->rc_surf.t.v[v[1]];
+  pm_curve_point cp; /* C and C' at the foot */
+  double dq = curve_foot_at(cc, p, &t, &cp);
+  double span = cc->hi[0] - cc->lo[0];
+  if (dq > band || (!cc->periodic[0] && (t <= cc->lo[0] + 1e-9 * span || t >= cc->hi[0] - 1e-9 * span)))
+    return poly_in;
+  double T[3], in_dir[3], off[3];
+  pm_v3_scale(T, cp.d1, sense >= 0 ? 1 : -1);
+  pm_v3_cross(in_dir, n, T);
+  pm_v3_sub(off, p, cp.p);
+  return pm_v3_dot(off, in_dir) >= 0;
+}
+
+static int inside_exact(const dctx *c, int32_t fi, int poly_in, const double p[3], const double n[3]) {
+  return inside_exact_far(c, fi, poly_in, p, n, c->band, NULL);
+}
+
+/* Distance from x to the model's faces (surface part) or dangling curves (wire part): the
+ * smallest exact candidate (see distance.h). *fallback is set when none existed. */
+static double model_dist(const dctx *c, int part, const double x[3], const hint *h, int *fallback) {
+  const pm_model *m = c->m;
+  double best = INFINITY, eps = c->p->ref_tol * m->diagonal;
+  *fallback = 0;
+  const tri_nbhd *nb = c->nb && h && h->tri >= 0 ? &c->nb[h->tri] : NULL;
+  const double rx = nb ? pm_v3_dist(x, nb->g) : 0;
+  if (part == PART_SURF) {
+    fcand fc[2];
+    int nf = 0, poly_in[2] = {0, 0};
+    /* How far the reference may be from its faces: a face point nearer to x than reach lies
+     * within reach + ref_reach of x's closest reference triangle. */
+    double reach = INFINITY;
+    if (h && h->cell >= 0) {
+      double uv[2] = {h->par[0], h->par[1]};
+      fcand *a = &fc[nf++];
+      a->f = h->cell;
+      a->d = face_foot(&m->cells[PM_FACE][h->cell], x, uv, &a->in, a->p, a->n);
+      poly_in[0] = a->in;
+      /* inside_exact searches the curves within its band of the foot, which is within
+       * a->d + |x - g| of the centroid: when they are farther, its verdict is poly_in. */
+      if (!nb || nb->curve <= (rx + a->d + c->band) * NBHD_SLACK)
+        a->in = inside_exact(c, a->f, a->in, a->p, a->n);
+      /* The hint's foot is a model point at distance a->d: another face can only do better
+       * where the reference comes within a->d + ref_reach of x, so the search stops there
+       * (which prunes it to a few boxes where a face is not near another). The unbounded
+       * search found the same faces, but where the reference is farther from its face than
+       * ref_reach. */
+      if (a->in && c->p->prune) reach = a->d + c->ref_reach;
+    }
+    double dref = INFINITY;
+    /* The reference of other faces is beyond their reach (tri_nbhd): the search could only
+     * name the hint's own face, whose foot is inside, and so add nothing. */
+    if (nb && nf == 1 && poly_in[0] && fc[0].in &&
+        nb->other > (rx + fc[0].d) * NBHD_SLACK)
+      goto candidates_done;
+    if (c->rf.bvh) {
+      pm_bvh_hit hit;
+      if (pm_bvh_closest(c->rf.bvh, x, reach, &hit)) {
+        dref = hit.dist;
+        int32_t f = c->rf.face.v[hit.tri];
+        /* The reference names the hint's own face, whose foot was found inside it: a second
+         * projection onto that face would land on the same foot. */
+        if (nf == 1 && fc[0].f == f && poly_in[0]) goto candidates_done;
+        const int32_t *v = &c->rf.tri.v[3 * (size_t)hit.tri];
+        double uv[2] = {0, 0};
+        for (int k = 0; k < 3; ++k)
+          uv[0] += hit.bary[k] * c->rf.uv.v[2 * (size_t)v[k]],
+              uv[1] += hit.bary[k] * c->rf.uv.v[2 * (size_t)v[k] + 1];
+        fcand *b = &fc[nf++];
+        b->f = f;
+        b->d = face_foot(&m->cells[PM_FACE][f], x, uv, &b->in, b->p, b->n);
+        b->in = inside_exact(c, b->f, b->in, b->p, b->n);
+      }
+    }
+  candidates_done:
+    for (int i = 0; i < nf; ++i)
+      if (fc[i].in) best = fmin(best, fc[i].d);
+    /* Curves: only points closer than the best face candidate matter (the reference polyline
+     * is within eps of its curve), and none is when the triangle's curve bound says so. */
+    if (c->rc_surf.bvh && !(nb && best < INFINITY && nb->curve > (rx + best + 2 * eps) * NBHD_SLACK)) {
+      pm_bvh_hit hit;
+      if (pm_bvh_closest(c->rc_surf.bvh, x, best < INFINITY ? best + 2 * eps : INFINITY, &hit)) {
+        int32_t cu = c->rc_surf.curve.v[hit.tri];
+        const int32_t *v = &c->rc_surf.seg.v[3 * (size_t)hit.tri];
+        double t = hit.bary[0] * c->rc_surf.t.v[v[0]] + (hit.bary[1] + hit.bary[2]) * c->rc_surf.t.v[v[1]];
+        best = fmin(best, curve_foot(&m->cells[PM_CURVE][cu], x, &t));
+      }
+    }
+    if (best == INFINITY) {
+      *fallback = 1;
+      best = dref;
+    }
+    return best;
+  }
+  if (h && h->cell >= 0) {
+    double t = h->par[0];
+    best = curve_foot(&m->cells[PM_CURVE][h->cell], x, &t);
+  }
+  if (c->rc_wire.bvh) {
+    pm_bvh_hit hit;
+    if (pm_bvh_closest(c->rc_wire.bvh, x, best < INFINITY ? best + 2 * eps : INFINITY, &hit)) {
+      int32_t cu = c->rc_wire.curve.v[hit.tri];
+      const int32_t *v = &c->rc_wire.seg.v[3 * (size_t)hit.tri];
+      double t = hit.bary[0] * c->rc_wire.t.v[v[0]] + (hit.bary[1] + hit.bary[2]) * c->rc_wire.t.v[v[1]];
+      best = fmin(best, curve_foot(&m->cells[PM_CURVE][cu], x, &t));
+    }
+  }
+  if (best == INFINITY) *fallback = 1;
+  return best;
+}
+
+/* The hint of mesh triangle t: its face when the triangle is classified on it and at least one
+ * of its nodes lies on it, with the (u, v) of each node on the face, unwrapped across a
+ * periodic face's seam (relative to the first) so that interpolating them stays on one sheet; a
+ * node on a curve or vertex (no (u, v) of its own on the face) takes the nearest face node's.
+ * The caller interpolates with barycentrics: a start for the projection, which the Newton
+ * iteration refines. */
+static int tri_hint_nodes(const dctx *c, int32_t t, double par[3][2]) {
+  const pm_mesh *me = c->mesh;
+  if (!me->tri_cell || !me->node_dim || !me->node_cell || !me->node_par) return -1;
+  int32_t f = me->tri_cell[t];
+  if (f < 0 || f >= c->m->count[PM_FACE]) return -1;
+  const pm_cell *fc = &c->m->cells[PM_FACE][f];
+  const int32_t *v = &me->tri[3 * (size_t)t];
+  int on[3], first = -1;
+  for (int k = 0; k < 3; ++k) {
+    on[k] = me->node_dim[v[k]] == PM_FACE && me->node_cell[v[k]] == f;
+    if (!on[k]) continue;
+    par[k][0] = me->node_par[2 * (size_t)v[k]], par[k][1] = me->node_par[2 * (size_t)v[k] + 1];
+    if (first < 0) {
+      first = k;
+      continue;
+    }
+    for (int q = 0; q < 2; ++q)
+      if (fc->periodic[q] && fc->period[q] > 0)
+        par[k][q] += fc->period[q] * round((par[first][q] - par[k][q]) / fc->period[q]);
+  }
+  if (first < 0) return -1;
+  for (int k = 0; k < 3; ++k) {
+    if (on[k]) continue;
+    int best = first;
+    double bd = INFINITY;
+    for (int j = 0; j < 3; ++j) {
+      if (!on[j]) continue;
+      double d = pm_v3_dist(&me->xyz[3 * (size_t)v[k]], &me->xyz[3 * (size_t)v[j]]);
+      if (d < bd) bd = d, best = j;
+    }
+    par[k][0] = par[best][0], par[k][1] = par[best][1];
+  }
+  return f;
+}
+
+static int seg_hint_nodes(const dctx *c, int32_t s, double par[2]) {
+  const pm_mesh *me = c->mesh;
+  if (!me->seg_cell || !me->node_dim || !me->node_cell || !me->node_par) return -1;
+  int32_t cu = me->seg_cell[s];
+  if (cu < 0 || cu >= c->m->count[PM_CURVE]) return -1;
+  const pm_cell *cc = &c->m->cells[PM_CURVE][cu];
+  for (int k = 0; k < 2; ++k) {
+    int32_t v = me->seg[2 * (size_t)s + k];
+    if (me->node_dim[v] != PM_CURVE || me->node_cell[v] != cu) return -1;
+    par[k] = me->node_par[2 * (size_t)v];
+    if (k == 1 && cc->periodic[0] && cc->period[0] > 0)
+      par[1] += cc->period[0] * round((par[0] - par[1]) / cc->period[0]);
+  }
+  return cu;
+}
+
+/* ---- sampling ------------------------------------------------------------------------------------- */
+
+/* A sample of either direction, addressed by (kind, element, parameters). */
+enum { S_TRI = 0, S_SEG = 1, S_FACE = 2, S_CURVE = 3 };
+
+/* Model-side sample blocks: a face grid or a curve's points. */
+typedef struct mblock {
+  int kind;       /* S_FACE or S_CURVE */
+  int part;       /* PART_SURF or PART_WIRE */
+  int32_t cell;
+  int32_t nu, nv; /* grid (curves: nu points, nv = 1) */
+  double u0, v0, du, dv;
+  int64_t first;  /* global index of the block's first sample */
+} mblock;
+
+/* Evaluate a mesh-side sample at parameters par (triangle: barycentric (s, t) of vertices 1 and
+ * 2; segment: t in [0, 1]). Returns the distance, NAN outside the element; fills x and weight
+ * is left to the caller. */
+static double mesh_eval(const dctx *c, int kind, int32_t e, const double par[2], double x[3],
+                        int *fallback) {
+  const pm_mesh *me = c->mesh;
+  *fallback = 0;
+  if (kind == S_TRI) {
+    double s = par[0], t = par[1];
+    if (!(s >= 0 && t >= 0 && s + t <= 1)) return NAN;
+    const int32_t *v = &me->tri[3 * (size_t)e];
+    const double w[3] = {1 - s - t, s, t};
+    pm_v3_zero(x);
+    for (int k = 0; k < 3; ++k) pm_v3_axpy(x, x, w[k], &me->xyz[3 * (size_t)v[k]]);
+    double np[3][2];
+    hint h = {-1, {0, 0}, e};
+    int32_t f = tri_hint_nodes(c, e, np);
+    if (f >= 0) {
+      h.cell = f;
+      for (int q = 0; q < 2; ++q) h.par[q] = w[0] * np[0][q] + w[1] * np[1][q] + w[2] * np[2][q];
+    }
+    return model_dist(c, PART_SURF, x, &h, fallback);
+  }
+  double t = par[0];
+  if (!(t >= 0 && t <= 1)) return NAN;
+  int32_t sg = c->wire_seg[e];
+  const double *a = &me->xyz[3 * (size_t)me->seg[2 * (size_t)sg]],
+               *b = &me->xyz[3 * (size_t)me->seg[2 * (size_t)sg + 1]];
+  for (int k = 0; k < 3; ++k) x[k] = (1 - t) * a[k] + t * b[k];
+  double np[2];
+  hint h = {-1, {0, 0}, -1};
+  int32_t cu = seg_hint_nodes(c, sg, np);
+  if (cu >= 0 && c->dangling[cu]) h.cell = cu, h.par[0] = (1 - t) * np[0] + t * np[1];
+  return model_dist(c, PART_WIRE, x, &h, fallback);
+}
+
+/* Evaluate a model-side sample at parameters par of block b's cell: NAN outside the cell. For
+ * a face, *jac (may be NULL) receives |Su x Sv| there (the area weight). */
+static double model_eval(const dctx *c, const mblock *b, const double par[2], double x[3],
+                         double *jac) {
+  if (b->kind == S_FACE) {
+    const pm_cell *f = &c->m->cells[PM_FACE][b->cell];
+    pm_face_point fp;
+    pm_face_eval(f, par, 1, &fp);
+    double n[3];
+    pm_v3_cross(n, fp.su, fp.sv);
+    if (!inside_exact(c, b->cell, pm_face_inside(f, par), fp.p, n)) return NAN;
+    pm_v3_copy(x, fp.p);
+    if (jac) *jac = pm_v3_norm(n);
+  } else {
+    const pm_cell *cu = &c->m->cells[PM_CURVE][b->cell];
+    double t = par[0];
+    if (!cu->periodic[0] && !(t >= cu->lo[0] && t <= cu->hi[0])) return NAN;
+    pm_curve_point cp;
+    pm_curve_eval(cu, t, 0, &cp);
+    pm_v3_copy(x, cp.p);
+  }
+  const pm_bvh *target = (b->part == PART_WIRE && c->mesh_wire) ? c->mesh_wire : c->mesh_tri;
+  if (!target) return NAN;
+  pm_bvh_hit hit;
+  pm_bvh_closest(target, x, INFINITY, &hit);
+  return hit.dist;
+}
+
+/* ---- accumulation ------------------------------------------------------------------------------------ */
+
+typedef struct acc {
+  double sum_wd, sum_w, sum_wr, max, rel_max;
+  double max_at[3];
+  int64_t n;
+} acc;
+
+/* One of the largest samples, for refinement. */
+typedef struct topk {
+  double d;
+  int kind;
+  int32_t elem;    /* triangle / wire segment index, or model block index */
+  int64_t key;     /* one entry per key */
+  double par[2];
+  double step[2];  /* initial pattern-search step per parameter */
+} topk;
+
+static void topk_offer(topk *list, int *n, int K, const topk *cand) {
+  if (K <= 0 || !(cand->d > 0)) return;
+  if (*n == K && cand->d <= list[K - 1].d) return;
+  for (int i = 0; i < *n; ++i)
+    if (list[i].key == cand->key) {
+      if (cand->d <= list[i].d) return;
+      /* Replace and bubble up. */
+      list[i] = *cand;
+      while (i > 0 && list[i - 1].d < list[i].d) {
+        topk t = list[i - 1];
+        list[i - 1] = list[i], list[i] = t;
+        --i;
+      }
+      return;
+    }
+  int i = *n < K ? (*n)++ : K - 1;
+  list[i] = *cand;
+  while (i > 0 && list[i - 1].d < list[i].d) {
+    topk t = list[i - 1];
+    list[i - 1] = list[i], list[i] = t;
+    --i;
+  }
+}
+
+static void acc_add(acc *a, double d, double w, double rel, const double x[3]) {
+  a->sum_wd += w * d, a->sum_w += w, a->sum_wr += w * rel;
+  if (d > a->max) a->max = d, pm_v3_copy(a->max_at, x);
+  if (rel > a->rel_max) a->rel_max = rel;
+  a->n++;
+}
+
+static double size_at(const dctx *c, const double x[3]) {
+  if (!c->size) return 0;
+  double s = pm_sizing_eval(c->size, x);
+  return s > 0 && isfinite(s) ? s : 0;
+}
+
+/* Pattern search: the local maximum of the distance around a sample, over the element's
+ * parameters (8 directions: the axes and diagonals, steps halved when no neighbour is better,
+ * down to 1e-7 of the start step or 400 evaluations). */
+#define PS_MIN_STEP 1e-7
+#define PS_MAX_EVAL 400
+
+static double refine_one(const dctx *c, const mblock *blocks, topk *e, double x_best[3]) {
+  static const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
+  int ndim = (e->kind == S_SEG || (e->kind == S_CURVE)) ? 1 : 2;
+  double par[2] = {e->par[0], e->par[1]}, step[2] = {e->step[0], e->step[1]};
+  double best = e->d, x[3];
+  int fb;
+  /* Re-evaluate the start for its point (and a consistent value). */
+  double d0 = e->kind <= S_SEG ? mesh_eval(c, e->kind, e->elem, par, x, &fb)
+                               : model_eval(c, &blocks[e->elem], par, x, NULL);
+  if (isfinite(d0)) best = d0, pm_v3_copy(x_best, x);
+  int evals = 0;
+  while (evals < PS_MAX_EVAL && step[0] > PS_MIN_STEP * e->step[0]) {
+    int moved = 0;
+    double bp[2] = {par[0], par[1]};
+    for (int k = 0; k < (ndim == 1 ? 2 : 8) && evals < PS_MAX_EVAL; ++k) {
+      double q[2] = {par[0] + dirs[k][0] * step[0], par[1] + dirs[k][1] * step[1]};
+      ++evals;
+      double d = e->kind <= S_SEG ? mesh_eval(c, e->kind, e->elem, q, x, &fb)
+                                  : model_eval(c, &blocks[e->elem], q, x, NULL);
+      if (isfinite(d) && d > best) best = d, bp[0] = q[0], bp[1] = q[1], pm_v3_copy(x_best, x), moved = 1;
+    }
+    if (moved)
+      par[0] = bp[0], par[1] = bp[1];
+    else
+      step[0] *= 0.5, step[1] *= 0.5;
+  }
+  return best;
+}
+
+/* The mesh side's lattice points, each once: a triangle's lattice of level L has its corners
+ * (shared by the triangles at a node), L - 1 points on each edge (shared by the edge's
+ * triangles) and (L - 1)(L - 2) / 2 inside. Sampling the shared points once per mesh rather
+ * than once per triangle halves the samples (about 0.5 + 1.5 (L - 1) + (L - 1)(L - 2) / 2 per
+ * triangle instead of (L + 1)(L + 2) / 2) and gives every point the weight of all the triangles
+ * it stands for, so the area-weighted mean is the one the per-triangle lattices give. A point
+ * is evaluated through one of its triangles (the lowest-numbered), whose classification gives
+ * the projection's hint; a point on an edge between two faces also through a triangle of the
+ * other face, and the smaller distance is kept (each is the distance to a real model point, so
+ * the smaller is the nearer to the true one). */
+typedef struct lattice {
+  int64_t n;
+  int32_t *tri;  /* [n] the triangle a point is evaluated through */
+  double *par;   /* [2n] its barycentric (s, t) in that triangle */
+  int32_t *alt;  /* [n] a triangle of another face at the point, or -1 */
+  double *apar;  /* [2n] the point's barycentrics in alt */
+  double *w;     /* [n] area weight */
+} lattice;
+
+static void lattice_free(lattice *l) {
+  free(l->tri), free(l->par), free(l->alt), free(l->apar), free(l->w);
+  memset(l, 0, sizeof *l);
+}
+
+static int lattice_push(lattice *l, int64_t cap, int32_t t, double s, double u, double w) {
+  if (l->n >= cap) return 0;
+  l->tri[l->n] = t, l->par[2 * l->n] = s, l->par[2 * l->n + 1] = u, l->w[l->n] = w;
+  l->alt[l->n] = -1, l->apar[2 * l->n] = l->apar[2 * l->n + 1] = 0;
+  l->n++;
+  return 1;
+}
+
+/* Barycentric (s, t) of corner k of a triangle: the weights of corners 1 and 2. */
+static void corner_par(int k, double t, double par[2]) {
+  par[0] = k == 1 ? t : 0, par[1] = k == 2 ? t : 0;
+}
+
+static pm_status lattice_build(const pm_mesh *me, int level, lattice *l, pm_error *err) {
+  memset(l, 0, sizeof *l);
+  const int32_t nt = me->ntri;
+  const int npt = (level + 1) * (level + 2) / 2;
+  pm_edges e = {0};
+  pm_status st = pm_edges_build(me->nnode, me->tri, nt, 3, &e, err);
+  if (st) return st;
+  double *area = malloc(sizeof(double) * (size_t)(nt ? nt : 1));
+  double *nw = calloc((size_t)me->nnode + 1, sizeof(double));
+  int32_t *owner = malloc(sizeof(int32_t) * ((size_t)me->nnode + 1));
+  int64_t cap = (int64_t)me->nnode + e.nedge * (level - 1) +
+                (int64_t)nt * ((level - 1) * (level - 2) / 2) + 1;
+  l->tri = malloc(sizeof(int32_t) * (size_t)cap);
+  l->par = malloc(sizeof(double) * 2 * (size_t)cap);
+  l->w = malloc(sizeof(double) * (size_t)cap);
+  l->alt = malloc(sizeof(int32_t) * (size_t)cap);
+  l->apar = malloc(sizeof(double) * 2 * (size_t)cap);
+  if (!area || !nw || !owner || !l->tri || !l->par || !l->w || !l->alt || !l->apar) {
+    free(area), free(nw), free(owner), pm_edges_free(&e), lattice_free(l);
+    return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (lattice)");
+  }
+  for (int32_t i = 0; i < me->nnode; ++i) owner[i] = -1;
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t *v = &me->tri[3 * (size_t)t];
+    double ab[3], ac[3], n[3];
+    pm_v3_sub(ab, &me->xyz[3 * (size_t)v[1]], &me->xyz[3 * (size_t)v[0]]);
+    pm_v3_sub(ac, &me->xyz[3 * (size_t)v[2]], &me->xyz[3 * (size_t)v[0]]);
+    pm_v3_cross(n, ab, ac);
+    area[t] = 0.5 * pm_v3_norm(n) / npt;
+    for (int k = 0; k < 3; ++k) {
+      nw[v[k]] += area[t];
+      if (owner[v[k]] < 0) owner[v[k]] = t;
+    }
+  }
+  int ok = 1;
+  /* Corners, in node order. */
+  for (int32_t i = 0; i < me->nnode && ok; ++i) {
+    int32_t t = owner[i];
+    if (t < 0) continue;
+    int k = me->tri[3 * (size_t)t] == i ? 0 : (me->tri[3 * (size_t)t + 1] == i ? 1 : 2);
+    double par[2];
+    corner_par(k, 1, par);
+    ok = lattice_push(l, cap, t, par[0], par[1], nw[i]);
+  }
+  /* Edge points, in edge order. */
+  for (int64_t k = 0; k < e.nedge && ok && level > 1; ++k) {
+    double w = 0;
+    for (int64_t q = e.off[k]; q < e.off[k + 1]; ++q) w += area[e.elem[q]];
+    int32_t t = e.elem[e.off[k]], a = e.ends[2 * k], b = e.ends[2 * k + 1];
+    const int32_t *v = &me->tri[3 * (size_t)t];
+    int ia = v[0] == a ? 0 : (v[1] == a ? 1 : 2), ib = v[0] == b ? 0 : (v[1] == b ? 1 : 2);
+    /* A triangle of another face along the edge (a curve between two faces). */
+    int32_t t2 = -1;
+    for (int64_t q = e.off[k] + 1; q < e.off[k + 1] && t2 < 0 && me->tri_cell; ++q)
+      if (me->tri_cell[e.elem[q]] != me->tri_cell[t]) t2 = e.elem[q];
+    const int32_t *v2 = t2 >= 0 ? &me->tri[3 * (size_t)t2] : NULL;
+    int ja = v2 ? (v2[0] == a ? 0 : (v2[1] == a ? 1 : 2)) : 0;
+    int jb = v2 ? (v2[0] == b ? 0 : (v2[1] == b ? 1 : 2)) : 0;
+    for (int q = 1; q < level && ok; ++q) {
+      double f = (double)q / level, pa[2], pb[2];
+      corner_par(ia, 1 - f, pa), corner_par(ib, f, pb);
+      ok = lattice_push(l, cap, t, pa[0] + pb[0], pa[1] + pb[1], w);
+      if (ok && v2) {
+        corner_par(ja, 1 - f, pa), corner_par(jb, f, pb);
+        l->alt[l->n - 1] = t2;
+        l->apar[2 * (l->n - 1)] = pa[0] + pb[0], l->apar[2 * (l->n - 1) + 1] = pa[1] + pb[1];
+      }
+    }
+  }
+  /* Interior points, in triangle order. */
+  for (int32_t t = 0; t < nt && ok; ++t)
+    for (int i = 1; i < level && ok; ++i)
+      for (int j = 1; i + j < level && ok; ++j)
+        ok = lattice_push(l, cap, t, (double)i / level, (double)j / level, area[t]);
+  free(area), free(nw), free(owner);
+  pm_edges_free(&e);
+  if (!ok) {
+    lattice_free(l);
+    return pm_error_setf(err, PM_ERR_INTERNAL, "distance: lattice count");
+  }
+  return PM_OK;
+}
+
+/* A run of model-side samples: chunk positions k .. k + len - 1, all of block `block`. */
+typedef struct mrun {
+  int64_t k;
+  int32_t len, block;
+} mrun;
+#define RUN 64
+
+/* Evaluate a run (the model -> mesh loop): results at chunk position k as in that loop. The
+ * figures are model_eval's: a face's points come from one pm_face_eval_many call (the same
+ * evaluations, batched), a sample's search of the curves (inside_exact) reaches further than the
+ * band and tells how far the curves are, so that the following samples nearer to it than that
+ * distance less the band need no search, and the search of the mesh starts from the previous
+ * sample's distance plus the distance between the two (a bound on the answer, which is the same
+ * exact distance as from an unbounded search). */
+static void model_run(const dctx *c, const mblock *blocks, const mrun *run, int64_t s0,
+                      double *dres, double *wres, double *rres, double *xres, int *fres) {
+  const mblock *b = &blocks[run->block];
+  const pm_model *m = c->m;
+  const pm_bvh *target = (b->part == PART_WIRE && c->mesh_wire) ? c->mesh_wire : c->mesh_tri;
+  if (b->kind != S_FACE) {
+    for (int32_t q = 0; q < run->len; ++q) {
+      int64_t k = run->k + q, r = s0 + k - b->first;
+      double par[2], w = 0, *x = &xres[3 * k];
+      par[0] = r + 1 == b->nu ? m->cells[PM_CURVE][b->cell].hi[0] : b->u0 + r * b->du, par[1] = 0;
+      dres[k] = model_eval(c, b, par, x, NULL);
+      /* Boundary curves of faces carry no area: they count in the maximum only. Dangling
+       * curves are the wire part, weighted by length. */
+      if (b->part == PART_WIRE && isfinite(dres[k])) {
+        pm_curve_point cp;
+        pm_curve_eval(&m->cells[PM_CURVE][b->cell], par[0], 1, &cp);
+        w = pm_v3_norm(cp.d1) * b->du * ((r == 0 || r + 1 == b->nu) ? 0.5 : 1);
+      }
+      wres[k] = w;
+      fres[k] = run->block;
+      double sz = isfinite(dres[k]) ? size_at(c, x) : 0;
+      rres[k] = sz > 0 ? dres[k] / sz : 0;
+    }
+    return;
+  }
+  const pm_cell *f = &m->cells[PM_FACE][b->cell];
+  double uv[2 * RUN];
+  pm_face_point fp[RUN];
+  for (int32_t q = 0; q < run->len; ++q) {
+    int64_t r = s0 + run->k + q - b->first;
+    int32_t i = (int32_t)(r / b->nv), j = (int32_t)(r % b->nv);
+    uv[2 * q] = b->u0 + i * b->du, uv[2 * q + 1] = b->v0 + j * b->dv;
+  }
+  pm_face_eval_many(f, run->len, uv, 1, fp);
+  double prev[3] = {0, 0, 0}, dprev = INFINITY, cprev[3] = {0, 0, 0}, dcurve = -INFINITY;
+  for (int32_t q = 0; q < run->len; ++q) {
+    int64_t k = run->k + q;
+    double *x = &xres[3 * k], n[3];
+    pm_v3_copy(x, fp[q].p);
+    pm_v3_cross(n, fp[q].su, fp[q].sv);
+    int in = pm_face_inside(f, &uv[2 * q]);
+    if (!c->p->prune) {
+      in = inside_exact(c, b->cell, in, x, n);
+    } else if (dcurve - pm_v3_dist(x, cprev) <= c->band * NBHD_SLACK) {
+      in = inside_exact_far(c, b->cell, in, x, n, 4 * c->band, &dcurve);
+      pm_v3_copy(cprev, x);
+    }
+    dres[k] = NAN, wres[k] = 0;
+    if (in && target) {
+      pm_bvh_hit hit;
+      double bound = dprev < INFINITY && c->p->prune ? (dprev + pm_v3_dist(x, prev)) * NBHD_SLACK : INFINITY;
+      if (!pm_bvh_closest(target, x, bound, &hit)) pm_bvh_closest(target, x, INFINITY, &hit);
+      dres[k] = hit.dist;
+      pm_v3_copy(prev, x), dprev = hit.dist;
+      wres[k] = pm_v3_norm(n) * b->du * b->dv;
+    }
+    fres[k] = run->block;
+    double sz = isfinite(dres[k]) ? size_at(c, x) : 0;
+    rres[k] = sz > 0 ? dres[k] / sz : 0;
+  }
+}
+
+/* Points allowed on one face: per_tri for each of its triangles, at least FACE_BUDGET_MIN (a
+ * face with a handful of triangles still gets a grid that resolves its boundary), at most cap. */
+#define FACE_BUDGET_MIN 256
+static int64_t face_budget(int64_t cap, int32_t per_tri, int32_t ntri) {
+  int64_t b = (int64_t)per_tri * ntri;
+  if (b < FACE_BUDGET_MIN) b = FACE_BUDGET_MIN;
+  return b < cap ? b : cap;
+}
+
+/* The neighbourhood bounds of triangle t (tri_nbhd). The searches reach a quarter of r beyond
+ * what a sample needs when its distance to the model is 0 (NBHD_REACH): samples farther from
+ * the model than that search as before. */
+#define NBHD_REACH 1.25
+
+typedef struct other_ctx {
+  const dctx *c;
+  const double *p;
+  int32_t face;
+  double best;  /* the smallest distance less the face's reach so far */
+} other_ctx;
+
+/* A reference triangle counts as nearer by its face's reach, so the search goes on to the best
+ * value plus the largest reach. The strip that a degraded face's reference leaves uncovered
+ * (ref_faces.gap) is not counted: the unbounded search of the reference found such a face only
+ * where its reference was the nearest, and so does this one. */
+static double other_face_visit(void *user, int32_t t, double radius) {
+  other_ctx *o = user;
+  const dctx *c = o->c;
+  const ref_faces *rf = &c->rf;
+  int32_t f = rf->face.v[t];
+  if (f == o->face) return radius;
+  const int32_t *v = &rf->tri.v[3 * (size_t)t];
+  double d = pm_point_triangle_closest(o->p, &rf->xyz.v[3 * (size_t)v[0]], &rf->xyz.v[3 * (size_t)v[1]],
+                                       &rf->xyz.v[3 * (size_t)v[2]], NULL, NULL);
+  o->best = fmin(o->best, d - c->face_reach[f]);
+  return fmin(radius, o->best + c->reach_max);
+}
+
+/* Centroid, r and the curve bound of triangle t. */
+static void tri_nbhd_near(const dctx *c, int32_t t, tri_nbhd *nb) {
+  const pm_mesh *me = c->mesh;
+  const int32_t *v = &me->tri[3 * (size_t)t];
+  double *g = nb->g;
+  pm_v3_zero(g);
+  for (int k = 0; k < 3; ++k) pm_v3_axpy(g, g, 1.0 / 3.0, &me->xyz[3 * (size_t)v[k]]);
+  nb->r = 0;
+  for (int k = 0; k < 3; ++k) nb->r = fmax(nb->r, pm_v3_dist(g, &me->xyz[3 * (size_t)v[k]]));
+  nb->curve = INFINITY;
+  if (c->rc_surf.bvh) {
+    double cap = NBHD_REACH * nb->r + c->band;
+    pm_bvh_hit hit;
+    nb->curve = pm_bvh_closest(c->rc_surf.bvh, g, cap, &hit) ? hit.dist : cap;
+  }
+}
+
+/* Distance from p to an axis-aligned box (lo[3], hi[3]); 0 inside. */
+static double box_distance(const double p[3], const double *box) {
+  double s = 0;
+  for (int k = 0; k < 3; ++k) {
+    double e = fmax(fmax(box[k] - p[k], p[k] - box[3 + k]), 0);
+    s += e * e;
+  }
+  return sqrt(s);
+}
+
+/* The other-face bound of a triangle classified on face f (f < 0: unclassified). The
+ * boxes of the faces near f's box are looked at first: when none comes within reach, no
+ * reference triangle does, and the search of the reference (which visits the triangle's own
+ * face's reference too, to no use) is not needed. */
+static void tri_nbhd_other(const dctx *c, int32_t f, const int32_t *near_off, const int32_t *near,
+                           tri_nbhd *nb) {
+  if (!c->rf.bvh) {
+    nb->other = INFINITY;
+    return;
+  }
+  if (f < 0) {
+    nb->other = -INFINITY; /* no hint, nothing is skipped */
+    return;
+  }
+  const double cap = NBHD_REACH * nb->r;
+  int any = 0;
+  for (int32_t k = near_off[f]; k < near_off[f + 1] && !any; ++k)
+    any = box_distance(nb->g, &c->face_box[6 * (size_t)near[k]]) - c->face_reach[near[k]] <= cap;
+  if (!any) {
+    nb->other = cap;
+    return;
+  }
+  /* The search reaches cap only (its cost stays that of the triangle's surroundings); an
+   * unvisited triangle is farther than cap, so its distance less its reach exceeds
+   * cap - reach_max. */
+  other_ctx o = {c, nb->g, f, cap};
+  pm_bvh_visit(c->rf.bvh, nb->g, cap, other_face_visit, &o);
+  nb->other = fmin(o.best, cap - c->reach_max);
+}
+
+/* ---- driver ---------------------------------------------------------------------------------------------- */
+
+static int cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
+/* The 5th percentile of the edge lengths of the triangles in list (all when list is NULL). */
+static double edge_percentile(const pm_mesh *me, const int32_t *list, int64_t n) {
+  if (n <= 0) return 0;
+  double *len = malloc(sizeof(double) * 3 * (size_t)n);
+  if (!len) return 0;
+  int64_t k = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    int32_t t = list ? list[i] : (int32_t)i;
+    const int32_t *v = &me->tri[3 * (size_t)t];
+    for (int q = 0; q < 3; ++q) {
+      double l = pm_v3_dist(&me->xyz[3 * (size_t)v[q]], &me->xyz[3 * (size_t)v[(q + 1) % 3]]);
+      if (l > 0) len[k++] = l;
+    }
+  }
+  double r = 0;
+  if (k > 0) {
+    qsort(len, (size_t)k, sizeof(double), cmp_double);
+    r = len[(size_t)(0.05 * (double)(k - 1))];
+  }
+  free(len);
+  return r;
+}
+
+static double seg_length_percentile(const pm_mesh *me, const int32_t *list, int64_t n) {
+  if (n <= 0) return 0;
+  double *len = malloc(sizeof(double) * (size_t)n);
+  if (!len) return 0;
+  int64_t k = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    const int32_t *v = &me->seg[2 * (size_t)list[i]];
+    double l = pm_v3_dist(&me->xyz[3 * (size_t)v[0]], &me->xyz[3 * (size_t)v[1]]);
+    if (l > 0) len[k++] = l;
+  }
+  double r = 0;
+  if (k > 0) {
+    qsort(len, (size_t)k, sizeof(double), cmp_double);
+    r = len[(size_t)(0.05 * (double)(k - 1))];
+  }
+  free(len);
+  return r;
+}
+
+/* Approximate 3D length of a curve (polygon of 64 chords). */
+/* Samples evaluated per parallel chunk (results are reduced in index order after each). */
+#define CHUNK (1 << 15)
+
+pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_sizing *size,
+                           const pm_distance_params *pin, pm_distance *out, pm_error *err) {
+  memset(out, 0, sizeof *out);
+  if (!mesh || !model) return pm_error_setf(err, PM_ERR_ARG, "distance: no mesh or no model");
+  pm_distance_params p;
+  if (pin)
+    p = *pin;
+  else
+    pm_distance_params_init(&p);
+  pm_status s = pm_distance_params_check(&p, err);
+  if (s) return s;
+  const pm_model *m = model;
+  const int32_t nface = m->count[PM_FACE], ncurve = m->count[PM_CURVE];
+  if (nface == 0 && ncurve == 0)
+    return pm_error_setf(err, PM_ERR_GEOM, "distance: the model %s has neither faces nor curves",
+                         m->name);
+
+  dctx c;
+  memset(&c, 0, sizeof c);
+  c.mesh = mesh, c.m = m, c.size = size, c.p = &p;
+  out->bbox_diagonal = m->diagonal;
+  out->has_size = size != NULL;
+  const double eps = p.ref_tol * m->diagonal;
+
+  c.dangling = calloc((size_t)(ncurve > 0 ? ncurve : 1), 1);
+  int32_t *face_tris_off = calloc((size_t)nface + 2, sizeof(int32_t));
+  int32_t *face_tris = malloc(sizeof(int32_t) * (size_t)(mesh->ntri > 0 ? mesh->ntri : 1));
+  double *Lface = malloc(sizeof(double) * (size_t)(nface > 0 ? nface : 1));
+  mblock *blocks = NULL;
+  face_info *finfo = NULL;
+  tri_nbhd *nbhd = NULL;
+  double *dres = NULL, *wres = NULL, *rres = NULL, *xres = NULL;
+  lattice lat = {0};
+  int *fres = NULL;
+  mrun *runs = NULL;
+  int32_t *curve_segs = NULL; /* [ncurve] mesh segments on each curve */
+  if (!c.dangling || !face_tris_off || !face_tris || !Lface) goto nomem;
+  int ndangling = 0;
+  curve_segs = calloc((size_t)(ncurve > 0 ? ncurve : 1), sizeof(int32_t));
+  if (!curve_segs) goto nomem;
+  for (int32_t i = 0; i < mesh->nseg && mesh->seg_cell; ++i)
+    if (mesh->seg_cell[i] >= 0 && mesh->seg_cell[i] < ncurve) curve_segs[mesh->seg_cell[i]]++;
+  for (int32_t i = 0; i < ncurve; ++i) {
+    c.dangling[i] = m->cells[PM_CURVE][i].nup == 0;
+    ndangling += c.dangling[i];
+  }
+
+  /* Which parts: see distance.h. */
+  c.surf = nface > 0;
+  if (c.surf && mesh->ntri == 0) {
+    s = pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no triangles but the model %s has %d faces",
+                      m->name, (int)nface);
+    goto done;
+  }
+  c.wire_seg = malloc(sizeof(int32_t) * (size_t)(mesh->nseg > 0 ? mesh->nseg : 1));
+  if (!c.wire_seg) goto nomem;
+  for (int32_t i = 0; i < mesh->nseg; ++i) {
+    int32_t cu = mesh->seg_cell ? mesh->seg_cell[i] : -1;
+    int known = cu >= 0 && cu < ncurve;
+    if ((known && c.dangling[cu]) || (!known && nface == 0)) c.wire_seg[c.nwire++] = i;
+  }
+  c.wire = ndangling > 0;
+  if (!c.surf && c.nwire == 0) {
+    s = pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no segments to compare with the curves of %s",
+                      m->name);
+    goto done;
+  }
+
+  /* BVHs of the mesh. */
+  if (mesh->ntri > 0 && (s = pm_bvh_create(mesh->xyz, mesh->nnode, mesh->tri, mesh->ntri, &c.mesh_tri, err))) {
+    pm_error_prefix(err, "distance");
+    goto done;
+  }
+  if (c.nwire > 0) {
+    int32_t *st = malloc(sizeof(int32_t) * 3 * (size_t)c.nwire);
+    if (!st) goto nomem;
+    for (int32_t i = 0; i < c.nwire; ++i) {
+      const int32_t *v = &mesh->seg[2 * (size_t)c.wire_seg[i]];
+      st[3 * i] = v[0], st[3 * i + 1] = v[1], st[3 * i + 2] = v[1];
+    }
+    s = pm_bvh_create(mesh->xyz, mesh->nnode, st, c.nwire, &c.mesh_wire, err);
+    free(st);
+    if (s) {
+      pm_error_prefix(err, "distance");
+      goto done;
+    }
+  }
+
+  /* Local edge lengths per face (5th percentile), from the triangles classified on it. */
+  double Lglobal = c.surf ? edge_percentile(mesh, NULL, mesh->ntri) : 0;
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+    face_tris_off[(f >= 0 && f < nface ? f : nface) + 1]++;
+  }
+  for (int32_t f = 0; f <= nface; ++f) face_tris_off[f + 1] += face_tris_off[f];
+  {
+    int32_t *fill = calloc((size_t)nface + 1, sizeof(int32_t));
+    if (!fill) goto nomem;
+    for (int32_t t = 0; t < mesh->ntri; ++t) {
+      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+      if (!(f >= 0 && f < nface)) f = nface;
+      face_tris[face_tris_off[f] + fill[f]++] = t;
+    }
+    free(fill);
+  }
+  for (int32_t f = 0; f < nface; ++f) {
+    int32_t n = face_tris_off[f + 1] - face_tris_off[f];
+    Lface[f] = n > 0 ? edge_percentile(mesh, &face_tris[face_tris_off[f]], n) : Lglobal;
+    if (!(Lface[f] > 0)) Lface[f] = Lglobal > 0 ? Lglobal : 0.01 * m->diagonal;
+  }
+  /* Per-face budgets count the face's own triangles, and every unclassified one (a mesh read
+   * without tags could have them anywhere). */
+  const int32_t nunclass = face_tris_off[nface + 1] - face_tris_off[nface];
+#define ntri_face(f) (face_tris_off[(f) + 1] - face_tris_off[(f)] + nunclass)
+  double Lwire = c.nwire > 0 ? seg_length_percentile(mesh, c.wire_seg, c.nwire) : 0;
+  if (!(Lwire > 0)) Lwire = Lglobal > 0 ? Lglobal : 0.01 * m->diagonal;
+
+  /* Probe every face once (derivative sizes and curvature over its parameter box). */
+  finfo = malloc(sizeof(face_info) * (size_t)(nface > 0 ? nface : 1));
+  if (!finfo) goto nomem;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int32_t f = 0; f < nface; ++f) {
+    const pm_cell *fc = &m->cells[PM_FACE][f];
+    loop_box(fc, finfo[f].box);
+    face_probe(fc, finfo[f].box, &finfo[f].su, &finfo[f].sv, &finfo[f].kappa);
+  }
+
+  /* Reference tessellation and polylines. */
+  if (c.surf) {
+    /* Faces in parallel, each into its own buffers, then appended in face order (so the result
+     * does not depend on the thread count). */
+    ref_faces *part = calloc((size_t)nface, sizeof(ref_faces));
+    c.face_reach = calloc((size_t)nface, sizeof(double));
+    if (!c.face_reach) {
+      free(part);
+      goto nomem;
+    }
+    pm_status *fst = calloc((size_t)nface, sizeof(pm_status));
+    pm_error *ferr = calloc((size_t)nface, sizeof(pm_error));
+    if (!part || !fst || !ferr) {
+      free(part), free(fst), free(ferr);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int32_t f = 0; f < nface; ++f)
+      fst[f] = ref_face(&part[f], &m->cells[PM_FACE][f], &finfo[f], eps, p.ref_spacing * Lface[f],
+                        face_budget(p.ref_max_points, p.ref_per_tri, ntri_face(f)), &ferr[f]);
+    for (int32_t f = 0; f < nface && !s; ++f) {
+      if (fst[f]) {
+        s = fst[f];
+        if (err) *err = ferr[f];
+        break;
+      }
+      int32_t base = (int32_t)(c.rf.xyz.n / 3);
+      c.rf.chord = fmax(c.rf.chord, part[f].chord);
+      c.rf.degraded += part[f].degraded;
+      c.rf.gap = fmax(c.rf.gap, part[f].gap);
+      /* The chordal bound (0 on a plane: the floor is for rounding). The sliver that the
+       * trimming polylines cut off a face along a curved boundary (2e-4 of its parameter box,
+       * trim.c) has no reference; its points are within the sliver's width of the boundary
+       * curve, which the curve candidates of model_dist measure. */
+      c.face_reach[f] = REF_REACH_MARGIN * part[f].chord + 1e-12 * m->diagonal;
+      c.reach_max = fmax(c.reach_max, c.face_reach[f]);
+      if (!dbuf_push(&c.rf.xyz, part[f].xyz.v, part[f].xyz.n) ||
+          !dbuf_push(&c.rf.uv, part[f].uv.v, part[f].uv.n) ||
+          !ibuf_push(&c.rf.face, part[f].face.v, part[f].face.n)) {
+        s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
+        break;
+      }
+      for (int64_t k = 0; k < part[f].tri.n; ++k) part[f].tri.v[k] += base;
+      if (!ibuf_push(&c.rf.tri, part[f].tri.v, part[f].tri.n))
+        s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
+    }
+    for (int32_t f = 0; f < nface; ++f) ref_faces_free(&part[f]);
+    free(part), free(fst), free(ferr);
+    if (s) goto done;
+    if (c.rf.tri.n > 0 &&
+        (s = pm_bvh_create(c.rf.xyz.v, (int32_t)(c.rf.xyz.n / 3), c.rf.tri.v, (int32_t)(c.rf.tri.n / 3),
+                           &c.rf.bvh, err))) {
+      pm_error_prefix(err, "distance: reference");
+      goto done;
+    }
+    /* The reference is within its chordal bound of its faces (at least eps; the bound is an
+     * estimate from the probed curvature, so REF_REACH_MARGIN times it leaves room for what the
+     * probes missed), but for the strip along the boundary that a face whose constrained
+     * triangulation failed leaves uncovered. */
+    c.ref_reach = REF_REACH_MARGIN * fmax(eps, c.rf.chord) + c.rf.gap;
+    c.face_box = malloc(sizeof(double) * 6 * (size_t)nface);
+    if (!c.face_box) goto nomem;
+    for (int32_t f = 0; f < nface; ++f)
+      for (int k = 0; k < 3; ++k) c.face_box[6 * f + k] = INFINITY, c.face_box[6 * f + 3 + k] = -INFINITY;
+    for (int64_t t = 0; t < c.rf.tri.n / 3; ++t) {
+      double *b = &c.face_box[6 * (size_t)c.rf.face.v[t]];
+      for (int q = 0; q < 3; ++q)
+        for (int k = 0; k < 3; ++k) {
+          double x = c.rf.xyz.v[3 * (size_t)c.rf.tri.v[3 * t + q] + k];
+          b[k] = fmin(b[k], x), b[3 + k] = fmax(b[3 + k], x);
+        }
+    }
+    out->ref_chord = c.rf.chord;
+    out->ref_faces_degraded = c.rf.degraded;
+  }
+  for (int32_t i = 0; i < ncurve; ++i) {
+    ref_curves *rc = c.dangling[i] ? &c.rc_wire : &c.rc_surf;
+    if (!c.dangling[i] && !c.surf) continue;
+    if ((s = ref_curve(rc, &m->cells[PM_CURVE][i], eps, err))) goto done;
+  }
+  for (int k = 0; k < 2; ++k) {
+    ref_curves *rc = k ? &c.rc_wire : &c.rc_surf;
+    if (rc->seg.n > 0 &&
+        (s = pm_bvh_create(rc->xyz.v, (int32_t)(rc->xyz.n / 3), rc->seg.v, (int32_t)(rc->seg.n / 3),
+                           &rc->bvh, err))) {
+      pm_error_prefix(err, "distance: reference");
+      goto done;
+    }
+  }
+
+  c.band = BOUNDARY_BAND * m->diagonal + 2 * eps;
+  if (c.surf && mesh->ntri > 0 && p.prune) {
+    nbhd = malloc(sizeof(tri_nbhd) * (size_t)mesh->ntri);
+    double *rmax = calloc((size_t)nface + 1, sizeof(double));
+    int32_t *near_off = calloc((size_t)nface + 1, sizeof(int32_t)), *near = NULL;
+    if (!nbhd || !rmax || !near_off) {
+      free(rmax), free(near_off);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int32_t t = 0; t < mesh->ntri; ++t) tri_nbhd_near(&c, t, &nbhd[t]);
+    for (int32_t t = 0; t < mesh->ntri; ++t) {
+      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+      if (f >= 0 && f < nface) rmax[f] = fmax(rmax[f], nbhd[t].r);
+    }
+    /* For each face, the other faces whose boxes come within reach of its box (a triangle's
+     * centroid lies in its face's box but for the mesh's distance to it, which the
+     * search radius NBHD_REACH r covers where skipping is possible at all). */
+    int64_t nnear = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+      nnear = 0;
+      for (int32_t f = 0; f < nface; ++f) {
+        if (pass) near_off[f] = (int32_t)nnear;
+        const double *a = &c.face_box[6 * (size_t)f];
+        for (int32_t f2 = 0; f2 < nface; ++f2) {
+          if (f2 == f) continue;
+          const double *b = &c.face_box[6 * (size_t)f2];
+          double s2 = 0;
+          for (int k = 0; k < 3; ++k) {
+            double e = fmax(fmax(a[k] - b[3 + k], b[k] - a[3 + k]), 0);
+            s2 += e * e;
+          }
+          if (sqrt(s2) - c.face_reach[f2] <= NBHD_REACH * rmax[f] + rmax[f]) {
+            if (pass) near[nnear] = f2;
+            ++nnear;
+          }
+        }
+      }
+      if (pass) near_off[nface] = (int32_t)nnear;
+      else if (!(near = malloc(sizeof(int32_t) * (size_t)(nnear > 0 ? nnear : 1)))) break;
+    }
+    if (!near) {
+      free(rmax), free(near_off);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int32_t t = 0; t < mesh->ntri; ++t) {
+      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+      tri_nbhd_other(&c, f >= 0 && f < nface ? f : -1, near_off, near, &nbhd[t]);
+    }
+    free(rmax), free(near_off), free(near);
+    c.nb = nbhd;
+  }
+  /* ---- model -> mesh: blocks -------------------------------------------------------------- */
+  int32_t nblock = 0;
+  blocks = malloc(sizeof(mblock) * (size_t)(nface + ncurve + 1));
+  if (!blocks) goto nomem;
+  double grow = 1; /* spacing multiplier to meet max_samples */
+  for (int pass = 0; pass < 8; ++pass) {
+    nblock = 0;
+    int64_t total = 0;
+    for (int32_t f = 0; f < nface && c.surf; ++f) {
+      const pm_cell *fc = &m->cells[PM_FACE][f];
+      if (fc->nloop <= 0) continue;
+      const double *box = finfo[f].box, su = finfo[f].su, sv = finfo[f].sv;
+      double h = p.spacing * Lface[f] * grow;
+      double nu = fmax(2, ceil(su * (box[2] - box[0]) / h)), nv = fmax(2, ceil(sv * (box[3] - box[1]) / h));
+      const int64_t cap = face_budget(p.max_face_samples, p.model_per_tri, ntri_face(f));
+      if (nu * nv > (double)cap) {
+        double sc = sqrt((double)cap / (nu * nv));
+        nu = fmax(2, floor(nu * sc)), nv = fmax(2, floor(nv * sc));
+      }
+      mblock *b = &blocks[nblock++];
+      b->kind = S_FACE, b->part = PART_SURF, b->cell = f;
+      b->nu = (int32_t)nu, b->nv = (int32_t)nv;
+      b->du = (box[2] - box[0]) / nu, b->dv = (box[3] - box[1]) / nv;
+      b->u0 = box[0] + 0.5 * b->du, b->v0 = box[1] + 0.5 * b->dv;
+      b->first = total;
+      total += (int64_t)b->nu * b->nv;
+    }
+    for (int32_t i = 0; i < ncurve; ++i) {
+      const pm_cell *cu = &m->cells[PM_CURVE][i];
+      if (cu->degenerate) continue;
+      if (!c.dangling[i] && !c.surf) continue;
+      double h;
+      if (c.dangling[i]) {
+        h = Lwire;
+      } else {
+        h = INFINITY;
+        for (int32_t k = 0; k < cu->nup; ++k) h = fmin(h, Lface[cu->up[k]]);
+        if (!(h < INFINITY)) h = Lglobal;
+      }
+      h *= p.spacing * grow;
+      double n = fmax(3, ceil(pm_curve_length(cu, cu->lo[0], cu->hi[0]) / h) + 1);
+      if (n > (double)p.max_face_samples) n = (double)p.max_face_samples;
+      /* A boundary curve counts in the maximum only (its largest samples are refined): like a
+       * face, at most model_per_tri points per mesh segment on it (at least FACE_BUDGET_MIN),
+       * so that a face's shortest edges do not set the sampling of its long curves. */
+      if (!c.dangling[i] && curve_segs[i] > 0) {
+        double cap = (double)face_budget(p.max_face_samples, p.model_per_tri, curve_segs[i]);
+        if (n > cap) n = cap;
+      }
+      mblock *b = &blocks[nblock++];
+      b->kind = S_CURVE, b->part = c.dangling[i] ? PART_WIRE : PART_SURF, b->cell = i;
+      b->nu = (int32_t)n, b->nv = 1;
+      b->u0 = cu->lo[0], b->du = (cu->hi[0] - cu->lo[0]) / (n - 1), b->v0 = 0, b->dv = 0;
+      b->first = total;
+      total += b->nu;
+    }
+    if (total <= p.max_samples) break;
+    grow *= sqrt((double)total / (double)p.max_samples) * 1.01;
+  }
+  int64_t nmodel = nblock > 0 ? blocks[nblock - 1].first + (int64_t)blocks[nblock - 1].nu * blocks[nblock - 1].nv : 0;
+
+  /* Lattice level for the mesh side. */
+  c.level = p.tri_level;
+  while (c.level > 1 && (int64_t)mesh->ntri * ((c.level + 1) * (c.level + 2) / 2) +
+                                (int64_t)c.nwire * (c.level + 1) > p.max_samples)
+    c.level--;
+  c.npt_tri = (c.level + 1) * (c.level + 2) / 2;
+  c.npt_seg = c.level + 1;
+  out->tri_level = c.level;
+  if (c.surf && (s = lattice_build(mesh, c.level, &lat, err))) goto done;
+  int64_t ntri_s = c.surf ? lat.n : 0;
+  int64_t nmesh = ntri_s + (int64_t)c.nwire * c.npt_seg;
+
+  dres = malloc(sizeof(double) * CHUNK);
+  wres = malloc(sizeof(double) * CHUNK);
+  rres = malloc(sizeof(double) * CHUNK);
+  xres = malloc(sizeof(double) * 3 * CHUNK);
+  fres = malloc(sizeof(int) * CHUNK);
+  runs = malloc(sizeof(mrun) * (CHUNK + (size_t)nblock + 1));
+  topk *top = malloc(sizeof(topk) * (size_t)(2 * p.refine + 1));
+  if (!dres || !wres || !rres || !xres || !fres || !runs || !top) {
+    free(top);
+    goto nomem;
+  }
+  acc A[2][2]; /* [direction: 0 mesh->model, 1 model->mesh][part] */
+  memset(A, 0, sizeof A);
+  int ntop[2] = {0, 0};
+  topk *tops[2] = {top, top + p.refine};
+  int64_t nfallback = 0;
+
+  /* ---- mesh -> model ------------------------------------------------------------------------- */
+  for (int64_t s0 = 0; s0 < nmesh; s0 += CHUNK) {
+    int64_t n = nmesh - s0 < CHUNK ? nmesh - s0 : CHUNK;
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t k = 0; k < n; ++k) {
+      int64_t sidx = s0 + k;
+      int kind;
+      int32_t e;
+      double par[2], w;
+      if (sidx < ntri_s) {
+        kind = S_TRI, e = lat.tri[sidx];
+        par[0] = lat.par[2 * sidx], par[1] = lat.par[2 * sidx + 1];
+        w = lat.w[sidx];
+      } else {
+        int64_t r = sidx - ntri_s;
+        kind = S_SEG, e = (int32_t)(r / c.npt_seg);
+        par[0] = (double)(r % c.npt_seg) / c.level, par[1] = 0;
+        const int32_t *v = &mesh->seg[2 * (size_t)c.wire_seg[e]];
+        w = pm_v3_dist(&mesh->xyz[3 * (size_t)v[0]], &mesh->xyz[3 * (size_t)v[1]]) / c.npt_seg;
+      }
+      double *x = &xres[3 * k];
+      dres[k] = mesh_eval(&c, kind, e, par, x, &fres[k]);
+      if (kind == S_TRI && lat.alt[sidx] >= 0) {
+        double x2[3];
+        int f2;
+        double d2 = mesh_eval(&c, kind, lat.alt[sidx], &lat.apar[2 * sidx], x2, &f2);
+        if (d2 < dres[k] || !isfinite(dres[k])) dres[k] = d2, fres[k] = f2;
+      }
+      wres[k] = w;
+      double sz = size_at(&c, x);
+      rres[k] = sz > 0 ? dres[k] / sz : 0;
+    }
+    for (int64_t k = 0; k < n; ++k) {
+      if (!isfinite(dres[k])) continue;
+      int64_t sidx = s0 + k;
+      int part = sidx < ntri_s ? PART_SURF : PART_WIRE;
+      acc_add(&A[0][part], dres[k], wres[k], rres[k], &xres[3 * k]);
+      nfallback += fres[k];
+      topk t;
+      t.d = dres[k];
+      if (part == PART_SURF) {
+        t.kind = S_TRI, t.elem = lat.tri[sidx];
+        t.par[0] = lat.par[2 * sidx], t.par[1] = lat.par[2 * sidx + 1];
+        t.step[0] = t.step[1] = 0.5 / c.level;
+      } else {
+        int64_t r = sidx - ntri_s;
+        t.kind = S_SEG, t.elem = (int32_t)(r / c.npt_seg);
+        t.par[0] = (double)(r % c.npt_seg) / c.level, t.par[1] = 0;
+        t.step[0] = 0.5 / c.level, t.step[1] = 0;
+      }
+      t.key = (int64_t)t.kind << 40 | t.elem;
+      topk_offer(tops[0], &ntop[0], p.refine, &t);
+    }
+  }
+
+  /* ---- model -> mesh ------------------------------------------------------------------------- */
+  for (int64_t s0 = 0; s0 < nmodel; s0 += CHUNK) {
+    int64_t n = nmodel - s0 < CHUNK ? nmodel - s0 : CHUNK;
+    /* Runs of up to RUN consecutive samples of one block: a face's run is evaluated in one
+     * batch, and each sample's searches start from what the previous one found. */
+    int64_t nrun = 0;
+    for (int64_t k = 0; k < n;) {
+      int64_t sidx = s0 + k;
+      /* The block holding sample sidx (binary search on `first`). */
+      int32_t lo = 0, hi = nblock - 1;
+      while (lo < hi) {
+        int32_t mid = (lo + hi + 1) / 2;
+        if (blocks[mid].first <= sidx)
+          lo = mid;
+        else
+          hi = mid - 1;
+      }
+      int64_t end = blocks[lo].first + (int64_t)blocks[lo].nu * blocks[lo].nv - s0;
+      int64_t len = end - k < RUN ? end - k : RUN;
+      if (k + len > n) len = n - k;
+      runs[nrun].k = k, runs[nrun].len = (int32_t)len, runs[nrun].block = lo;
+      ++nrun, k += len;
+    }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t q = 0; q < nrun; ++q) model_run(&c, blocks, &runs[q], s0, dres, wres, rres, xres, fres);
+    for (int64_t k = 0; k < n; ++k) {
+      if (!isfinite(dres[k])) continue;
+      const mblock *b = &blocks[fres[k]];
+      acc_add(&A[1][b->part], dres[k], wres[k], rres[k], &xres[3 * k]);
+      int64_t r = s0 + k - b->first;
+      topk t;
+      t.d = dres[k];
+      t.kind = b->kind, t.elem = fres[k];
+      if (b->kind == S_FACE) {
+        int32_t i = (int32_t)(r / b->nv), j = (int32_t)(r % b->nv);
+        t.par[0] = b->u0 + i * b->du, t.par[1] = b->v0 + j * b->dv;
+        t.step[0] = 0.5 * b->du, t.step[1] = 0.5 * b->dv;
+        t.key = ((int64_t)(S_FACE) << 40) | ((int64_t)fres[k] << 8) | (((int64_t)i * 8 / b->nu) * 8 + (int64_t)j * 8 / b->nv);
+      } else {
+        t.par[0] = b->u0 + r * b->du, t.par[1] = 0;
+        if (r + 1 == b->nu) t.par[0] = m->cells[PM_CURVE][b->cell].hi[0];
+        t.step[0] = 0.5 * b->du, t.step[1] = 0;
+        t.key = ((int64_t)(S_CURVE) << 40) | ((int64_t)fres[k] << 8) | (r * 64 / b->nu);
+      }
+      topk_offer(tops[1], &ntop[1], p.refine, &t);
+    }
+  }
+
+  /* ---- refinement of the largest samples ------------------------------------------------------- */
+  for (int dir = 0; dir < 2; ++dir) {
+    double rd[256], rx[256][3];
+    int nt = ntop[dir];
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int i = 0; i < nt; ++i) {
+      pm_v3_zero(rx[i]);
+      rd[i] = refine_one(&c, blocks, &tops[dir][i], rx[i]);
+    }
+    for (int i = 0; i < nt; ++i) {
+      int part = (tops[dir][i].kind == S_SEG ||
+                  (tops[dir][i].kind == S_CURVE && blocks[tops[dir][i].elem].part == PART_WIRE))
+                     ? PART_WIRE
+                     : PART_SURF;
+      acc *a = &A[dir][part];
+      if (rd[i] > a->max) {
+        a->max = rd[i];
+        pm_v3_copy(a->max_at, rx[i]);
+        double sz = size_at(&c, rx[i]);
+        if (sz > 0) a->rel_max = fmax(a->rel_max, rd[i] / sz);
+      }
+    }
+  }
+  free(top);
+
+  /* ---- results ---------------------------------------------------------------------------------- */
+  /* The mean is over the surface part when there is one, else over the wire part; the maximum
+   * over everything. */
+  int mpart = c.surf ? PART_SURF : PART_WIRE;
+  out->nsamples_mesh = A[0][0].n + A[0][1].n;
+  out->nsamples_model = A[1][0].n + A[1][1].n;
+  out->nfallback = nfallback;
+  out->mesh_to_model_mean = A[0][mpart].sum_w > 0 ? A[0][mpart].sum_wd / A[0][mpart].sum_w : 0;
+  out->model_to_mesh_mean = A[1][mpart].sum_w > 0 ? A[1][mpart].sum_wd / A[1][mpart].sum_w : 0;
+  double W = A[0][mpart].sum_w + A[1][mpart].sum_w;
+  out->mean = W > 0 ? (A[0][mpart].sum_wd + A[1][mpart].sum_wd) / W : 0;
+  out->rel_mean = W > 0 && size ? (A[0][mpart].sum_wr + A[1][mpart].sum_wr) / W : 0;
+  out->max = -1;
+  for (int dir = 0; dir < 2; ++dir)
+    for (int part = 0; part < 2; ++part) {
+      const acc *a = &A[dir][part];
+      if (a->n == 0) continue;
+      if (dir == 0) out->mesh_to_model_max = fmax(out->mesh_to_model_max, a->max);
+      else out->model_to_mesh_max = fmax(out->model_to_mesh_max, a->max);
+      if (a->max > out->max) {
+        out->max = a->max;
+        pm_v3_copy(out->max_at, a->max_at);
+        out->max_from_model = dir == 1;
+      }
+      if (size) out->rel_max = fmax(out->rel_max, a->rel_max);
+    }
+  if (out->max < 0) out->max = 0;
+  s = PM_OK;
+  goto done;
+
+nomem:
+  s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory");
+done:
+  free(dres), free(wres), free(rres), free(xres), free(fres), free(runs);
+  lattice_free(&lat);
+  free(blocks), free(finfo), free(nbhd), free(curve_segs);
+  free(face_tris_off), free(face_tris), free(Lface);
+  free(c.dangling), free(c.wire_seg), free(c.face_reach), free(c.face_box);
+  pm_bvh_destroy(c.mesh_tri), pm_bvh_destroy(c.mesh_wire);
+  ref_faces_free(&c.rf);
+  ref_curves_free(&c.rc_surf), ref_curves_free(&c.rc_wire);
+  if (s) {
+    pm_error e2 = err ? *err : (pm_error){0};
+    memset(out, 0, sizeof *out);
+    if (err) *err = e2;
+  }
+  return s;
+}
