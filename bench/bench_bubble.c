@@ -16,6 +16,7 @@
 #include <time.h>
 
 #include "bubble/bub_private.h"
+#include "common/report/run_report.h"
 #include "common/input/cases.h"
 #include "common/base/clock.h"
 #include "common/geom/geom_analytic.h"
@@ -62,15 +63,17 @@ static result run_method(const pm_method *meth, const void *params, const pm_mod
                          const pm_sizing *size, int threads) {
   result r;
   memset(&r, 0, sizeof r);
-  pm_run_input in = {m, size, opt_seed, threads, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_input in = {m, size, opt_seed, threads, 0, PM_DEFAULT_MAX_NODES, NULL};
   pm_trace *tr = NULL;
   if (opt_trace) pm_trace_create(&tr, NULL);
-  in.trace = tr;
   pm_run_output out;
   memset(&out, 0, sizeof out);
   pm_stats stats;
   pm_stats_init(&stats);
-  out.stats = &stats;
+  pm_run_report report = {&stats, tr, NULL};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  in.observer = &observer;
   pm_error e = {0};
   double t0 = pm_seconds(), c0 = cpu_seconds();
   pm_status st = meth->run(&in, params, &out, &e);
@@ -543,7 +546,7 @@ static void section_throughput(const bub_params *p, const char *cad) {
       print_rate(k ? "bubble step, plane, 1e6" : "bubble step, plane, 1e5", 2, &r2, note);
     }
   }
-  if (pm_cad_case("torus", &torus, &e) == PM_OK) {
+  if (pm_case_open("torus", &torus, NULL, &e) == PM_OK) {
     rate r1 = step_rate(torus, 100000, 1, p);
     print_rate("bubble step, torus (closed form), 1e5", 1, &r1, NULL);
   }

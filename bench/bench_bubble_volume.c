@@ -19,6 +19,7 @@
 #include "bubble/bubble.h"
 #include "common/base/clock.h"
 #include "common/geom/geom_cad.h"
+#include "common/input/cases.h"
 #include "common/mesh/mesh_check.h"
 #include "common/base/params.h"
 #include "common/measure/quality.h"
@@ -41,7 +42,7 @@ static row run(const pm_method *meth, const void *params, const pm_model *m, con
                int threads) {
   row r;
   memset(&r, 0, sizeof r);
-  pm_run_input in = {m, size, 1, threads, 1, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_input in = {m, size, 1, threads, 1, PM_DEFAULT_MAX_NODES, NULL};
   pm_run_output out;
   memset(&out, 0, sizeof out);
   pm_error e = {0};
@@ -140,20 +141,21 @@ int main(int argc, char **argv) {
     }
   }
   int nbuilt = 0;
-  const pm_cad_case_info *info = pm_cad_cases(&nbuilt);
+  const pm_case_info *info = pm_cases(&nbuilt);
   for (int i = 0; i < nbuilt; ++i) {
+    if (info[i].dim != 3) continue;
     int want = ncase == 0 && ncad == 0;
     for (int k = 0; k < ncase; ++k) want |= !strcmp(cases[k], info[i].name);
     if (!want) continue;
     pm_model *m = NULL;
     pm_error e = {0};
-    if (pm_cad_case(info[i].name, &m, &e)) {
+    if (pm_case_open(info[i].name, &m, NULL, &e)) {
       printf("case:%s: %s\n", info[i].name, e.msg);
       continue;
     }
     char label[64];
     snprintf(label, sizeof label, "case:%s", info[i].name);
-    bench_model(label, m, info[i].size, &bp, threads);
+    bench_model(label, m, atof(info[i].size), &bp, threads);
     pm_model_destroy(m);
   }
   static const char *const shared[] = {"crack.brep", "synth_box_hole.step", "planar_step.brep",

@@ -17,6 +17,7 @@
 #include "common/backends/closest_embree.h"
 #include "common/measure/distance.h"
 #include "common/geom/geom_cad.h"
+#include "common/input/cases.h"
 #include "common/mesh/mesh.h"
 #include "common/base/rng.h"
 #include "common/mesh/self_intersect.h"
@@ -180,7 +181,7 @@ int main(int argc, char **argv) {
    * initializes gmsh, which resets the OpenMP thread count of this thread to 1: restore it. */
   pm_model *m = NULL;
   pm_error e = {0};
-  if (pm_cad_case("sphere", &m, &e)) {
+  if (pm_case_open("sphere", &m, NULL, &e)) {
     fprintf(stderr, "bench_closest: %s\n", e.msg);
     return 1;
   }

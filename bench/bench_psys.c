@@ -38,6 +38,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "common/report/run_report.h"
 #include "common/base/clock.h"
 #include "common/input/input.h"
 #include "common/mesh/mesh_check.h"
@@ -330,7 +331,10 @@ static int bench_model(const char *path, const char *name, int threads, int volu
   in.threads = threads;
   in.volume = volume && m->count[PM_VOLUME] > 0;
   in.max_nodes = PM_DEFAULT_MAX_NODES;
-  out.stats = &st;
+  pm_run_report report = {&st, NULL, NULL};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  in.observer = &observer;
   pm_sizing *field = NULL;
   if (psys_run_with_field(&in, &p, &out, peers ? &field : NULL, &e)) {
     printf("%-22s FAILED after %.1f s: %s\n", name, pm_seconds() - t0, e.msg);
@@ -461,12 +465,15 @@ static double throughput_one(const char *input, const char *label, const pm_sizi
   pm_run_input in;
   memset(&in, 0, sizeof in);
   in.model = m, in.size = size, in.seed = 1, in.threads = threads;
-  in.max_nodes = PM_DEFAULT_MAX_NODES, in.trace = tr;
+  in.max_nodes = PM_DEFAULT_MAX_NODES;
   pm_run_output out;
   memset(&out, 0, sizeof out);
   pm_stats st;
   pm_stats_init(&st);
-  out.stats = &st;
+  pm_run_report report = {&st, tr, NULL};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  in.observer = &observer;
   double t0 = pm_seconds(), c0 = cpu_seconds();
   if (psys_method.run(&in, &p, &out, &e)) {
     printf("throughput: %s\n", e.msg);

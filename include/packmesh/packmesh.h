@@ -28,7 +28,8 @@ typedef enum pm_status {
   PM_ERR_BACKEND,  /* a third-party library (gmsh, CGAL, TetGen, Embree) failed */
   PM_ERR_LIMIT,    /* a cap (nodes, iterations, memory budget) would be exceeded */
   PM_ERR_NOMEM,    /* an allocation failed */
-  PM_ERR_INTERNAL  /* a broken invariant detected at run time */
+  PM_ERR_INTERNAL, /* a broken invariant detected at run time */
+  PM_ERR_CANCELLED /* the caller's progress callback asked the run to stop */
 } pm_status;
 
 /* The error record. Plain data; lives on the caller's stack. */

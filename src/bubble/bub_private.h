@@ -473,8 +473,8 @@ int bub_volume_place_ok(const bub_state *s, int32_t volume, const double x0[3], 
 /* ---- the run (bub_run.c) ----------------------------------------------------------------------- */
 
 /* Relaxation rounds with population control until a stop (bub_run.c's rules), over the moving
- * bubbles (bub_moving): the surface phase, then the volume phase. in->trace and in->frames (may be
- * NULL) receive rows and snapshots; cap limits the bubbles (a node budget when budget is 1: an
+ * bubbles (bub_moving): the surface phase, then the volume phase. in->observer (may be NULL)
+ * receives trace rows and snapshots; cap limits the bubbles (a node budget when budget is 1: an
  * error when reached); reason receives the stop. */
 pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budget,
                     char reason[128], pm_error *err);

@@ -90,8 +90,8 @@ static const char *const trace_cols[] = {"step",     "bubbles",  "kinetic",   "p
                                          "phase",    "q_rel_disp"};
 #define NCOL ((int)(sizeof trace_cols / sizeof trace_cols[0]))
 
-static pm_status snapshot(bub_state *s, pm_frames *fr, pm_error *err) {
-  if (!fr || s->n == 0) return PM_OK;
+static pm_status snapshot(bub_state *s, const pm_run_observer *obs, pm_error *err) {
+  if (!pm_observe_wants_frames(obs) || s->n == 0) return PM_OK;
   double *r = malloc(sizeof(double) * (size_t)s->n);
   int8_t *dim = malloc((size_t)s->n);
   if (!r || !dim) {
@@ -99,7 +99,7 @@ static pm_status snapshot(bub_state *s, pm_frames *fr, pm_error *err) {
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
   for (int32_t i = 0; i < s->n; ++i) r[i] = 0.5 * s->d[i], dim[i] = s->kind[i];
-  pm_status st = pm_frames_add(fr, s->step, s->n, s->x, r, dim, err);
+  pm_status st = pm_observe_frame(obs, s->step, s->n, s->x, r, dim, err);
   free(r), free(dim);
   return st;
 }
@@ -180,17 +180,17 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
         snprintf(reason, 128, "bubble cap (%lld) reached", (long long)cap);
       }
     }
-    if (in->trace) {
+    if (pm_observe_wants_trace(in->observer)) {
       int32_t a, b;
       bub_moving(s, &a, &b);
       double row[NCOL] = {(double)s->step, (double)(s->volume_phase ? s->nw - s->nf : s->nf - s->nv),
                           info.kinetic, info.potential, info.mean_disp, info.max_disp, ci.inserted,
                           ci.removed, info.eps_t, bub_zeta_now(s), info.max_rel_disp,
                           (double)s->round, s->volume_phase ? 3 : 2, info.q_rel_disp};
-      st = pm_trace_add(in->trace, row, err);
+      st = pm_observe_trace_row(in->observer, row, err);
       if (st) break;
     }
-    if (in->frames && s->step % p->frame_every == 0 && (st = snapshot(s, in->frames, err))) break;
+    if (s->step % p->frame_every == 0 && (st = snapshot(s, in->observer, err))) break;
     if (final_phase) {
       if (p->final_steps == 0 || --final_left <= 0 || (info.q_rel_disp <= p->disp_tol && !controlled))
         break;
@@ -447,8 +447,8 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
                        (int)s->n, budget ? "node budget" : "cap max_bubbles", (long long)cap);
   double t_place = pm_seconds();
   int32_t initial = s ? s->nf : 0;
-  if (!st && in->trace) st = pm_trace_columns(in->trace, NCOL, trace_cols, err);
-  if (!st) st = snapshot(s, in->frames, err);
+  if (!st) st = pm_observe_trace_columns(in->observer, NCOL, trace_cols, err);
+  if (!st) st = snapshot(s, in->observer, err);
 
   char reason[128] = "";
   if (!st) st = bub_relax(s, in, cap, budget, reason, err);
@@ -469,55 +469,54 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   }
   if (s && volumes) volume_final = (int32_t)(s->nw - s->nf);
   double t_end = pm_seconds();
-  if (!st && in->frames && s->step % p->frame_every != 0) st = snapshot(s, in->frames, err);
-  if (!st && in->frames) st = pm_frames_finish(in->frames, err);
+  if (!st && s->step % p->frame_every != 0) st = snapshot(s, in->observer, err);
   if (!st) {
     out->mesh = mesh;
     mesh = NULL;
     out->iterations = s->step;
     snprintf(out->stop_reason, sizeof out->stop_reason, "%s", reason);
-    if (out->stats) {
-      pm_stats *S = out->stats;
+    if (in->observer) {
+      const pm_run_observer *S = in->observer;
       pm_error e = {0};
-      pm_stats_set_time(S, "place", t_place - t0, &e);
-      pm_stats_set_time(S, "relax", t_relax - t_place, &e);
-      if (volumes) pm_stats_set_time(S, "volume", t_vrelax - t_relax, &e);
-      pm_stats_set_time(S, "connect", t_end - t_vrelax, &e);
+      pm_observe_time(S, "place", t_place - t0, &e);
+      pm_observe_time(S, "relax", t_relax - t_place, &e);
+      if (volumes) pm_observe_time(S, "volume", t_vrelax - t_relax, &e);
+      pm_observe_time(S, "connect", t_end - t_vrelax, &e);
       /* The relaxation by stage (bub_private.h, bub_times; "other": the trace, frames, the
        * stopping rules, and the threads' waits at the end of each parallel stage). */
       const struct bub_times *bt = &s->t;
       double staged = bt->neighbors + bt->force + bt->integrate + bt->project + bt->overlap + bt->population;
-      pm_stats_set_time(S, "bubble.neighbors", bt->neighbors, &e);
-      pm_stats_set_time(S, "bubble.force", bt->force, &e);
-      pm_stats_set_time(S, "bubble.integrate", bt->integrate, &e);
-      pm_stats_set_time(S, "bubble.project", bt->project, &e);
-      pm_stats_set_time(S, "bubble.overlap", bt->overlap, &e);
-      pm_stats_set_time(S, "bubble.population", bt->population, &e);
-      pm_stats_set_time(S, "bubble.other", fmax(0, (t_vrelax - t_place) - staged), &e);
-      pm_stats_add_number(S, "bubble.initial", initial, &e);
-      pm_stats_add_number(S, "bubble.final", s->nf, &e);
-      pm_stats_add_number(S, "bubble.steps", (double)s->step, &e);
-      pm_stats_add_number(S, "bubble.rounds", (double)s->round, &e);
-      pm_stats_add_number(S, "bubble.insertions", (double)s->insertions, &e);
-      pm_stats_add_number(S, "bubble.deletions", (double)s->deletions, &e);
-      pm_stats_add_number(S, "bubble.failed_insertions", (double)s->failed_insertions, &e);
-      pm_stats_add_number(S, "bubble.list_builds", (double)s->list_builds, &e);
-      pm_stats_add_number(S, "bubble.outer_builds", (double)s->outer_builds, &e);
-      pm_stats_add_number(S, "bubble.partial_builds", (double)s->partial_builds, &e);
-      pm_stats_add_number(S, "bubble.partial_outer", (double)s->partial_outer, &e);
-      pm_stats_add_number(S, "bubble.evaluations", (double)s->evals, &e);
-      pm_stats_add_number(S, "bubble.bubble_steps", (double)s->bubble_steps, &e);
-      pm_stats_add_number(S, "bubble.border_dropped", border_dropped, &e);
-      pm_stats_add_number(S, "bubble.time_step", bub_time_step(p), &e);
+      pm_observe_time(S, "bubble.neighbors", bt->neighbors, &e);
+      pm_observe_time(S, "bubble.force", bt->force, &e);
+      pm_observe_time(S, "bubble.integrate", bt->integrate, &e);
+      pm_observe_time(S, "bubble.project", bt->project, &e);
+      pm_observe_time(S, "bubble.overlap", bt->overlap, &e);
+      pm_observe_time(S, "bubble.population", bt->population, &e);
+      pm_observe_time(S, "bubble.other", fmax(0, (t_vrelax - t_place) - staged), &e);
+      pm_observe_number(S, "bubble.initial", initial, &e);
+      pm_observe_number(S, "bubble.final", s->nf, &e);
+      pm_observe_number(S, "bubble.steps", (double)s->step, &e);
+      pm_observe_number(S, "bubble.rounds", (double)s->round, &e);
+      pm_observe_number(S, "bubble.insertions", (double)s->insertions, &e);
+      pm_observe_number(S, "bubble.deletions", (double)s->deletions, &e);
+      pm_observe_number(S, "bubble.failed_insertions", (double)s->failed_insertions, &e);
+      pm_observe_number(S, "bubble.list_builds", (double)s->list_builds, &e);
+      pm_observe_number(S, "bubble.outer_builds", (double)s->outer_builds, &e);
+      pm_observe_number(S, "bubble.partial_builds", (double)s->partial_builds, &e);
+      pm_observe_number(S, "bubble.partial_outer", (double)s->partial_outer, &e);
+      pm_observe_number(S, "bubble.evaluations", (double)s->evals, &e);
+      pm_observe_number(S, "bubble.bubble_steps", (double)s->bubble_steps, &e);
+      pm_observe_number(S, "bubble.border_dropped", border_dropped, &e);
+      pm_observe_number(S, "bubble.time_step", bub_time_step(p), &e);
       if (volumes) {
-        pm_stats_add_number(S, "bubble.volume_bubbles", volume_final, &e);
-        pm_stats_add_number(S, "bubble.volume_steps", (double)(s->step - surface_steps), &e);
-        pm_stats_add_number(S, "bubble.recovery_points", recovery, &e);
-        pm_stats_add_number(S, "bubble.sliver_dropped", sliver_dropped, &e);
-        pm_stats_add_number(S, "bubble.sliver_added", sliver_added, &e);
+        pm_observe_number(S, "bubble.volume_bubbles", volume_final, &e);
+        pm_observe_number(S, "bubble.volume_steps", (double)(s->step - surface_steps), &e);
+        pm_observe_number(S, "bubble.recovery_points", recovery, &e);
+        pm_observe_number(S, "bubble.sliver_dropped", sliver_dropped, &e);
+        pm_observe_number(S, "bubble.sliver_added", sliver_added, &e);
       }
-      pm_stats_add_text(S, "bubble.stop", reason, &e);
-      pm_stats_add_text(S, "bubble.size", pm_sizing_describe(size), &e);
+      pm_observe_text(S, "bubble.stop", reason, &e);
+      pm_observe_text(S, "bubble.size", pm_sizing_describe(size), &e);
     }
   }
   pm_mesh_destroy(mesh);

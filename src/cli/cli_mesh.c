@@ -32,6 +32,7 @@
 #include "common/mesh/mesh_io.h"
 #include "common/measure/quality.h"
 #include "common/report/stats.h"
+#include "common/report/run_report.h"
 
 
 #define MAX_SETS 256
@@ -216,10 +217,11 @@ static pm_status run_once(const pm_method *method, const void *params, const pm_
   in.threads = (int)o->threads;
   in.volume = o->volume;
   in.max_nodes = o->max_nodes;
-  in.trace = trace;
-  in.frames = frames;
+  pm_run_report report = {stats, trace, frames};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  in.observer = &observer;
   memset(out, 0, sizeof *out);
-  out->stats = stats;
   return method->run(&in, params, out, err);
 }
 

@@ -371,16 +371,15 @@ static pm_status cgal_run(const pm_run_input *in, const void *params_v, pm_run_o
                       (int)mesh->nnode, (long long)in->max_nodes);
   double t_convert = pm_seconds() - t1;
   if (!s) {
-    peer_stats_time(out->stats, "boundary", t_boundary);
-    peer_stats_time(out->stats, "refine", res.time_refine);
-    if (p->optimizer != PEER_CGAL_OPT_NONE) peer_stats_time(out->stats, "optimize", res.time_optimize);
-    peer_stats_time(out->stats, "convert", t_convert);
-    if (out->stats) {
-      pm_stats_add_number(out->stats, "cgal_boundary_nodes", b.n, NULL);
-      pm_stats_add_number(out->stats, "cgal_chord_nodes", chord_left, NULL);
-      pm_stats_add_number(out->stats, "cgal_hole_seeds", res.nseeds, NULL);
-      pm_stats_add_number(out->stats, "cgal_arc_refinement", refine, NULL);
-    }
+    pm_observe_time(in->observer, "boundary", t_boundary, NULL);
+    pm_observe_time(in->observer, "refine", res.time_refine, NULL);
+    if (p->optimizer != PEER_CGAL_OPT_NONE)
+      pm_observe_time(in->observer, "optimize", res.time_optimize, NULL);
+    pm_observe_time(in->observer, "convert", t_convert, NULL);
+    pm_observe_number(in->observer, "cgal_boundary_nodes", b.n, NULL);
+    pm_observe_number(in->observer, "cgal_chord_nodes", chord_left, NULL);
+    pm_observe_number(in->observer, "cgal_hole_seeds", res.nseeds, NULL);
+    pm_observe_number(in->observer, "cgal_arc_refinement", refine, NULL);
     snprintf(out->stop_reason, sizeof out->stop_reason, "CGAL Mesh_2 refinement done%s%s",
              p->optimizer == PEER_CGAL_OPT_NONE ? ""
              : p->optimizer == PEER_CGAL_OPT_LLOYD ? "; Lloyd: " : "; ODT: ",

@@ -168,6 +168,3 @@ int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh) {
   return turned;
 }
 
-void peer_stats_time(pm_stats *stats, const char *phase, double seconds) {
-  if (stats) pm_stats_set_time(stats, phase, seconds, NULL);
-}

@@ -12,7 +12,6 @@
 #include "common/geom/geom.h"
 #include "common/mesh/mesh.h"
 #include "common/sizing/sizing.h"
-#include "common/report/stats.h"
 
 /* 1 when m is a planar analytic domain (geom_analytic.h): no gmsh model behind it, no volume,
  * one face in the plane z = 0 parametrized by S(u, v) = (u, v, 0), curves of the analytic kinds
@@ -55,7 +54,5 @@ void peer_tagmap_free(peer_tagmap *t);
 int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh);
 
 
-/* Add a phase time to out's stats when present (errors ignored: timings are informational). */
-void peer_stats_time(pm_stats *stats, const char *phase, double seconds);
 
 #endif /* PM_PEER_COMMON_H */

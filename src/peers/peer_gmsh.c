@@ -548,13 +548,13 @@ static pm_status gmsh_run(const pm_method *self, int algorithm, const char *algo
     pm_mesh_destroy(mesh);
     return s;
   }
-  peer_stats_time(out->stats, "surface", t_surface);
-  if (gmsh_volume) peer_stats_time(out->stats, "volume", t_volume);
-  if (want_volume && !gmsh_volume) peer_stats_time(out->stats, "volume", t_tetgen);
-  peer_stats_time(out->stats, "convert", t_convert);
-  if (out->stats && want_volume && !gmsh_volume) {
-    pm_stats_add_number(out->stats, "tetgen_steiner", vrep.steiner, NULL);
-    pm_stats_add_number(out->stats, "tetgen_flat_tet_flips", vrep.flat_tet_flips, NULL);
+  pm_observe_time(in->observer, "surface", t_surface, NULL);
+  if (gmsh_volume) pm_observe_time(in->observer, "volume", t_volume, NULL);
+  if (want_volume && !gmsh_volume) pm_observe_time(in->observer, "volume", t_tetgen, NULL);
+  pm_observe_time(in->observer, "convert", t_convert, NULL);
+  if (want_volume && !gmsh_volume) {
+    pm_observe_number(in->observer, "tetgen_steiner", vrep.steiner, NULL);
+    pm_observe_number(in->observer, "tetgen_flat_tet_flips", vrep.flat_tet_flips, NULL);
   }
   out->mesh = mesh;
   snprintf(out->stop_reason, sizeof out->stop_reason, "gmsh %s%s", algorithm_name,

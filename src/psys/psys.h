@@ -113,7 +113,7 @@ void psys_params_init(psys_params *p);
 pm_status psys_params_check(const psys_params *p, pm_error *err);
 
 /* The method (name "psys"): pm_run_input.size NULL infers the field, else sigma follows the
- * given edge length d as sigma = d / edge_per_sigma. Adds to out->stats (when not NULL): times
+ * given edge length d as sigma = d / edge_per_sigma. Reports to in->observer (when not NULL): times
  * "phase1", "phase2", "phase3", "connect"; numbers "psys.iterations.phase1..3", "psys.particles",
  * "psys.sigma_min", "psys.sigma_max", "psys.splits", "psys.deletes". */
 extern const pm_method psys_method;

@@ -224,21 +224,16 @@ static pm_status observe(psys_sys *s, const psys_observer *obs, const psys_move_
                          int32_t sp, int32_t de, double a, int frame, pm_error *err) {
   if (!obs) return PM_OK;
   pm_status st;
-  if (obs->trace) {
-    if (pm_trace_ncol(obs->trace) == 0 &&
-        (st = pm_trace_columns(obs->trace, NTRACE, trace_cols, err)))
-      return st;
+  if (pm_observe_wants_trace(obs->run)) {
     double ms = 0;
     for (int32_t i = 0; i < s->n; ++i) ms += s->sigma[i];
     if (s->n) ms /= s->n;
     double row[NTRACE] = {(double)s->iter, s->phase,     s->n,        mi->energy,
                           mi->mean_move,   mi->max_move, sp,          de,
                           ms,              a,            mi->mean_rel};
-    if (pm_trace_ncol(obs->trace) == NTRACE && (st = pm_trace_add(obs->trace, row, err)))
-      return st;
+    if ((st = pm_observe_trace_row(obs->run, row, err))) return st;
   }
-  if (obs->frames && frame)
-    return pm_frames_add(obs->frames, s->iter, s->n, s->xyz, s->sigma, s->dim, err);
+  if (frame) return pm_observe_frame(obs->run, s->iter, s->n, s->xyz, s->sigma, s->dim, err);
   return PM_OK;
 }
 
@@ -341,7 +336,8 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
 pm_status psys_optimize(psys_sys *s, const psys_observer *obs, psys_phase_report rep[3],
                         pm_error *err) {
   memset(rep, 0, 3 * sizeof *rep);
-  pm_status st = psys_run_phase(s, 1, NULL, obs, &rep[0], err);
+  pm_status st = pm_observe_trace_columns(obs ? obs->run : NULL, NTRACE, trace_cols, err);
+  if (!st) st = psys_run_phase(s, 1, NULL, obs, &rep[0], err);
   if (st) return pm_error_prefix(err, "psys phase 1");
   if (!s->size && (st = psys_run_phase(s, 2, NULL, obs, &rep[1], err)))
     return pm_error_prefix(err, "psys phase 2");

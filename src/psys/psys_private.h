@@ -24,9 +24,7 @@
 
 #include <stdint.h>
 
-#include "common/report/frames.h"
 #include "common/sizing/grid.h"
-#include "common/report/trace.h"
 #include "psys/psys.h"
 
 #ifdef __cplusplus
@@ -398,8 +396,7 @@ typedef struct psys_phase_report {
 } psys_phase_report;
 
 typedef struct psys_observer {
-  pm_trace *trace;   /* borrowed, may be NULL (columns are set by psys_optimize) */
-  pm_frames *frames; /* borrowed, may be NULL */
+  const pm_run_observer *run; /* borrowed, may be NULL; psys_optimize sends the trace columns */
 } psys_observer;
 
 /* Seed phase 1: a particle on every vertex that bounds or lies in something, and one at the

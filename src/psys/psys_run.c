@@ -24,36 +24,36 @@ static void connect_params(const psys_params *p, int volume, int64_t max_nodes,
   cp->max_nodes = max_nodes > 0 && max_nodes < INT32_MAX ? (int32_t)max_nodes : 0;
 }
 
-static pm_status add_stats(pm_stats *st, const psys_sys *s, const psys_phase_report rep[3],
+static pm_status add_stats(const pm_run_observer *st, const psys_sys *s, const psys_phase_report rep[3],
                            pm_error *err) {
   if (!st) return PM_OK;
   static const char *const names[3] = {"phase1", "phase2", "phase3"};
   pm_status r = PM_OK;
-  for (int k = 0; k < 3 && !r; ++k) r = pm_stats_set_time(st, names[k], rep[k].seconds, err);
+  for (int k = 0; k < 3 && !r; ++k) r = pm_observe_time(st, names[k], rep[k].seconds, err);
   char key[64];
   for (int k = 0; k < 3 && !r; ++k) {
     snprintf(key, sizeof key, "psys.iterations.%s", names[k]);
-    r = pm_stats_add_number(st, key, (double)rep[k].iterations, err);
+    r = pm_observe_number(st, key, (double)rep[k].iterations, err);
   }
-  if (!r) r = pm_stats_add_number(st, "psys.particles", s->n, err);
-  if (!r) r = pm_stats_add_number(st, "psys.sigma_min", s->sigma_min, err);
-  if (!r) r = pm_stats_add_number(st, "psys.sigma_max", s->sigma_max, err);
-  if (!r) r = pm_stats_add_number(st, "psys.splits", s->splits_total, err);
-  if (!r) r = pm_stats_add_number(st, "psys.deletes", s->deletes_total, err);
+  if (!r) r = pm_observe_number(st, "psys.particles", s->n, err);
+  if (!r) r = pm_observe_number(st, "psys.sigma_min", s->sigma_min, err);
+  if (!r) r = pm_observe_number(st, "psys.sigma_max", s->sigma_max, err);
+  if (!r) r = pm_observe_number(st, "psys.splits", s->splits_total, err);
+  if (!r) r = pm_observe_number(st, "psys.deletes", s->deletes_total, err);
   /* the neighbour structure's work: lists made again one by one, updates that made all */
-  if (!r) r = pm_stats_add_number(st, "psys.lists.neighbour_renewed", (double)s->nbr.nb.renewed, err);
-  if (!r) r = pm_stats_add_number(st, "psys.lists.neighbour_rebuilds", (double)s->nbr.nb.rebuilds, err);
-  if (!r) r = pm_stats_add_number(st, "psys.lists.gap_renewed", (double)s->nbr.gp.renewed, err);
-  if (!r) r = pm_stats_add_number(st, "psys.lists.gap_rebuilds", (double)s->nbr.gp.rebuilds, err);
+  if (!r) r = pm_observe_number(st, "psys.lists.neighbour_renewed", (double)s->nbr.nb.renewed, err);
+  if (!r) r = pm_observe_number(st, "psys.lists.neighbour_rebuilds", (double)s->nbr.nb.rebuilds, err);
+  if (!r) r = pm_observe_number(st, "psys.lists.gap_renewed", (double)s->nbr.gp.renewed, err);
+  if (!r) r = pm_observe_number(st, "psys.lists.gap_rebuilds", (double)s->nbr.gp.rebuilds, err);
   /* time per step, under time_s: psys.STEP over all phases, psys.phaseK.STEP per phase */
   for (int k = 0; k < PSYS_T_COUNT && !r; ++k) {
     double sum = 0;
     for (int ph = 0; ph < 3; ++ph) sum += s->tstep[ph][k];
     snprintf(key, sizeof key, "psys.%s", psys_step_names[k]);
-    r = pm_stats_set_time(st, key, sum, err);
+    r = pm_observe_time(st, key, sum, err);
     for (int ph = 0; ph < 3 && !r; ++ph) {
       snprintf(key, sizeof key, "psys.%s.%s", names[ph], psys_step_names[k]);
-      r = pm_stats_set_time(st, key, s->tstep[ph][k], err);
+      r = pm_observe_time(st, key, s->tstep[ph][k], err);
     }
   }
   return r;
@@ -111,7 +111,7 @@ pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_r
     psys_sys_destroy(s);
     return st;
   }
-  psys_observer obs = {in->trace, in->frames};
+  psys_observer obs = {in->observer};
   psys_phase_report rep[3];
   if ((st = psys_optimize(s, &obs, rep, err))) goto fail;
   for (int k = 0; k < 3; ++k) out->iterations += rep[k].iterations;
@@ -121,7 +121,7 @@ pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_r
            "%s: phases 1-3 ran %lld, %lld, %lld iterations%s", all ? "converged" : "max_iter",
            (long long)rep[0].iterations, (long long)rep[1].iterations,
            (long long)rep[2].iterations, all ? "" : " (a phase reached max_iter)");
-  if ((st = add_stats(out->stats, s, rep, err))) goto fail;
+  if ((st = add_stats(in->observer, s, rep, err))) goto fail;
   /* The particles are final: the system (its arrays, the neighbour and gap lists and their
    * grids) is freed before the connection, whose own peak (CDT, flips, the tets) then does not
    * come on top of it -- nor the tet step's child process, which shares the parent's resident
@@ -145,7 +145,7 @@ pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_r
   double t0 = pm_seconds();
   pm_connect_report crep;
   if ((st = pm_connect(in->model, mesh, &cp, &crep, err))) goto fail;
-  if (out->stats && (st = pm_stats_set_time(out->stats, "connect", pm_seconds() - t0, err)))
+  if ((st = pm_observe_time(in->observer, "connect", pm_seconds() - t0, err)))
     goto fail;
   if (field && (st = field_of(in->model, eps, n, fxyz, fsig, mesh, field, err))) goto fail;
   free(fxyz), free(fsig);

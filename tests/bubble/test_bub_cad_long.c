@@ -18,7 +18,7 @@ static void cad_model(void **state) {
   PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
   bub_params p;
   bub_params_init(&p);
-  pm_run_input in = {m, NULL, 1, 2, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_input in = {m, NULL, 1, 2, 0, PM_DEFAULT_MAX_NODES, NULL};
   pm_run_output out;
   memset(&out, 0, sizeof out);
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);

@@ -233,14 +233,14 @@ static void lattice_leaves_no_face_empty(void **state) {
   pm_model_destroy(m);
 }
 
-/* Two parents on a curved face (lattice_apex): the torus of pm_cad_case (R = 1, r = 0.35, one
+/* Two parents on a curved face (lattice_apex): the torus case (R = 1, r = 0.35, one
  * doubly periodic face) at d = 0.04, whose ideal packing has area / (sqrt(3)/2 d^2) = 9972
  * bubbles. A step of d from one parent leaves the diverging rows up to 1.2 d apart (8637
  * bubbles, 87%); the apex of the triangle on two parents 9151 (92%). */
 static int32_t torus_placed(int apex) {
   pm_model *m = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("torus", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("torus", &m, NULL, &e), e);
   pm_sizing *size = const_size(0.04);
   bub_params p = bt_params();
   p.place = BUB_PLACE_LATTICE;

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "common/report/run_report.h"
 #include "common/input/cases.h"
 #include "common/report/frames.h"
 #include "common/geom/geom_cad.h"
@@ -17,7 +18,10 @@
 
 static pm_mesh *run(const pm_model *m, const pm_sizing *size, const bub_params *p, int threads,
                     pm_trace *tr, pm_frames *fr, pm_run_output *out) {
-  pm_run_input in = {m, size, 11, threads, 0, PM_DEFAULT_MAX_NODES, tr, fr};
+  pm_run_report report = {NULL, tr, fr};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  pm_run_input in = {m, size, 11, threads, 0, PM_DEFAULT_MAX_NODES, &observer};
   pm_error e = {0};
   memset(out, 0, sizeof *out);
   PM_ASSERT_OK(bub_run(&in, p, out, &e), e);
@@ -41,9 +45,11 @@ static void run_measured(const pm_model *m, const pm_sizing *size, const bub_par
                          pm_run_output *out, pm_stats *st, pm_quality *q) {
   pm_error e = {0};
   pm_stats_init(st);
-  pm_run_input in = {m, size, 11, threads, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_report report = {st, NULL, NULL};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  pm_run_input in = {m, size, 11, threads, 0, PM_DEFAULT_MAX_NODES, &observer};
   memset(out, 0, sizeof *out);
-  out->stats = st;
   PM_ASSERT_OK(bub_run(&in, p, out, &e), e);
   check_valid(out->mesh, m);
   PM_ASSERT_OK(pm_quality_compute(out->mesh, size, q, &e), e);
@@ -91,7 +97,7 @@ static void qi4_quality(void **state) {
   release_measured(&fl, &st, &q, &out, size, m);
 }
 
-/* A run on the torus of pm_cad_case (one doubly periodic face) at d = 0.06, about 4300 bubbles:
+/* A run on the torus case (one doubly periodic face) at d = 0.06, about 4300 bubbles:
  * the bubbles population control inserted and removed, the steps, the mean radius ratio. */
 typedef struct torus_run {
   double changes, steps, rr;
@@ -101,7 +107,7 @@ static torus_run torus_with(const bub_params *p) {
   pm_model *m = NULL;
   pm_sizing *size = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("torus", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("torus", &m, NULL, &e), e);
   PM_ASSERT_OK(pm_sizing_constant(0.06, &size, &e), e);
   pm_run_output out;
   pm_stats st;
@@ -363,7 +369,7 @@ static void caps_and_errors(void **state) {
   /* At d = 0.05 the square wants about 500 nodes (the estimate: 462 inside the square); the
    * sparse start has fewer than 300. A cap below 462 / 1.5 is refused before the first bubble,
    * naming the cap and the count the field needs. */
-  pm_run_input in = {m, size, 1, 1, 0, 100, NULL, NULL};
+  pm_run_input in = {m, size, 1, 1, 0, 100, NULL};
   assert_int_equal(bub_run(&in, &p, &out, &e), PM_ERR_LIMIT);
   assert_null(out.mesh);
   assert_null(strchr(e.msg, '\n'));

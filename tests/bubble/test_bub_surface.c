@@ -36,7 +36,7 @@ static void torus_run(double frame_tol, double *max_off, int64_t *evals) {
   pm_model *m = NULL;
   pm_sizing *size = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("torus", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("torus", &m, NULL, &e), e);
   const double d = 0.25;
   PM_ASSERT_OK(pm_sizing_constant(d, &size, &e), e);
   bub_params p = bt_params();
@@ -89,7 +89,7 @@ static void sphere_run(void **state) {
   PM_ASSERT_OK(pm_case_open("sphere", &m, &size, &e), e);
   bub_params p;
   bub_params_init(&p);
-  pm_run_input in = {m, size, 3, 2, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_input in = {m, size, 3, 2, 0, PM_DEFAULT_MAX_NODES, NULL};
   pm_run_output out;
   memset(&out, 0, sizeof out);
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
@@ -116,7 +116,7 @@ static void cylinder_default_size_volume(void **state) {
   bub_params p;
   bub_params_init(&p);
   p.size_div = 15; /* the default rule, coarser than its default 30: a quick test */
-  pm_run_input in = {m, NULL, 3, 2, 1, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_input in = {m, NULL, 3, 2, 1, PM_DEFAULT_MAX_NODES, NULL};
   pm_run_output out;
   memset(&out, 0, sizeof out);
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
@@ -146,7 +146,7 @@ static int cone_run(int metric_flips, pm_needles *nd, int *valid) {
   bub_params p;
   bub_params_init(&p);
   p.metric_flips = metric_flips;
-  pm_run_input in = {m, NULL, 1, 2, 0, PM_DEFAULT_MAX_NODES, NULL, NULL};
+  pm_run_input in = {m, NULL, 1, 2, 0, PM_DEFAULT_MAX_NODES, NULL};
   pm_run_output out;
   memset(&out, 0, sizeof out);
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);

@@ -8,7 +8,9 @@
 
 #include <math.h>
 
+#include "common/report/run_report.h"
 #include "common/geom/geom_cad.h"
+#include "common/input/cases.h"
 #include "common/mesh/mesh_check.h"
 #include "common/mesh/mesh_topo.h"
 #include "common/backends/predicates.h"
@@ -36,13 +38,13 @@ static void vrun_free(vrun *r) {
 static vrun relaxed(const char *name, double d, int relax_volume) {
   vrun r = {0};
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case(name, &r.m, &e), e);
+  PM_ASSERT_OK(pm_case_open(name, &r.m, NULL, &e), e);
   PM_ASSERT_OK(pm_sizing_constant(d, &r.size, &e), e);
   bub_params p;
   bub_params_init(&p);
   PM_ASSERT_OK(bub_state_create(r.m, r.size, &p, 1, 3, &r.s, &e), e);
   PM_ASSERT_OK(bub_place(r.s, &e), e);
-  pm_run_input in = {r.m, r.size, 3, 1, 1, 0, NULL, NULL};
+  pm_run_input in = {r.m, r.size, 3, 1, 1, 0, NULL};
   char reason[128];
   PM_ASSERT_OK(bub_relax(r.s, &in, 1000000, 0, reason, &e), e);
   int32_t dropped = 0;
@@ -235,7 +237,7 @@ static void pushed_removed_hole_refilled(void **state) {
   /* The intruder and its nearest neighbours read nearly the same ratio (13.99 against up to 14.5
    * here): the control removes the highest first, which may be a neighbour instead of the
    * intruder; relaxation then restores the packing with one bubble less either way. */
-  pm_run_input in0 = {r.m, r.size, 3, 1, 1, 0, NULL, NULL};
+  pm_run_input in0 = {r.m, r.size, 3, 1, 1, 0, NULL};
   char reason0[128];
   PM_ASSERT_OK(bub_relax(s, &in0, 1000000, 0, reason0, &e), e);
   print_message("local spacing / l0: relaxed %.3f, pushed %.3f, after control and relaxation %.3f; "
@@ -256,7 +258,7 @@ static void pushed_removed_hole_refilled(void **state) {
   const int32_t before = count_volume(s);
   double hole = pm_v3_dist(&s->x[3 * nearest_volume(s, hc)], hc);
   assert_true(hole > 0.9 * 0.2);
-  pm_run_input in = {r.m, r.size, 3, 1, 1, 0, NULL, NULL};
+  pm_run_input in = {r.m, r.size, 3, 1, 1, 0, NULL};
   char reason[128];
   PM_ASSERT_OK(bub_relax(s, &in, 1000000, 0, reason, &e), e);
   print_message("hole of %d bubbles: %d -> %d volume bubbles (%d before the hole), nearest to its "
@@ -309,7 +311,7 @@ static void nonmanifold_hybrid(void **state) {
   (void)state;
   pm_error e = {0};
   pm_model *m = NULL;
-  PM_ASSERT_OK(pm_cad_case("nonmanifold", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("nonmanifold", &m, NULL, &e), e);
   assert_int_equal(m->count[PM_VOLUME], 1);
   const pm_cell *vol = pm_model_cell(m, PM_VOLUME, 0);
   int32_t face = -1, curve = -1;
@@ -321,7 +323,7 @@ static void nonmanifold_hybrid(void **state) {
   assert_true(face >= 0 && curve >= 0);
   bub_params p;
   bub_params_init(&p);
-  pm_run_input in = {m, NULL, 1, 1, 1, 0, NULL, NULL};
+  pm_run_input in = {m, NULL, 1, 1, 1, 0, NULL};
   pm_run_output out = {0};
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
   pm_mesh *mesh = out.mesh;
@@ -381,15 +383,18 @@ static void nonmanifold_hybrid(void **state) {
 static double min_dihedral_of(const char *name, double sliver_angle, int32_t *added) {
   pm_error e = {0};
   pm_model *m = NULL;
-  PM_ASSERT_OK(pm_cad_case(name, &m, &e), e);
+  PM_ASSERT_OK(pm_case_open(name, &m, NULL, &e), e);
   bub_params p;
   bub_params_init(&p);
   p.sliver_angle = sliver_angle;
   pm_stats st;
   pm_stats_init(&st);
-  pm_run_input in = {m, NULL, 1, 1, 1, 0, NULL, NULL};
+  pm_run_input in = {m, NULL, 1, 1, 1, 0, NULL};
   pm_run_output out = {0};
-  out.stats = &st;
+  pm_run_report report = {&st, NULL, NULL};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  in.observer = &observer;
   PM_ASSERT_OK(bub_run(&in, &p, &out, &e), e);
   double worst = 180;
   const pm_mesh *mesh = out.mesh;

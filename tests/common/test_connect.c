@@ -9,6 +9,7 @@
 #include "common/connect/connect.h"
 #include "common/geom/geom_analytic.h"
 #include "common/geom/geom_cad.h"
+#include "common/input/cases.h"
 #include "common/mesh/mesh_check.h"
 #include "common/measure/quality.h"
 
@@ -196,7 +197,7 @@ static void curved_faces_flip_and_close(void **state) {
   for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
     pm_model *m = NULL;
     pm_error e = {0};
-    PM_ASSERT_OK(pm_cad_case(cases[k], &m, &e), e);
+    PM_ASSERT_OK(pm_case_open(cases[k], &m, NULL, &e), e);
     double rr[2][2];
     for (int affine = 0; affine < 2; ++affine)
       for (int flips = 0; flips < 2; ++flips) {
@@ -292,7 +293,7 @@ static void pole_fans_on_even_nodes(void **state) {
   (void)state;
   pm_model *m = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("sphere", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("sphere", &m, NULL, &e), e);
   pm_mesh *mesh = spiral_sphere_nodes(m, 600);
   PM_ASSERT_OK(pm_connect(m, mesh, NULL, NULL, &e), e);
   pm_check_report r = {0};

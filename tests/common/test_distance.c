@@ -12,6 +12,7 @@
 #include "common/measure/distance.h"
 #include "common/geom/geom_analytic.h"
 #include "common/geom/geom_cad.h"
+#include "common/input/cases.h"
 #include "common/mesh/mesh.h"
 #include "common/sizing/sizing.h"
 
@@ -354,7 +355,7 @@ static void test_sphere_chordal_error(void **state) {
   (void)state;
   pm_model *m = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("sphere", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("sphere", &m, NULL, &e), e);
   double dmax[2];
   for (int classify = 0; classify < 2; ++classify) {
     pm_mesh *me = octasphere(6, classify);
@@ -392,7 +393,7 @@ static void test_sphere_pushed_vertex(void **state) {
   (void)state;
   pm_model *m = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("sphere", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("sphere", &m, NULL, &e), e);
   pm_mesh *me = octasphere(5, 0);
   /* The node nearest to (1, 1, 1)/sqrt(3), pushed out to radius 1.05. */
   int32_t best = 0;
@@ -419,7 +420,7 @@ static void test_cylinder_prism(void **state) {
   (void)state;
   pm_model *m = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("cylinder", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("cylinder", &m, NULL, &e), e);
   const int n = 24, layers = 6;
   const double r = 0.5;
   pm_mesh *me = pm_mesh_create();
@@ -468,7 +469,7 @@ static void test_torus_doubly_periodic(void **state) {
   (void)state;
   pm_model *m = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("torus", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("torus", &m, NULL, &e), e);
   const int nu = 24, nv = 12;
   double res[2];
   for (int classify = 0; classify < 2; ++classify) {
@@ -599,7 +600,7 @@ static void test_prune_changes_no_figure(void **state) {
   pm_error e = {0};
   for (int which = 0; which < 2; ++which) {
     pm_model *m = NULL;
-    PM_ASSERT_OK(pm_cad_case(which ? "torus" : "cylinder", &m, &e), e);
+    PM_ASSERT_OK(pm_case_open(which ? "torus" : "cylinder", &m, NULL, &e), e);
     pm_mesh *me = NULL;
     if (which == 0) {
       me = classified_prism(m, 24, 6);
@@ -762,7 +763,7 @@ static void test_wire_dangling_segment(void **state) {
   (void)state;
   pm_model *m = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case("nonmanifold", &m, &e), e);
+  PM_ASSERT_OK(pm_case_open("nonmanifold", &m, NULL, &e), e);
   int32_t wire = -1;
   for (int32_t i = 0; i < m->count[PM_CURVE]; ++i)
     if (m->cells[PM_CURVE][i].nup == 0) wire = i;

@@ -12,6 +12,7 @@
 
 #include "common/geom/geom.h"
 #include "common/geom/geom_cad.h"
+#include "common/input/cases.h"
 #include "common/backends/gmsh_session.h"
 #include "common/base/vec3.h"
 
@@ -37,7 +38,7 @@ static inline pm_model *cad_load_file(const char *file) {
 static inline pm_model *cad_load_case(const char *name) {
   pm_model *m = NULL;
   pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_case(name, &m, &e), e);
+  PM_ASSERT_OK(pm_case_open(name, &m, NULL, &e), e);
   return m;
 }
 

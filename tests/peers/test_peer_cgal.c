@@ -4,6 +4,7 @@
  * parameters, fields and caps. */
 #include "peer_test_util.h"
 
+#include "common/report/run_report.h"
 #include "common/geom/geom_analytic.h"
 #include "common/geom/geom_cad.h"
 #include "common/backends/gmsh_session.h"
@@ -166,10 +167,13 @@ static void holes_and_arcs(void **state) {
     pm_stats_init(&st);
     void *params = calloc(1, peer_cgal.params_size);
     peer_cgal.params_init(params);
-    pm_run_input in = {md, sz, 1, 1, 0, 1000000, NULL, NULL};
+    pm_run_input in = {md, sz, 1, 1, 0, 1000000, NULL};
     pm_run_output out;
     memset(&out, 0, sizeof out);
-    out.stats = &st;
+    pm_run_report report = {&st, NULL, NULL};
+    pm_run_observer observer;
+    pm_run_report_observer(&report, &observer);
+    in.observer = &observer;
     PM_ASSERT_OK(peer_cgal.run(&in, params, &out, &e), e);
     peer_test_expect_valid(out.mesh, md);
     expect_on_curves(out.mesh, md);
@@ -214,10 +218,13 @@ static void coarse_arcs(void **state) {
     pm_stats_init(&st);
     peer_cgal_params p;
     peer_cgal_params_init(&p);
-    pm_run_input in = {md, sz, 1, 1, 0, 1000000, NULL, NULL};
+    pm_run_input in = {md, sz, 1, 1, 0, 1000000, NULL};
     pm_run_output out;
     memset(&out, 0, sizeof out);
-    out.stats = &st;
+    pm_run_report report = {&st, NULL, NULL};
+    pm_run_observer observer;
+    pm_run_report_observer(&report, &observer);
+    in.observer = &observer;
     PM_ASSERT_OK(peer_cgal.run(&in, &p, &out, &e), e);
     peer_test_expect_valid(out.mesh, md);
     pm_stats_flat flat;
@@ -290,7 +297,7 @@ static void bad_input(void **state) {
   }
   peer_cgal_params p;
   peer_cgal_params_init(&p);
-  pm_run_input in = {md, sz, 1, 1, 0, 100, NULL, NULL};
+  pm_run_input in = {md, sz, 1, 1, 0, 100, NULL};
   pm_run_output out;
   memset(&out, 0, sizeof out);
   /* Caps: hopeless (the estimate), then just exceeded during refinement. */

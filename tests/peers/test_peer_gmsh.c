@@ -397,7 +397,7 @@ static void bad_input(void **state) {
   peer_gmsh_params p;
   peer_gmsh_params_init(&p);
   p.radius_edge = 0.5;
-  pm_run_input in = {md, sz, 1, 1, 0, 1000000, NULL, NULL};
+  pm_run_input in = {md, sz, 1, 1, 0, 1000000, NULL};
   pm_run_output out;
   memset(&out, 0, sizeof out);
   assert_int_equal(peer_gmsh_meshadapt.run(&in, &p, &out, &e), PM_ERR_ARG);

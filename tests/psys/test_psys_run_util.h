@@ -5,6 +5,7 @@
 
 #include "test_psys_util.h"
 
+#include "common/report/run_report.h"
 #include "common/input/input.h"
 #include "common/mesh/mesh_check.h"
 #include "common/measure/quality.h"
@@ -28,10 +29,13 @@ static inline pm_mesh *psys_test_run(const pm_model *m, const pm_sizing *size, u
   pm_run_input in;
   memset(&in, 0, sizeof in);
   in.model = m, in.size = size, in.seed = seed, in.threads = threads, in.volume = volume;
-  in.max_nodes = PM_DEFAULT_MAX_NODES, in.trace = trace, in.frames = frames;
+  in.max_nodes = PM_DEFAULT_MAX_NODES;
+  pm_run_report report = {stats, trace, frames};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  in.observer = &observer;
   pm_run_output out;
   memset(&out, 0, sizeof out);
-  out.stats = stats;
   PM_ASSERT_OK(psys_method.run(&in, &p, &out, &e), e);
   assert_non_null(out.mesh);
   assert_true(out.iterations > 0);

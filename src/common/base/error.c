@@ -58,6 +58,7 @@ const char *pm_status_name(pm_status s) {
     case PM_ERR_LIMIT: return "limit exceeded";
     case PM_ERR_NOMEM: return "out of memory";
     case PM_ERR_INTERNAL: return "internal error";
+    case PM_ERR_CANCELLED: return "cancelled";
   }
   return "unknown error";
 }

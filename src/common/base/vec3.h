@@ -4,6 +4,13 @@
 
 #include <math.h>
 
+/* The largest coordinate magnitude packmesh takes from a file (a mesh file or a case file).
+ * The measures square edge lengths and multiply up to three of them (a tet's volume, its
+ * circumradius formula): at 1e30 the largest product, about 1e180, is far from the 1.8e308 at
+ * which a double overflows, while at 1e308 a single squared length is already infinite. No
+ * physical model needs more: 1e30 metres is a thousand times the observable universe. */
+#define PM_COORD_MAX 1e30
+
 static inline void pm_v3_copy(double r[3], const double a[3]) { r[0] = a[0], r[1] = a[1], r[2] = a[2]; }
 static inline void pm_v3_zero(double r[3]) { r[0] = r[1] = r[2] = 0; }
 static inline void pm_v3_set(double r[3], double x, double y, double z) { r[0] = x, r[1] = y, r[2] = z; }

@@ -11,7 +11,7 @@
 #include "common/mesh/mesh_topo.h"
 #include "common/base/hash.h"
 #include "common/backends/predicates.h"
-#include "common/measure/quality.h"
+#include "common/mesh/element_measure.h"
 #include "common/base/vec3.h"
 
 void pm_connect_params_init(pm_connect_params *p) {

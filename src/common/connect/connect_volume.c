@@ -13,7 +13,7 @@
 #include "common/base/hash.h"
 #include "common/mesh/mesh_topo.h"
 #include "common/backends/predicates.h"
-#include "common/measure/quality.h"
+#include "common/mesh/element_measure.h"
 #include "common/mesh/self_intersect.h"
 #include "common/connect/tet_flip.h"
 #include "common/backends/tet_tetgen.h"

@@ -34,6 +34,12 @@ extern "C" {
 
 enum { PM_VERTEX = 0, PM_CURVE = 1, PM_FACE = 2, PM_VOLUME = 3 };
 
+/* The resolution of a model: CAD features (curves, strips, wedges) below this fraction of its
+ * bounding-box diagonal are taken as below what a mesh must show. The feature size field does
+ * not refine below it (sizing_features.h) and a needle it forces is reported as forced
+ * (needles.h). */
+#define PM_FEATURE_FLOOR 3e-5
+
 typedef struct pm_cell pm_cell;
 typedef struct pm_model pm_model;
 

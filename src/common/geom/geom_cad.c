@@ -136,7 +136,36 @@ pm_status cad_new_gmsh_model(char name[64], pm_gmsh_scope *scope, pm_error *err)
   return pm_error_setf(err, PM_ERR_BACKEND, "could not create a uniquely named gmsh model");
 }
 
-/* ---- loading files ----------------------------------------------------------------------- */
+/* ---- building and loading ----------------------------------------------------------------- */
+
+pm_status pm_cad_build_shapes(const char *label, int (*make)(void), pm_model **out, pm_error *err) {
+  *out = NULL;
+  pm_status s = pm_gmsh_begin(err);
+  if (s) return s;
+  pm_gmsh_lock();
+  pm_gmsh_scope scope;
+  char gname[64];
+  s = cad_new_gmsh_model(gname, &scope, err);
+  if (s) {
+    pm_gmsh_unlock();
+    return s;
+  }
+  int ierr = make();
+  if (!ierr) gmshModelOccSynchronize(&ierr);
+  if (ierr) {
+    s = pm_gmsh_error(err, PM_ERR_BACKEND, "building the shape");
+    pm_gmsh_scope_leave(&scope, 1);
+    pm_gmsh_unlock();
+    return s;
+  }
+  pm_model *m = NULL;
+  s = cad_build(gname, label, &m, err);
+  pm_gmsh_scope_leave(&scope, 0);
+  pm_gmsh_unlock();
+  if (s) return s;
+  *out = m;
+  return PM_OK;
+}
 
 typedef enum cad_format { FMT_NONE = 0, FMT_STEP, FMT_IGES, FMT_BREP } cad_format;
 

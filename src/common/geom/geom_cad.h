@@ -72,37 +72,12 @@ extern "C" {
  *   PM_ERR_BACKEND gmsh failed otherwise. */
 pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err);
 
-/* The built-in solid cases (DESIGN.md, "Built-in cases"), built in-process with gmsh's
- * OpenCASCADE kernel. */
-typedef struct pm_cad_case_info {
-  const char *name;        /* what `case:NAME` names */
-  const char *description; /* one line: the shape and its dimensions */
-  double size;             /* default edge length, about 1/15 .. 1/20 of the box diagonal */
-} pm_cad_case_info;
-
-/* The table of cases; *n (may be NULL) receives its length. Static storage. */
-const pm_cad_case_info *pm_cad_cases(int *n);
-
-/* The case names, NULL-terminated. Static storage. */
-const char *const *pm_cad_case_names(void);
-
-/* Build case `name` (without the "case:" prefix): the model is named "case:NAME".
- *   sphere       radius 1 at the origin: 2 vertices, 3 curves (a seam and two pole curves),
- *                1 face, 1 volume;
- *   torus        R = 1, r = 0.35 about the z axis: 1 vertex, 2 seam curves, 1 face, 1 volume;
- *   cylinder     radius 0.5, height 2 (z from -1 to 1), solid: 2 vertices, 3 curves, 3 faces,
- *                1 volume;
- *   boxhole      box [-1,1] x [-0.5,0.5] x [-0.3,0.3] minus a cylinder of radius 0.25 along z
- *                through its centre: 10 vertices, 15 curves, 7 faces, 1 volume;
- *   nonmanifold  the unit cube [0,1]^3 with an internal triangle (0,0,0), (0,0,1), (0.5,0.5,0.5)
- *                hanging from the cube edge x = y = 0 and a dangling segment from (0.5,0.5,0.5) to
- *                (0.8,0.6,0.5), fragmented so that the topology is shared: 10 vertices, 15 curves,
- *                7 faces, 1 volume; the triangle, the segment and its two vertices are embedded in
- *                the volume. (papers/003 Fig. 11 shows 7 vertices, 9 edges, 5 faces and 1 volume
- *                for its own non-manifold example; the counts differ because the cube has 8
- *                corners, 12 edges and 6 faces.)
- * An unknown name is PM_ERR_ARG listing the known ones. */
-pm_status pm_cad_case(const char *name, pm_model **out, pm_error *err);
+/* Build a model from shapes made in-process with gmsh's OpenCASCADE kernel: `make` runs in a
+ * fresh gmsh model (under the gmsh lock) and returns gmsh's ierr; its shapes are synchronized and
+ * loaded like a CAD file's, under the name `label`. The built-in solid cases (cases.h) are made
+ * this way. A failing `make` is PM_ERR_BACKEND with gmsh's message. */
+pm_status pm_cad_build_shapes(const char *label, int (*make)(void), pm_model **out,
+                              pm_error *err);
 
 /* Number of gmsh evaluations of model m that failed and were replaced by the fallback output
  * (see above); -1 when m is not a geom_cad model. */

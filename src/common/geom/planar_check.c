@@ -30,7 +30,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/mesh/mesh.h"
+#include "common/base/vec3.h"
 #include "common/backends/predicates.h"
 
 typedef struct piece {

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "common/backends/predicates.h"
+#include "common/geom/geom.h"
 
 /* Polyline sampling of a pcurve: an interval is bisected while its midpoint lies farther than
  * SAMPLE_TOL x (diagonal of the face's parameter box) from the chord. At 2e-4 the polyline

@@ -14,7 +14,14 @@
 #ifndef PM_TRIM_H
 #define PM_TRIM_H
 
-#include "common/geom/geom.h"
+#include <packmesh/packmesh.h>
+
+#include <stdint.h>
+
+/* The cell complex's types (geom.h), declared here rather than included: geom.c builds every
+ * face's trimming through this header, and the two must not include each other. */
+typedef struct pm_cell pm_cell;
+typedef struct pm_model pm_model;
 
 /* Sample the loops of face f (whose loop->use arrays the backend filled) into polylines, fix
  * their orientation and outer flags, and build f->trim. */

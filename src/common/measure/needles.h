@@ -41,7 +41,6 @@ extern "C" {
 #endif
 
 #define PM_NEEDLE_DEG 10.0     /* the default limit, in degrees */
-#define PM_FEATURE_FLOOR 3e-5  /* CAD features below this fraction of the diagonal */
 
 typedef enum pm_needle_kind {
   PM_NEEDLE_NONE = 0,     /* not a needle */

@@ -35,18 +35,8 @@
  *           mesh's worse triangles sit: along the curves, at lattice defects, or in a lattice
  *           that is itself distorted (a graded field).
  *
- * Summaries: min, p25, median, p75, max, mean. Percentiles use linear interpolation between
- * order statistics: with the n values sorted as x_0 <= ... <= x_{n-1} and h = (n - 1) p, the
- * p-quantile is x_floor(h) + (h - floor(h)) (x_floor(h)+1 - x_floor(h)) (Hyndman & Fan's type 7,
- * the default of R, NumPy and gnuplot's stats), so p25 of {1, 2, 3, 4} is 1.75.
- *
- * Degenerate elements: a triangle is degenerate when twice its area is at most
- * PM_DEGENERATE_REL l_max^2 (its height is below 1e-12 of its longest edge), a tet when six times
- * its volume is at most PM_DEGENERATE_REL l_max^3. A degenerate element gets radius ratio 0,
- * aspect ratio PM_QUALITY_HUGE, min angle 0 and max angle 180 (the limits of a flattened
- * element), r/R = 0 in eps_g, and is counted; no NaN or infinity ever reaches a summary.
- * Tet measures use |volume|: an inverted tet is measured by its shape (the checker of
- * mesh_check.h reports inversion).
+ * Summaries are those of base/summary.h; the element measures and the degenerate elements are
+ * those of mesh/element_measure.h.
  */
 #ifndef PM_QUALITY_H
 #define PM_QUALITY_H
@@ -56,6 +46,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "common/base/summary.h"
+#include "common/mesh/element_measure.h"
 #include "common/mesh/mesh.h"
 #include "common/sizing/sizing.h"
 
@@ -63,9 +55,6 @@
 extern "C" {
 #endif
 
-#define PM_DEGENERATE_REL 1e-12 /* flatness below which an element is degenerate (see above) */
-#define PM_QUALITY_HUGE 1e100   /* the aspect ratio of a degenerate element: larger than any real
-                                   one, and small enough that 2^31 of them still sum finitely */
 
 /* Shimada's A of papers/003 eq. 9: the largest r/R of a triangle (0.5) and, as the paper states
  * it, of a tetrahedron (sqrt(2/11)). For a regular tetrahedron r/R is in fact 1/3 = 0.3333 while
@@ -73,46 +62,6 @@ extern "C" {
  * value so that figures compare with its Table 1 definition. */
 #define PM_EPS_G_A_TRI 0.5
 #define PM_EPS_G_A_TET 0.42640143271122088 /* sqrt(2/11) */
-
-/* A five-number summary and the mean of n values (n = 0: every field 0). */
-typedef struct pm_summary {
-  int64_t n;
-  double min, p25, median, p75, max, mean;
-} pm_summary;
-
-/* The p-quantile (0 <= p <= 1) of n >= 1 sorted values, by the convention above. */
-double pm_percentile_sorted(const double *sorted, size_t n, double p);
-
-/* Summarize n values (unsorted; not modified). NaN values are skipped and not counted in n. */
-pm_status pm_summary_compute(const double *v, size_t n, pm_summary *out, pm_error *err);
-
-/* Sort n doubles ascending (no NaN among them) in O(n) (a radix sort on their bit patterns). */
-pm_status pm_sort_doubles(double *v, size_t n, pm_error *err);
-
-/* ---- single elements ---------------------------------------------------------------------- */
-
-typedef struct pm_tri_measure {
-  double radius_ratio; /* 2 r_in / R */
-  double aspect_ratio; /* R / l_min */
-  double min_angle, max_angle; /* degrees */
-  double area;
-  double rr;           /* r_in / R, the ratio of papers/003 eq. 9 */
-  int degenerate;
-} pm_tri_measure;
-
-typedef struct pm_tet_measure {
-  double radius_ratio; /* 3 r_in / R */
-  double aspect_ratio; /* R / l_min */
-  double min_dihedral, max_dihedral; /* degrees */
-  double volume;       /* signed: > 0 for a positive tet (mesh.h) */
-  double rr;           /* r_in / R */
-  int degenerate;
-} pm_tet_measure;
-
-void pm_tri_measure_eval(const double a[3], const double b[3], const double c[3],
-                         pm_tri_measure *out);
-void pm_tet_measure_eval(const double a[3], const double b[3], const double c[3],
-                         const double d[3], pm_tet_measure *out);
 
 /* ---- a whole mesh ------------------------------------------------------------------------- */
 

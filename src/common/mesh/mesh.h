@@ -19,16 +19,12 @@
 
 #include <stdint.h>
 
+#include "common/base/vec3.h" /* PM_COORD_MAX */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* The largest coordinate magnitude packmesh takes from a file (a mesh file or a case file).
- * The measures square edge lengths and multiply up to three of them (a tet's volume, its
- * circumradius formula): at 1e30 the largest product, about 1e180, is far from the 1.8e308 at
- * which a double overflows, while at 1e308 a single squared length is already infinite. No
- * physical model needs more: 1e30 metres is a thousand times the observable universe. */
-#define PM_COORD_MAX 1e30
 
 typedef struct pm_mesh {
   int32_t nnode, cap_node;

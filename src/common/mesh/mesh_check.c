@@ -17,7 +17,7 @@
 
 #include "common/mesh/mesh_topo.h"
 #include "common/backends/predicates.h"
-#include "common/measure/quality.h"
+#include "common/mesh/element_measure.h"
 
 static const char *const kind_names[PM_CHECK_NKIND] = {
     "bad node indices",

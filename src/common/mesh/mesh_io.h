@@ -22,7 +22,7 @@
  *   so for these formats every node is put on one entity).
  *   .vtu   VTK XML unstructured grid (ParaView), ASCII, written here (gmsh 4.8.4 has no .vtu
  *          writer): points, lines / triangles / tets, cell data "cell" (the cell index, -1 when
- *          untagged) and the per-element quality of quality.h, "radius_ratio", "aspect_ratio"
+ *          untagged) and the per-element values of element_measure.h, "radius_ratio", "aspect_ratio"
  *          (R / l_min) and "min_angle_deg" (a tet's smallest dihedral angle; -1 on segments),
  *          for colouring in ParaView; point data "node_dim", "node_cell" and "node_par"
  *          (2 components).

@@ -6,6 +6,11 @@
  * A method is a pm_method descriptor: its name, its parameter table (params.h: defaults, --set,
  * --help, range checks, all from one table) and its run function. The command line (src/cli)
  * holds the table of methods; methods never include each other.
+ *
+ * A method reports while it runs through an observer (pm_run_observer): its phase times and
+ * counters, one trace row per iteration, snapshots of its particles. It does not know where they
+ * go: report/run_report.h sends them to the stats, the trace and the frames of `packmesh mesh`,
+ * the public API to a progress callback that may cancel the run.
  */
 #ifndef PM_METHOD_H
 #define PM_METHOD_H
@@ -15,17 +20,63 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "common/report/frames.h"
+#include "common/base/params.h"
 #include "common/geom/geom.h"
 #include "common/mesh/mesh.h"
-#include "common/base/params.h"
 #include "common/sizing/sizing.h"
-#include "common/report/stats.h"
-#include "common/report/trace.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* Where a running method reports. Every callback may be NULL (the report is not wanted); ctx is
+ * passed back to each. A callback that returns a status other than PM_OK stops the run, which
+ * returns that status (PM_ERR_CANCELLED when the caller asked to stop). */
+typedef struct pm_run_observer {
+  void *ctx;
+  /* The names of the trace columns, once, before the first row. */
+  pm_status (*trace_columns)(void *ctx, int ncol, const char *const *names, pm_error *err);
+  /* One row per iteration, ncol values in the order of the names. */
+  pm_status (*trace_row)(void *ctx, const double *row, pm_error *err);
+  /* A snapshot at `step`: n particles at xyz[3n] with radius[n] (a bubble's radius, a psys
+   * particle's sigma) on cells of dimension dim[n]. The caller closes the series after the run. */
+  pm_status (*frame)(void *ctx, int64_t step, int32_t n, const double *xyz, const double *radius,
+                     const int8_t *dim, pm_error *err);
+  /* The seconds a phase took ("place", "connect", ...), and the method's own numbers and texts
+   * ("bubble.steps", "psys.particles", ...), under the keys of DESIGN.md's stats. */
+  pm_status (*time)(void *ctx, const char *phase, double seconds, pm_error *err);
+  pm_status (*number)(void *ctx, const char *key, double value, pm_error *err);
+  pm_status (*text)(void *ctx, const char *key, const char *text, pm_error *err);
+} pm_run_observer;
+
+/* The calls a method makes: each is PM_OK when o or its callback is NULL. */
+static inline int pm_observe_wants_trace(const pm_run_observer *o) { return o && o->trace_row; }
+static inline int pm_observe_wants_frames(const pm_run_observer *o) { return o && o->frame; }
+static inline pm_status pm_observe_trace_columns(const pm_run_observer *o, int ncol,
+                                                 const char *const *names, pm_error *err) {
+  return o && o->trace_columns ? o->trace_columns(o->ctx, ncol, names, err) : PM_OK;
+}
+static inline pm_status pm_observe_trace_row(const pm_run_observer *o, const double *row,
+                                             pm_error *err) {
+  return o && o->trace_row ? o->trace_row(o->ctx, row, err) : PM_OK;
+}
+static inline pm_status pm_observe_frame(const pm_run_observer *o, int64_t step, int32_t n,
+                                         const double *xyz, const double *radius,
+                                         const int8_t *dim, pm_error *err) {
+  return o && o->frame ? o->frame(o->ctx, step, n, xyz, radius, dim, err) : PM_OK;
+}
+static inline pm_status pm_observe_time(const pm_run_observer *o, const char *phase,
+                                        double seconds, pm_error *err) {
+  return o && o->time ? o->time(o->ctx, phase, seconds, err) : PM_OK;
+}
+static inline pm_status pm_observe_number(const pm_run_observer *o, const char *key,
+                                          double value, pm_error *err) {
+  return o && o->number ? o->number(o->ctx, key, value, err) : PM_OK;
+}
+static inline pm_status pm_observe_text(const pm_run_observer *o, const char *key,
+                                        const char *text, pm_error *err) {
+  return o && o->text ? o->text(o->ctx, key, text, err) : PM_OK;
+}
 
 typedef struct pm_run_input {
   const pm_model *model;   /* borrowed */
@@ -36,17 +87,13 @@ typedef struct pm_run_input {
                               depend on it */
   int volume;              /* 1: also mesh the model's volumes with tets */
   int64_t max_nodes;       /* cap on the node count, > 0; exceeding it is PM_ERR_LIMIT */
-  pm_trace *trace;         /* borrowed, may be NULL: one row per iteration (the method sets the
-                              columns) */
-  pm_frames *frames;       /* borrowed, may be NULL: snapshots of the particles */
+  const pm_run_observer *observer; /* borrowed, may be NULL: nothing is reported */
 } pm_run_input;
 
 typedef struct pm_run_output {
   pm_mesh *mesh;           /* out: created by the method, freed by the caller */
   int64_t iterations;      /* out: steps / iterations the method ran (0 for direct meshers) */
   char stop_reason[128];   /* out: what ended the run ("converged: ...", "max steps", ...) */
-  pm_stats *stats;         /* in, may be NULL: the method adds its phase times ("place",
-                              "connect", ...) and extra keys; the caller fills the rest */
 } pm_run_output;
 
 typedef struct pm_method {

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/measure/needles.h"
+#include "common/geom/geom.h"
 #include "common/sizing/sizing_private.h"
 #include "common/base/vec3.h"
 

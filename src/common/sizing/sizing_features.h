@@ -17,7 +17,7 @@
  *     wedge is, down to its tip;
  *   - PM_FEATURE_CURVATURE, curved faces: h = (pi/4) / |kmax| (8 edges per turn of the largest
  *     principal curvature), at least a tenth of the face's smaller extent.
- * A feature that would ask for less than PM_FEATURE_FLOOR (needles.h) times the model's
+ * A feature that would ask for less than PM_FEATURE_FLOOR (geom.h) times the model's
  * diagonal is left out: the mesh does not resolve the model below that floor, and a needle there
  * is counted as forced.
  *

@@ -1,0 +1,101 @@
+#!/usr/bin/env python3
+"""The layers of docs/DESIGN.md ("Layout"), checked on every #include of the library's sources.
+
+A file may include its own folder and the folders below it; nothing above and nothing beside.
+The three method folders (bubble, psys, peers) stand side by side: none includes another.
+Public headers (<packmesh/...>) may be included anywhere. Exit status 1 lists every offending
+line as FILE:LINE: FROM includes TO (above / beside).
+
+Usage: check_layers.py SOURCE_DIR
+"""
+import os
+import re
+import sys
+
+# Lowest first. A folder may include the folders before it in this list.
+LAYERS = [
+    "base",      # errors, rng, hashing, atomic files, parameter tables, summaries
+    "backends",  # CGAL, TetGen, Embree, gmsh behind C headers; the versions they report
+    "geom",      # the cell complex, trimming, the analytic and CAD models
+    "mesh",      # the mesh, its topology, element measures, files, checker, point-in-volume
+    "sizing",    # size fields, feature sizes, the neighbour grid, node budgets
+    "input",     # models and default sizes from a spec: files, case files, built-in cases
+    "connect",   # per-face CDT, flips, the volume step
+    "measure",   # quality, needles, two-sided distance
+    "method",    # the interface every mesher implements
+    ("bubble", "psys", "peers"),  # the meshers, side by side
+    "report",    # stats, trace, frames: above the methods, which report through observers
+    "api",       # the public C API (include/packmesh) and what only it does
+    "compare",   # the comparison engine
+    "cli",       # the packmesh command
+]
+
+RANK = {}
+for i, layer in enumerate(LAYERS):
+    for name in (layer if isinstance(layer, tuple) else (layer,)):
+        RANK[name] = i
+
+INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"')
+
+
+def folder_of_file(rel):
+    """The layer folder of a source file (path relative to the source dir), or None."""
+    parts = rel.split(os.sep)
+    if parts[0] == "src" and len(parts) >= 3:
+        if parts[1] == "common" and len(parts) >= 4:
+            return parts[2]
+        return parts[1]
+    if parts[0] == "compare" and len(parts) >= 3 and parts[1] == "src":
+        return "compare"
+    return None
+
+
+def folder_of_include(inc, own):
+    parts = inc.split("/")
+    if len(parts) == 1:
+        return own  # a header of the same folder
+    if parts[0] == "common" and len(parts) >= 3:
+        return parts[1]
+    return parts[0]
+
+
+def main():
+    if len(sys.argv) != 2:
+        print("usage: check_layers.py SOURCE_DIR", file=sys.stderr)
+        return 2
+    root = sys.argv[1]
+    bad, checked = [], 0
+    for top in ("src", os.path.join("compare", "src")):
+        for dirpath, _, files in os.walk(os.path.join(root, top)):
+            for fn in sorted(files):
+                if not fn.endswith((".c", ".h", ".cpp")):
+                    continue
+                path = os.path.join(dirpath, fn)
+                rel = os.path.relpath(path, root)
+                own = folder_of_file(rel)
+                if own not in RANK:
+                    bad.append(f"{rel}: folder '{own}' is not a layer of check_layers.py")
+                    continue
+                with open(path, encoding="utf-8") as f:
+                    for n, line in enumerate(f, 1):
+                        m = INCLUDE.match(line)
+                        if not m:
+                            continue
+                        checked += 1
+                        to = folder_of_include(m.group(1), own)
+                        if to == own:
+                            continue
+                        if to not in RANK:
+                            bad.append(f"{rel}:{n}: includes \"{m.group(1)}\" of unknown folder '{to}'")
+                        elif RANK[to] > RANK[own]:
+                            bad.append(f"{rel}:{n}: {own} includes {to} (above it)")
+                        elif RANK[to] == RANK[own]:
+                            bad.append(f"{rel}:{n}: {own} includes {to} (beside it)")
+    for b in bad:
+        print(b)
+    print(f"check_layers: {checked} includes checked, {len(bad)} against the layers")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
