@@ -11,7 +11,7 @@
 #include <string.h>
 
 #include "cli/cli.h"
-#include "cli/cli_methods.h"
+#include "api/api.h"
 #include "cli/cli_util.h"
 #include "cli/compare_study.h"
 
@@ -60,7 +60,7 @@ int pm_cli_demo(int argc, char **argv) {
   char methods[1024] = "", missing[256] = "";
   const char *reference = NULL;
   for (int k = 0; k < NCAND; ++k) {
-    if (pm_cli_method_find(candidates[k].name)) {
+    if (pm_method_find(candidates[k].name)) {
       if (!reference) reference = candidates[k].name;
       strncat(methods, methods[0] ? ",\n    " : "    ", sizeof methods - strlen(methods) - 1);
       strncat(methods, candidates[k].entry, sizeof methods - strlen(methods) - 1);

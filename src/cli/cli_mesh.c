@@ -19,7 +19,7 @@
 #include <string.h>
 
 #include "cli/cli.h"
-#include "cli/cli_methods.h"
+#include "api/api.h"
 #include "cli/cli_progress.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_size.h"
@@ -54,9 +54,9 @@ typedef struct mesh_opts {
 /* "bubble, psys": the methods that record a trace and frames. */
 static void tracing_names(char *buf, size_t len) {
   buf[0] = '\0';
-  for (int i = 0; i < pm_cli_method_count(); ++i) {
-    const pm_method *m = pm_cli_method_at(i);
-    if (!pm_cli_method_traces(m)) continue;
+  for (int i = 0; i < pm_method_count(); ++i) {
+    const pm_method *m = pm_method_at(i);
+    if (!pm_method_traces(m)) continue;
     strncat(buf, buf[0] ? ", " : "", len - strlen(buf) - 1);
     strncat(buf, m->name, len - strlen(buf) - 1);
   }
@@ -64,7 +64,7 @@ static void tracing_names(char *buf, size_t len) {
 
 static int usage_text(void) {
   char names[512], tracing[512];
-  pm_cli_method_names(names, sizeof names);
+  pm_method_names(names, sizeof names);
   tracing_names(tracing, sizeof tracing);
   printf("usage: packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]\n"
          "                    [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]\n"
@@ -205,24 +205,27 @@ static int parse(int argc, char **argv, mesh_opts *o) {
   return PM_EXIT_OK;
 }
 
-/* One run of the method with `size` (may be NULL). */
-static pm_status run_once(const pm_method *method, const void *params, const pm_model *model,
-                          const pm_sizing *size, const mesh_opts *o, pm_trace *trace,
-                          pm_frames *frames, pm_stats *stats, pm_run_output *out, pm_error *err) {
-  pm_run_input in;
-  memset(&in, 0, sizeof in);
-  in.model = model;
-  in.size = size;
-  in.seed = o->seed;
-  in.threads = (int)o->threads;
-  in.volume = o->volume;
-  in.max_nodes = o->max_nodes;
-  pm_run_report report = {stats, trace, frames};
-  pm_run_observer observer;
-  pm_run_report_observer(&report, &observer);
-  in.observer = &observer;
-  memset(out, 0, sizeof *out);
-  return method->run(&in, params, out, err);
+/* The reports of a node-target search's runs describe the last run only: new_run starts them
+ * afresh (the stats, and the trace, which the observer then reaches through report->trace). */
+typedef struct run_reports {
+  pm_stats *stats;
+  pm_run_report *report;
+  pm_trace **trace; /* *trace NULL without --trace */
+  const char *method, *input;
+} run_reports;
+
+static pm_status new_run(void *ctx, int run, pm_error *err) {
+  run_reports *r = ctx;
+  if (run == 1) return PM_OK;
+  pm_stats_clear(r->stats);
+  pm_stats_init(r->stats);
+  pm_stats_set_run(r->stats, r->method, r->input);
+  if (!*r->trace) return PM_OK;
+  pm_trace_destroy(*r->trace);
+  *r->trace = NULL;
+  pm_status s = pm_trace_create(r->trace, err);
+  r->report->trace = *r->trace;
+  return s;
 }
 
 int pm_cli_mesh(int argc, char **argv) {
@@ -230,10 +233,10 @@ int pm_cli_mesh(int argc, char **argv) {
   int rc = parse(argc, argv, &o);
   if (rc) return rc;
   if (o.help && !o.method_given) return usage_text();
-  const pm_method *method = pm_cli_method_find(o.method);
+  const pm_method *method = pm_method_find(o.method);
   if (!method) {
     char names[512];
-    pm_cli_method_names(names, sizeof names);
+    pm_method_names(names, sizeof names);
     return pm_cli_usage("mesh", "unknown method '%s' (known: %s)", o.method, names);
   }
   if (o.help) return method_help(method);
@@ -241,7 +244,7 @@ int pm_cli_mesh(int argc, char **argv) {
   if (!o.input) return pm_cli_usage("mesh", "no INPUT given");
   if (!o.out) return pm_cli_usage("mesh", "no output file given (-o OUT.msh)");
   /* An option the method cannot honour is refused rather than written empty. */
-  if (!pm_cli_method_traces(method) && (o.trace || o.frames)) {
+  if (!pm_method_traces(method) && (o.trace || o.frames)) {
     char tracing[512];
     tracing_names(tracing, sizeof tracing);
     return pm_cli_usage("mesh", "%s: method %s records no iterations (the methods that do: %s)",
@@ -273,32 +276,22 @@ int pm_cli_mesh(int argc, char **argv) {
   }
 
   /* Parameters: defaults, then --set, then the range check. */
-  void *params = NULL;
-  if (method->params_size) {
-    params = calloc(1, method->params_size);
-    if (!params) return pm_cli_fail("out of memory");
-    method->params_init(params);
-  }
-  for (int k = 0; k < o.nset; ++k) {
-    if (!method->params) {
-      free(params);
-      return pm_cli_usage_see(params_see, "method %s has no parameters (got --set %s)",
-                              method->name, o.sets[k]);
-    }
-    if (pm_params_set_pair(method->params, params, o.sets[k], &e)) {
-      free(params);
+  pm_method_params *params = NULL;
+  if (pm_method_params_create(method, &params, &e)) return pm_cli_error(&e);
+  for (int k = 0; k < o.nset; ++k)
+    if (pm_method_params_set_pair(params, o.sets[k], &e)) {
+      pm_method_params_destroy(params);
       return pm_cli_usage_see(params_see, "%s", e.msg);
     }
-  }
-  if (method->params && pm_params_check(method->params, params, &e)) {
-    free(params);
+  if (pm_method_params_check(params, &e)) {
+    pm_method_params_destroy(params);
     return pm_cli_usage_see(params_see, "%s", e.msg);
   }
   /* --size is read before any file is: text that is neither a number, an expression nor
    * 'inferred' is a usage error; a field that fails on the input is a failure (below). */
   pm_sizing *parsed_size = NULL;
   if (o.size && pm_cli_size_parse(o.size, &parsed_size, &e)) {
-    free(params);
+    pm_method_params_destroy(params);
     return pm_cli_usage("mesh", "%s", e.msg);
   }
 
@@ -308,25 +301,24 @@ int pm_cli_mesh(int argc, char **argv) {
   const char *tmp[4] = {NULL, NULL, NULL, NULL};
   if (!outputs) {
     pm_sizing_destroy(parsed_size);
-    free(params);
+    pm_method_params_destroy(params);
     return pm_cli_fail("out of memory");
   }
   for (int i = 0; i < 4; ++i)
     if (outs[i].path && pm_outputs_add(outputs, outs[i].path, i == 3, &tmp[i], &e)) {
       pm_outputs_destroy(outputs);
       pm_sizing_destroy(parsed_size);
-      free(params);
+      pm_method_params_destroy(params);
       return pm_cli_error(&e);
     }
 
   omp_set_num_threads((int)o.threads);
   double t_start = pm_seconds();
   pm_model *model = NULL;
-  pm_sizing *input_size = NULL, *size = NULL, *base = NULL, *scaled = NULL;
+  pm_sizing *input_size = NULL, *size = NULL, *scaled = NULL;
   pm_trace *trace = NULL;
   pm_frames *frames = NULL;
-  pm_run_output out;
-  memset(&out, 0, sizeof out);
+  pm_mesh *out_mesh = NULL;
   pm_stats stats;
   pm_stats_init(&stats);
   /* A usage error found once the input is open (an option that does not apply to it): the same
@@ -337,8 +329,6 @@ int pm_cli_mesh(int argc, char **argv) {
   pm_cli_progress progress;
   pm_cli_progress_init(&progress, o.quiet ? PM_PROGRESS_OFF : o.progress ? PM_PROGRESS_ON : PM_PROGRESS_AUTO,
                        method->name);
-  pm_trace *progress_trace = NULL;
-  const int watch = progress.active && pm_cli_method_traces(method);
   pm_cli_progress_stage(&progress, "loading the input");
   pm_status s = pm_input_open(o.input, &model, &input_size, &e);
   if (s) goto fail;
@@ -347,20 +337,6 @@ int pm_cli_mesh(int argc, char **argv) {
     pm_cli_progress_done(&progress);
     fprintf(stderr, "packmesh: %s: healed: %s\n", o.input, model->heal);
   }
-  const int planar = model->dim == 2 && model->box[2] == 0 && model->box[5] == 0;
-  if (method->planar_only && !planar) {
-    s = pm_error_setf(&e, PM_ERR_ARG, "method %s meshes planar domains only; '%s' is not one",
-                      method->name, o.input);
-    usage = 1;
-    goto fail;
-  }
-  if (o.volume && pm_model_count(model, PM_VOLUME) == 0) {
-    s = pm_error_setf(&e, PM_ERR_ARG, "--volume: '%s' has no volumes to mesh (%s)", o.input,
-                      planar ? "a planar domain" : "a model of faces, curves and vertices only");
-    usage = 1;
-    goto fail;
-  }
-
   /* The size field: --size, else the input's own, else the method's default (NULL). */
   if (o.size) {
     s = pm_cli_size_resolve(parsed_size, method, model, o.seed, (int)o.threads, &size, &e);
@@ -369,67 +345,44 @@ int pm_cli_mesh(int argc, char **argv) {
   } else {
     size = input_size, input_size = NULL;
   }
-  if (size && (s = pm_sizing_check(size, model, &e))) goto fail;
+  pm_generate_options go;
+  pm_generate_options_init(&go);
+  go.seed = o.seed;
+  go.threads = (int)o.threads;
+  go.volume = o.volume;
+  go.max_nodes = o.max_nodes;
+  go.target_nodes = o.target_nodes;
+  go.target_tolerance = TARGET_TOL;
+  go.target_runs = TARGET_RUNS;
+  if (progress.active) go.progress = pm_cli_progress_report, go.progress_user = &progress;
+  /* An option that does not fit the input is a usage error, named by its option. */
+  pm_generate_misfit misfit;
+  if ((s = pm_generate_check(model, size, method, &go, &misfit, &e))) {
+    if (misfit == PM_MISFIT_VOLUME) pm_error_prefix(&e, "--volume");
+    if (misfit == PM_MISFIT_TARGET)
+      pm_error_setf(&e, PM_ERR_ARG,
+                    "--target-nodes needs --size for method %s (it has no default field to scale)",
+                    method->name);
+    usage = misfit != PM_MISFIT_NONE;
+    goto fail;
+  }
 
   if (o.trace && (s = pm_trace_create(&trace, &e))) goto fail;
-  if (!o.trace && watch && (s = pm_trace_create(&progress_trace, &e))) goto fail;
-  if (watch) pm_trace_observe(trace ? trace : progress_trace, pm_cli_progress_row, &progress);
   if (o.frames && (s = pm_frames_create(tmp[3], model, &frames, &e))) goto fail;
   pm_stats_set_run(&stats, method->name, o.input);
-
-  /* --target-nodes: scale the size field until the node count is within 3% of the target;
-   * nodes of a surface mesh go as 1/d^2, of a volume mesh as 1/d^3. */
-  base = size;
-  if (o.target_nodes && !base) {
-    if (!method->default_size) {
-      s = pm_error_setf(&e, PM_ERR_ARG,
-                        "--target-nodes needs --size for method %s (it has no default field to scale)",
-                        method->name);
-      usage = 1;
-      goto fail;
-    }
-    if ((s = method->default_size(model, params, o.seed, (int)o.threads, &size, &e))) goto fail;
-    base = size;
-  }
-  double scale = 1;
-  int runs = 0, target_met = 1;
-  for (;;) {
-    ++runs;
-    const pm_sizing *use = base;
-    if (scale != 1) {
-      pm_sizing_destroy(scaled);
-      scaled = NULL;
-      if ((s = pm_sizing_scaled(base, scale, &scaled, &e))) goto fail;
-      use = scaled;
-    }
-    pm_stats_clear(&stats);
-    pm_stats_init(&stats);
-    pm_stats_set_run(&stats, method->name, o.input);
-    pm_mesh_destroy(out.mesh);
-    pm_cli_progress_stage(&progress, "meshing");
-    s = run_once(method, params, model, use, &o, trace ? trace : progress_trace, frames, &stats,
-                 &out, &e);
-    if (s) goto fail;
-    if (!o.target_nodes) break;
-    double n = (double)out.mesh->nnode, ratio = n / (double)o.target_nodes;
-    target_met = fabs(ratio - 1) <= TARGET_TOL;
-    if (target_met || runs >= TARGET_RUNS) break;
-    scale *= pow(ratio, 1.0 / (o.volume && out.mesh->ntet ? 3.0 : 2.0));
-    /* The trace and the frames describe the last run only. */
-    if (trace) {
-      pm_trace_destroy(trace);
-      trace = NULL;
-      if ((s = pm_trace_create(&trace, &e))) goto fail;
-      if (watch) pm_trace_observe(trace, pm_cli_progress_row, &progress);
-    }
-    if (progress_trace) {
-      pm_trace_destroy(progress_trace);
-      progress_trace = NULL;
-      if ((s = pm_trace_create(&progress_trace, &e))) goto fail;
-      pm_trace_observe(progress_trace, pm_cli_progress_row, &progress);
-    }
-  }
-  const pm_sizing *final_size = scale != 1 ? scaled : base;
+  pm_run_report report = {&stats, trace, frames};
+  pm_run_observer observer;
+  pm_run_report_observer(&report, &observer);
+  run_reports reports = {&stats, &report, &trace, method->name, o.input};
+  pm_sizing *final_own = NULL;
+  pm_generate_hooks hooks = {&observer, new_run, &reports, &final_own};
+  pm_generate_result result;
+  s = pm_generate_with(model, size, method, params, &go, &hooks, &out_mesh, &result, &e);
+  scaled = final_own;
+  if (s) goto fail;
+  const pm_sizing *final_size = scaled ? scaled : size;
+  const double scale = result.size_scale;
+  const int runs = result.runs, target_met = result.target_met;
   double t_run = pm_seconds() - t_start;
 
   /* Stats: the verdict of the checker, the quality module, the distance to the model. */
@@ -444,26 +397,26 @@ int pm_cli_mesh(int argc, char **argv) {
         (s = pm_stats_set_time(&stats, "setup", model->time_build, &e)))
       goto fail;
     double t0 = pm_seconds();
-    if ((s = pm_mesh_check(out.mesh, model, &chk, &e))) goto fail;
+    if ((s = pm_mesh_check(out_mesh, model, &chk, &e))) goto fail;
     s = pm_stats_set_check(&stats, &chk, &e);
     pm_check_report_clear(&chk);
     if (s || (s = pm_stats_set_time(&stats, "check", pm_seconds() - t0, &e))) goto fail;
     t0 = pm_seconds();
-    if ((s = pm_quality_compute(out.mesh, final_size, &q, &e))) goto fail;
+    if ((s = pm_quality_compute(out_mesh, final_size, &q, &e))) goto fail;
     pm_stats_set_quality(&stats, &q);
     pm_quality_clear(&q);
-    pm_stats_set_mesh(&stats, out.mesh);
+    pm_stats_set_mesh(&stats, out_mesh);
     pm_needles nd;
-    if ((s = pm_needles_classify(out.mesh, model, PM_NEEDLE_DEG, &nd, NULL, &e)) ||
+    if ((s = pm_needles_classify(out_mesh, model, PM_NEEDLE_DEG, &nd, NULL, &e)) ||
         (s = pm_stats_set_needles(&stats, &nd, PM_NEEDLE_DEG, &e)))
       goto fail;
     if ((s = pm_stats_set_time(&stats, "quality", pm_seconds() - t0, &e))) goto fail;
-    if (out.mesh->ntri > 0 || out.mesh->nseg > 0) {
+    if (out_mesh->ntri > 0 || out_mesh->nseg > 0) {
       pm_distance_params dp;
       pm_distance d;
       pm_distance_params_init(&dp);
       t0 = pm_seconds();
-      if ((s = pm_mesh_distance(out.mesh, model, final_size, &dp, &d, &e))) goto fail;
+      if ((s = pm_mesh_distance(out_mesh, model, final_size, &dp, &d, &e))) goto fail;
       pm_stats_set_distance(&stats, d.mean, d.max, d.bbox_diagonal);
       if (d.has_size) {
         pm_stats_add_number(&stats, "distance.rel_mean", d.rel_mean, NULL);
@@ -471,9 +424,9 @@ int pm_cli_mesh(int argc, char **argv) {
       }
       if ((s = pm_stats_set_time(&stats, "distance", pm_seconds() - t0, &e))) goto fail;
     }
-    stats.iterations = out.iterations;
+    stats.iterations = result.iterations;
     stats.time_total = t_run;
-    pm_stats_add_text(&stats, "stop_reason", out.stop_reason, NULL);
+    pm_stats_add_text(&stats, "stop_reason", result.stop_reason, NULL);
     pm_stats_add_number(&stats, "seed", (double)o.seed, NULL);
     if (model->heal[0]) pm_stats_add_text(&stats, "heal", model->heal, NULL);
     pm_stats_add_number(&stats, "threads", (double)o.threads, NULL);
@@ -488,7 +441,7 @@ int pm_cli_mesh(int argc, char **argv) {
       for (int k = 0; k < method->params->n; ++k) {
         char key[160], val[64];
         snprintf(key, sizeof key, "params.%s", method->params->desc[k].name);
-        pm_params_format(&method->params->desc[k], params, val, sizeof val);
+        pm_params_format(&method->params->desc[k], pm_method_params_values(params), val, sizeof val);
         pm_stats_add_text(&stats, key, val, NULL);
       }
   }
@@ -498,7 +451,7 @@ int pm_cli_mesh(int argc, char **argv) {
   pm_cli_progress_stage(&progress, "writing");
   pm_mesh_write_opts wopts = {0};
   wopts.msh_parametric = o.msh_parametric;
-  if ((s = pm_mesh_write_with(out.mesh, tmp[0], &wopts, &e)) ||
+  if ((s = pm_mesh_write_with(out_mesh, tmp[0], &wopts, &e)) ||
       (o.stats && (s = pm_stats_write_json(&stats, tmp[1], &e))) ||
       (trace && (s = pm_trace_write_csv(trace, tmp[2], &e))) ||
       (frames && (s = pm_frames_finish(frames, &e))))
@@ -508,7 +461,7 @@ int pm_cli_mesh(int argc, char **argv) {
   pm_cli_progress_done(&progress);
   /* A format that cannot hold an element kind leaves it out: said in one line, not silently. */
   if (!o.quiet) {
-    const int32_t count[4] = {0, out.mesh->nseg, out.mesh->ntri, out.mesh->ntet};
+    const int32_t count[4] = {0, out_mesh->nseg, out_mesh->ntri, out_mesh->ntet};
     static const char *const kind[4] = {"", "segments", "triangles", "tets"};
     char left[160] = "";
     for (int d = 1; d <= 3; ++d)
@@ -528,12 +481,12 @@ int pm_cli_mesh(int argc, char **argv) {
     fprintf(stderr,
             "packmesh: warning: --target-nodes %ld missed: %d nodes after %d runs (%+.1f%%; the "
             "tolerance is %g%%)\n",
-            o.target_nodes, (int)out.mesh->nnode, runs,
-            100.0 * ((double)out.mesh->nnode / (double)o.target_nodes - 1), 100 * TARGET_TOL);
+            o.target_nodes, (int)out_mesh->nnode, runs,
+            100.0 * ((double)out_mesh->nnode / (double)o.target_nodes - 1), 100 * TARGET_TOL);
   if (!o.quiet)
     printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
-         method->name, o.input, (int)out.mesh->nnode, (int)out.mesh->nseg, (int)out.mesh->ntri,
-         (int)out.mesh->ntet, t_run, out.stop_reason[0] ? out.stop_reason : "done", o.out);
+         method->name, o.input, (int)out_mesh->nnode, (int)out_mesh->nseg, (int)out_mesh->ntri,
+         (int)out_mesh->ntet, t_run, result.stop_reason[0] ? result.stop_reason : "done", o.out);
   rc = PM_EXIT_OK;
   goto done;
 fail:
@@ -549,10 +502,9 @@ fail:
   pm_cli_progress_done(&progress);
   rc = usage ? pm_cli_usage("mesh", "%s", e.msg) : pm_cli_error(&e);
 done:
-  pm_trace_destroy(progress_trace);
   pm_outputs_destroy(outputs);
   pm_stats_clear(&stats);
-  pm_mesh_destroy(out.mesh);
+  pm_mesh_destroy(out_mesh);
   pm_trace_destroy(trace);
   pm_frames_destroy(frames);
   pm_sizing_destroy(scaled);
@@ -560,6 +512,6 @@ done:
   pm_sizing_destroy(input_size);
   pm_sizing_destroy(parsed_size);
   pm_model_destroy(model);
-  free(params);
+  pm_method_params_destroy(params);
   return rc;
 }

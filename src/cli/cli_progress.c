@@ -38,29 +38,36 @@ void pm_cli_progress_stage(pm_cli_progress *p, const char *stage) {
 }
 
 /* The column named one of names, or -1. */
-static int column(const pm_trace *t, const char *const *names) {
-  for (int c = 0; c < pm_trace_ncol(t); ++c)
+static int column(const pm_progress *r, const char *const *names) {
+  for (int c = 0; c < r->ncol; ++c)
     for (int k = 0; names[k]; ++k)
-      if (strcmp(pm_trace_column(t, c), names[k]) == 0) return c;
+      if (strcmp(r->columns[c], names[k]) == 0) return c;
   return -1;
 }
 
-void pm_cli_progress_row(void *user, const pm_trace *t, const double *row) {
+int pm_cli_progress_report(void *user, const pm_progress *r) {
   pm_cli_progress *p = user;
-  if (!p->active) return;
+  if (!p->active) return 0;
+  if (strcmp(r->stage, "meshing") == 0) {
+    pm_cli_progress_stage(p, "meshing");
+    return 0;
+  }
+  if (strcmp(r->stage, "iteration") != 0) return 0;
   double now = pm_cli_now();
-  if (now - p->last < (p->tty ? TTY_PERIOD : PIPE_PERIOD)) return;
+  if (now - p->last < (p->tty ? TTY_PERIOD : PIPE_PERIOD)) return 0;
   p->last = now;
   static const char *const phase_names[] = {"phase", NULL};
   static const char *const step_names[] = {"step", "iteration", NULL};
   static const char *const count_names[] = {"bubbles", "particles", NULL};
-  int cp = column(t, phase_names), cs = column(t, step_names), cn = column(t, count_names);
+  int cp = column(r, phase_names), cs = column(r, step_names), cn = column(r, count_names);
   char text[160];
   int n = snprintf(text, sizeof text, "placing nodes");
-  if (cp >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", phase %.0f", row[cp]);
-  if (cs >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", iteration %.0f", row[cs]);
-  if (cn >= 0) snprintf(text + n, sizeof text - (size_t)n, ", %.0f %s", row[cn], pm_trace_column(t, cn));
+  if (cp >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", phase %.0f", r->values[cp]);
+  if (cs >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", iteration %.0f", r->values[cs]);
+  if (cn >= 0)
+    snprintf(text + n, sizeof text - (size_t)n, ", %.0f %s", r->values[cn], r->columns[cn]);
   put(p, text);
+  return 0;
 }
 
 void pm_cli_progress_done(pm_cli_progress *p) {

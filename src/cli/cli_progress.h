@@ -1,13 +1,13 @@
 /* The progress line of `packmesh mesh`: method, phase, iteration, particles and elapsed time of
  * the run in flight, one line rewritten in place on a terminal (stderr), nothing when stderr is
  * not one unless asked (--progress: then a line every few seconds), nothing at all with --quiet.
- * It reads the rows the particle methods record in their trace (trace.h: "phase", "step" or
- * "iteration", "bubbles" or "particles"); methods that record none show the stages the command
- * itself runs (loading, meshing, measuring). */
+ * It reads the rows the particle methods report (pm_progress of packmesh.h, with their trace
+ * columns "phase", "step" or "iteration", "bubbles" or "particles"); methods that report none
+ * show the stages the command itself runs (loading, meshing, measuring). */
 #ifndef PM_CLI_PROGRESS_H
 #define PM_CLI_PROGRESS_H
 
-#include "common/report/trace.h"
+#include <packmesh/packmesh.h>
 
 typedef enum pm_cli_progress_mode {
   PM_PROGRESS_AUTO = 0, /* on a terminal only */
@@ -28,8 +28,8 @@ void pm_cli_progress_init(pm_cli_progress *p, pm_cli_progress_mode mode, const c
 /* A stage of the command ("loading", "measuring"): shown at once. */
 void pm_cli_progress_stage(pm_cli_progress *p, const char *stage);
 
-/* Observer for pm_trace_observe (user: the pm_cli_progress). */
-void pm_cli_progress_row(void *user, const pm_trace *t, const double *row);
+/* The progress callback of pm_generate (user: the pm_cli_progress); never cancels. */
+int pm_cli_progress_report(void *user, const pm_progress *r);
 
 /* Clear the line (before the command's own output and at the end). */
 void pm_cli_progress_done(pm_cli_progress *p);

@@ -3,7 +3,7 @@
 
 #include <string.h>
 
-#include "psys/psys.h"
+#include "api/api.h"
 
 pm_status pm_cli_size_parse(const char *text, pm_sizing **out, pm_error *err) {
   *out = NULL;
@@ -17,8 +17,7 @@ pm_status pm_cli_size_resolve(pm_sizing *parsed, const pm_method *method, const 
                               uint64_t seed, int threads, pm_sizing **out, pm_error *err) {
   *out = parsed;
   if (parsed || strcmp(method->name, "psys") == 0) return PM_OK; /* psys infers its own field */
-  /* psys's inference with its default parameters, handed over as a sampled field. */
-  pm_status s = psys_infer_size(model, NULL, seed, threads, out, err);
+  pm_status s = pm_sizing_inferred(model, seed, threads, out, err);
   if (s) pm_error_prefix(err, "--size inferred");
   return s;
 }

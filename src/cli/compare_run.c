@@ -32,7 +32,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "cli/cli_methods.h"
+#include "api/api.h"
 #include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
 #include "common/base/clock.h"
@@ -205,8 +205,8 @@ static int build_command(const runner *R, const pm_cmp_row *r, long target, argv
   bad |= arg_add(a, "--stats");
   bad |= arg_add(a, buf);
   /* A trace of the methods that record one; `mesh` refuses --trace for the others. */
-  const pm_method *method = pm_cli_method_find(m->name);
-  if (s->trace && method && pm_cli_method_traces(method)) {
+  const pm_method *method = pm_method_find(m->name);
+  if (s->trace && method && pm_method_traces(method)) {
     snprintf(buf, sizeof buf, "runs/%s/trace.csv", r->id);
     bad |= arg_add(a, "--trace");
     bad |= arg_add(a, buf);

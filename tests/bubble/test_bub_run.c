@@ -238,6 +238,8 @@ static void trace_and_frames(void **state) {
   pm_run_output out;
   run(m, size, &p, 1, tr, fr, &out);
   check_valid(out.mesh, m);
+  /* The method only adds snapshots; the caller closes the series (method.h). */
+  PM_ASSERT_OK(pm_frames_finish(fr, &e), e);
   assert_int_equal(pm_trace_nrow(tr), out.iterations);
   const char *want[] = {"step", "bubbles", "kinetic", "potential", "mean_disp", "max_disp",
                         "insertions", "deletions", "eps_t"};

@@ -33,7 +33,7 @@ double pm_params_get(const pm_param_desc *d, const void *params) {
   return (double)*(const int *)cfield(params, d);
 }
 
-static void format_range(const pm_param_desc *d, char *buf, size_t len) {
+void pm_params_format_range(const pm_param_desc *d, char *buf, size_t len) {
   if (d->type == PM_PARAM_BOOL) {
     snprintf(buf, len, "on|off");
     return;
@@ -68,7 +68,7 @@ static int in_range(const pm_param_desc *d, double v) {
 static pm_status range_error(const pm_param_table *t, const pm_param_desc *d, const char *value,
                              pm_error *err) {
   char r[160];
-  format_range(d, r, sizeof r);
+  pm_params_format_range(d, r, sizeof r);
   return pm_error_setf(err, PM_ERR_ARG, "%s parameter %s=%s is outside its allowed range %s",
                        t->owner, d->name, value, r);
 }
@@ -166,7 +166,7 @@ void pm_params_help(const pm_param_table *t, FILE *out) {
       snprintf(def, sizeof def, "%s", d->choices[(int)d->def]);
     else
       snprintf(def, sizeof def, "%g", d->def);
-    format_range(d, range, sizeof range);
+    pm_params_format_range(d, range, sizeof range);
     fprintf(out, "  %-18s %-10s %-22s %-8s %s [%s]\n", d->name, def, range,
             d->unit && d->unit[0] ? d->unit : "-", d->doc, d->source ? d->source : "");
   }

@@ -66,6 +66,10 @@ double pm_params_get(const pm_param_desc *d, const void *params);
 /* Format the field's current value ("30", "0.7", "on", "rk4") into buf. */
 void pm_params_format(const pm_param_desc *d, const void *params, char *buf, size_t len);
 
+/* Format the values the parameter takes ("[0.5, 2]", "(0, 1]", "on|off", "eigen|lloyd") into
+ * buf. */
+void pm_params_format_range(const pm_param_desc *d, char *buf, size_t len);
+
 /* Write the help table (name, default, range, unit, meaning, source) to out. */
 void pm_params_help(const pm_param_table *t, FILE *out);
 

@@ -18,11 +18,8 @@
 extern "C" {
 #endif
 
-/* A five-number summary and the mean of n values (n = 0: every field 0). */
-typedef struct pm_summary {
-  int64_t n;
-  double min, p25, median, p75, max, mean;
-} pm_summary;
+/* pm_summary, the five-number summary and the mean of n values, is a type of the public API
+ * (packmesh.h). */
 
 /* The p-quantile (0 <= p <= 1) of n >= 1 sorted values, by the convention above. */
 double pm_percentile_sorted(const double *sorted, size_t n, double p);

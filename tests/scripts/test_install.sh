@@ -1,0 +1,66 @@
+#!/bin/bash
+# The installed library as a program that embeds packmesh sees it (issue: "install like a library"):
+#   1. `cmake --install` into a fresh prefix: libpackmesh.so, packmesh.h, packmesh.pc, the CMake
+#      package and the command;
+#   2. libpackmesh.so exports the public API only: every dynamic symbol is pm_*;
+#   3. the three examples compile with nothing but `pkg-config --cflags --libs packmesh`, and run;
+#      mesh_cad meshes case:qi3 with bubble to the node count `packmesh mesh case:qi3 --method
+#      bubble` prints;
+#   4. the examples build again through find_package(packmesh) in CMake.
+# Usage: test_install.sh SOURCE_DIR BUILD_DIR [EXTRA_C_FLAGS]   (the sanitizer flags of the build)
+set -euo pipefail
+src=$1 build=$2 extra=${3:-}
+work=$(mktemp -d "${TMPDIR:-/tmp}/pm_install.XXXXXX")
+trap 'rm -rf "$work"' EXIT
+prefix=$work/prefix
+fail() { echo "test_install: $*" >&2; exit 1; }
+
+cmake --install "$build" --prefix "$prefix" >"$work/install.log" || { cat "$work/install.log"; fail "cmake --install failed"; }
+lib=$(dirname "$(find "$prefix" -name 'libpackmesh.so' | head -1)")
+[ -n "$lib" ] && [ -f "$lib/libpackmesh.so" ] || fail "no libpackmesh.so installed"
+[ -f "$prefix/include/packmesh/packmesh.h" ] || fail "no packmesh.h installed"
+pc=$(find "$prefix" -name packmesh.pc | head -1)
+[ -n "$pc" ] || fail "no packmesh.pc installed"
+[ -n "$(find "$prefix" -name packmesh-config.cmake)" ] || fail "no CMake package installed"
+[ -x "$prefix/bin/packmesh" ] || fail "no packmesh command installed"
+echo "installed: $lib/libpackmesh.so, $pc"
+
+# 2. Only pm_* symbols leave the library.
+others=$(nm -D --defined-only "$lib/libpackmesh.so" | awk '$3 != "" {print $3}' | sed 's/@.*//' \
+         | grep -v '^pm_' | grep -v '^PACKMESH_' || true)
+[ -z "$others" ] || fail "libpackmesh.so exports symbols outside the API: $(echo $others | head -c 400)"
+nexp=$(nm -D --defined-only "$lib/libpackmesh.so" | grep -c ' pm_')
+echo "exported: $nexp pm_* symbols, nothing else"
+
+# 3. pkg-config only.
+export PKG_CONFIG_PATH=$(dirname "$pc")
+flags=$(pkg-config --cflags --libs packmesh)
+for ex in mesh_cad compare_quality size_callback; do
+  # shellcheck disable=SC2086
+  cc -std=c11 -Wall -Wextra -Werror $extra "$src/examples/$ex.c" $flags -lm -Wl,-rpath,"$lib" \
+     -o "$work/$ex" || fail "$ex does not compile with pkg-config --cflags --libs packmesh ($flags)"
+done
+out=$("$work/mesh_cad" case:qi3) || fail "mesh_cad case:qi3 failed: $out"
+echo "example: $out"
+cli=$("$prefix/bin/packmesh" mesh case:qi3 --method bubble -o "$work/qi3.msh") \
+  || fail "packmesh mesh case:qi3 failed: $cli"
+echo "command: $cli"
+n_ex=$(echo "$out" | sed -n 's/.*: \([0-9]*\) nodes.*/\1/p')
+n_cli=$(echo "$cli" | sed -n 's/.*: \([0-9]*\) nodes.*/\1/p')
+[ -n "$n_ex" ] && [ "$n_ex" = "$n_cli" ] || fail "node counts differ: example $n_ex, command $n_cli"
+out=$("$work/compare_quality" case:qi3) || fail "compare_quality failed: $out"
+echo "$out"
+[ "$(echo "$out" | grep -c 'radius ratio median 0\.[0-9]')" = 2 ] || fail "compare_quality printed: $out"
+out=$("$work/size_callback") || fail "size_callback failed: $out"
+echo "$out"
+med=$(echo "$out" | sed -n 's/.*median \([0-9.]*\),.*/\1/p')
+awk -v m="$med" 'BEGIN { exit !(m > 0.8 && m < 1.25) }' || fail "size_callback: edges do not follow the field (median $med)"
+
+# 4. find_package(packmesh).
+cmake -S "$src/examples" -B "$work/build-examples" -DCMAKE_PREFIX_PATH="$prefix" \
+  -DCMAKE_C_FLAGS="$extra" -DCMAKE_EXE_LINKER_FLAGS="$extra" >"$work/cmake.log" 2>&1 \
+  || { cat "$work/cmake.log"; fail "find_package(packmesh) failed"; }
+cmake --build "$work/build-examples" >"$work/build.log" 2>&1 || { cat "$work/build.log"; fail "examples do not build with CMake"; }
+out=$(LD_LIBRARY_PATH="$lib" "$work/build-examples/mesh_cad" case:qi3) || fail "mesh_cad (CMake) failed"
+[ "$(echo "$out" | sed -n 's/.*: \([0-9]*\) nodes.*/\1/p')" = "$n_cli" ] || fail "mesh_cad (CMake): $out"
+echo "find_package(packmesh): the examples build and mesh_cad gives $n_cli nodes"
