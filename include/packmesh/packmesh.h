@@ -215,8 +215,10 @@ PM_API pm_status pm_method_params_create(const pm_method *m, pm_method_params **
  * the set is then unchanged. */
 PM_API pm_status pm_method_params_set(pm_method_params *p, const char *key, const char *value,
                                       pm_error *err);
-/* The rules that tie parameters to each other (psys: lambda_min <= lambda_init <= lambda_max,
- * ...): PM_ERR_ARG naming the rule broken. pm_generate checks them too. */
+/* Every value within its range (a set only made through pm_method_params_set always is):
+ * PM_ERR_ARG naming the first that is not. The rules that tie parameters to each other (psys:
+ * lambda_min <= lambda_init <= lambda_max, ...) are the method's, checked when pm_generate runs
+ * it. */
 PM_API pm_status pm_method_params_check(const pm_method_params *p, pm_error *err);
 /* The current value of `key` as text, into buf (out, len bytes). */
 PM_API pm_status pm_method_params_get(const pm_method_params *p, const char *key, char *buf,

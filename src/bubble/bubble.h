@@ -130,9 +130,9 @@ typedef struct bub_params {
   double volume_open;   /* volume bubble is open below this overlap ratio; (0, 40], < 12, default
                            10 (our choice: two of 12 neighbours missing, the faces' one of 6;
                            bub_population.c) */
-  double volume_excess; /* volume bubble is excess above; (0, 60], > 12, default 13.5 (our
-                           choice: below the 13.9 of a bubble pushed into the close packing's
-                           roomiest hole, as the faces' 8 is at a pushed bubble's 7.6-7.95) */
+  double volume_excess; /* volume bubble is excess above; (0, 60], > 12, default 14 (our
+                           choice: a bubble pushed into the close packing reads 13.9-14.7, as
+                           the faces' 8 is at a pushed bubble's 7.6-7.95; bub_params.c) */
   double insert_excess; /* a face insertion place is not used when its overlap ratio is above
                            max(face_excess, insert_excess) (a new bubble is not removed in the
                            control that inserted it, 000 section 4.2.4, and relaxes before the
