@@ -93,6 +93,11 @@ PM_API const char *pm_status_name(pm_status s);
 /* The library version, "MAJOR.MINOR.PATCH". */
 PM_API const char *pm_version(void);
 
+/* Release the process-wide state of the backends (gmsh's, when a CAD model or a gmsh method was
+ * used). Optional; call it once, at the end of the program, after every object is destroyed: no
+ * packmesh call may follow. */
+PM_API void pm_finalize(void);
+
 /* ==== models ================================================================================= */
 
 /* A geometric model: a cell complex of vertices, curves, faces and volumes (papers/003's
@@ -129,12 +134,16 @@ PM_API double pm_model_diagonal(const pm_model *m);
 /* What loading repaired in the file, one line; "" when nothing. */
 PM_API const char *pm_model_healed(const pm_model *m);
 
-/* The built-in cases: their number, and the name, description and default size (a number or an
- * expression, as pm_sizing_parse takes it) of the i-th (static storage; NULL out of range). */
+/* The built-in cases: their number, and of the i-th its name, dimension (2 planar, 3 solid),
+ * description, default size (a number or an expression, as pm_sizing_parse takes it) and
+ * source (the paper it comes from, or how it is built). Static storage; NULL (0) out of
+ * range. */
 PM_API int pm_case_count(void);
 PM_API const char *pm_case_name(int i);
+PM_API int pm_case_dimension(int i);
 PM_API const char *pm_case_description(int i);
 PM_API const char *pm_case_default_size(int i);
+PM_API const char *pm_case_source(int i);
 
 /* ==== size fields ============================================================================ */
 

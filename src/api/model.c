@@ -3,6 +3,7 @@
 
 #include <string.h>
 
+#include "common/backends/gmsh_session.h"
 #include "common/geom/geom.h"
 #include "common/input/cases.h"
 #include "common/input/input.h"
@@ -57,6 +58,10 @@ int pm_case_count(void) {
 const char *pm_case_name(int i) { return case_at(i) ? case_at(i)->name : NULL; }
 const char *pm_case_description(int i) { return case_at(i) ? case_at(i)->description : NULL; }
 const char *pm_case_default_size(int i) { return case_at(i) ? case_at(i)->size : NULL; }
+const char *pm_case_source(int i) { return case_at(i) ? case_at(i)->source : NULL; }
+int pm_case_dimension(int i) { return case_at(i) ? case_at(i)->dim : 0; }
+
+void pm_finalize(void) { pm_gmsh_shutdown(); }
 
 /* ---- the inferred size field --------------------------------------------------------------- */
 

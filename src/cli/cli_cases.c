@@ -1,4 +1,6 @@
-/* packmesh cases: the built-in cases (cases.h), one per line or as JSON. */
+/* packmesh cases: the built-in cases (pm_case_* of packmesh.h), one per line or as JSON. */
+#include <packmesh/packmesh.h>
+
 #include <cjson/cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -6,7 +8,6 @@
 
 #include "cli/cli.h"
 #include "cli/cli_util.h"
-#include "common/input/cases.h"
 
 static int usage_text(void) {
   printf("usage: packmesh cases [--json]\n"
@@ -17,19 +18,18 @@ static int usage_text(void) {
 int pm_cli_cases(int argc, char **argv) {
   int json = 0, done = pm_cli_listing_args(argc, argv, "cases", usage_text, &json);
   if (done >= 0) return done;
-  int n = 0;
-  const pm_case_info *c = pm_cases(&n);
+  const int n = pm_case_count();
   if (!json) {
     printf("%-12s %-4s %-28s %s\n", "NAME", "DIM", "DEFAULT SIZE", "DESCRIPTION [SOURCE]");
     for (int i = 0; i < n; ++i) {
-      const char *size = c[i].size;
+      const char *size = pm_case_default_size(i);
       char shortened[32];
       if (strlen(size) > 27) {
         snprintf(shortened, sizeof shortened, "%.24s...", size);
         size = shortened;
       }
-      printf("%-12s %-4d %-28s %s [%s]\n", c[i].name, c[i].dim, size, c[i].description,
-             c[i].source);
+      printf("%-12s %-4d %-28s %s [%s]\n", pm_case_name(i), pm_case_dimension(i), size,
+             pm_case_description(i), pm_case_source(i));
     }
     fflush(stdout);
     return ferror(stdout) ? pm_cli_fail("cannot write to standard output") : PM_EXIT_OK;
@@ -37,11 +37,11 @@ int pm_cli_cases(int argc, char **argv) {
   cJSON *arr = cJSON_CreateArray();
   for (int i = 0; arr && i < n; ++i) {
     cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "name", c[i].name);
-    cJSON_AddNumberToObject(o, "dim", c[i].dim);
-    cJSON_AddStringToObject(o, "size", c[i].size);
-    cJSON_AddStringToObject(o, "description", c[i].description);
-    cJSON_AddStringToObject(o, "source", c[i].source);
+    cJSON_AddStringToObject(o, "name", pm_case_name(i));
+    cJSON_AddNumberToObject(o, "dim", pm_case_dimension(i));
+    cJSON_AddStringToObject(o, "size", pm_case_default_size(i));
+    cJSON_AddStringToObject(o, "description", pm_case_description(i));
+    cJSON_AddStringToObject(o, "source", pm_case_source(i));
     cJSON_AddItemToArray(arr, o);
   }
   char *text = arr ? cJSON_Print(arr) : NULL;

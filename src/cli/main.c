@@ -7,7 +7,6 @@
 #include "cli/cli.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_util.h"
-#include "common/backends/gmsh_session.h"
 
 typedef struct subcommand {
   const char *name;
@@ -52,7 +51,7 @@ int main(int argc, char **argv) {
       pm_cli_signals_install(commands[i].name);
       int code = commands[i].run(argc - 1, argv + 1);
       fflush(stdout);
-      pm_gmsh_shutdown();
+      pm_finalize();
       return code;
     }
   if (cmd[0] == '-') return pm_cli_usage(NULL, "unknown option '%s'", cmd);

@@ -53,10 +53,14 @@ static void models_and_cases(void **state) {
     if (strcmp(pm_case_name(i), "boxhole") == 0) {
       found = 1;
       assert_string_equal(pm_case_default_size(i), "0.125");
+      assert_int_equal(pm_case_dimension(i), 3);
+      assert_non_null(strstr(pm_case_source(i), "OpenCASCADE"));
       assert_non_null(strstr(pm_case_description(i), "hole"));
     }
   assert_true(found);
   assert_null(pm_case_name(n));
+  assert_int_equal(pm_case_dimension(0), 2); /* the planar cases come first */
+  assert_non_null(strstr(pm_case_source(0), "papers/"));
 
   pm_error e = {0};
   m = (pm_model *)&e;
