@@ -1240,510 +1240,703 @@ static double seg_length_percentile(const pm_mesh *me, const int32_t *list, int6
   return r;
 }
 
-/* Approximate 3D length of a curve (polygon of 64 chords). */
 /* Samples evaluated per parallel chunk (results are reduced in index order after each). */
 #define CHUNK (1 << 15)
 
-pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_sizing *size,
-                           const pm_distance_params *pin, pm_distance *out, pm_error *err) {
-  memset(out, 0, sizeof *out);
-  if (!mesh || !model) return pm_error_setf(err, PM_ERR_ARG, "distance: no mesh or no model");
-  pm_distance_params p;
-  if (pin)
-    p = *pin;
-  else
-    pm_distance_params_init(&p);
-  pm_status s = pm_distance_params_check(&p, err);
-  if (s) return s;
-  const pm_model *m = model;
-  const int32_t nface = m->count[PM_FACE], ncurve = m->count[PM_CURVE];
-  if (nface == 0 && ncurve == 0)
-    return pm_error_setf(err, PM_ERR_GEOM, "distance: the model %s has neither faces nor curves",
-                         m->name);
+/* ---- the stages of pm_mesh_distance ------------------------------------------------------------ */
 
+/* One call's state: the evaluation context that the samplers share (built by the stages up to
+ * dist_tri_bounds, read only after them) and what each stage hands to the next. Zeroed, it holds
+ * nothing; every pointer in it is owned and freed by dist_free. */
+typedef struct dist_state {
+  pm_distance_params p;     /* the parameters in use (c.p points here) */
   dctx c;
-  memset(&c, 0, sizeof c);
-  c.mesh = mesh, c.m = m, c.size = size, c.p = &p;
-  out->bbox_diagonal = m->diagonal;
-  out->has_size = size != NULL;
-  const double eps = p.ref_tol * m->diagonal;
+  int32_t nface, ncurve;
+  double eps;               /* the reference's chordal tolerance: ref_tol x diagonal */
+  int32_t *curve_segs;      /* [ncurve] mesh segments on each curve */
+  int ndangling;            /* curves that bound no face */
+  int32_t *face_tris_off;   /* [nface + 2] offsets into face_tris per face; the unclassified
+                               triangles last, as face nface */
+  int32_t *face_tris;       /* [mesh->ntri] triangle indices grouped by face */
+  int32_t nunclass;         /* unclassified triangles */
+  double *Lface;            /* [nface] local edge length of the mesh on each face */
+  double Lglobal, Lwire;    /* the same over all triangles, over the wire part's segments */
+  face_info *finfo;         /* [nface] */
+  tri_nbhd *nbhd;           /* [mesh->ntri] (c.nb), or NULL */
+  mblock *blocks;           /* [nblock] the model side's sample blocks */
+  int32_t nblock;
+  int64_t nmodel;           /* model -> mesh samples */
+  lattice lat;              /* the mesh side's triangle samples */
+  int64_t ntri_s, nmesh;    /* mesh -> model samples on triangles, and in all */
+  double *dres, *wres, *rres; /* [CHUNK] one chunk's distances, weights, relative distances */
+  double *xres;             /* [3 CHUNK] its sample points */
+  int *fres;                /* [CHUNK] mesh side: the fallback flag; model side: the block */
+  mrun *runs;               /* [CHUNK + nblock + 1] one chunk's runs of model samples */
+  topk *top;                /* [2 refine + 1] storage of tops */
+  topk *tops[2];            /* [dir] the largest samples of a direction, ntop[dir] of them */
+  int ntop[2];
+  acc A[2][2];              /* [direction: 0 mesh->model, 1 model->mesh][part] */
+  int64_t nfallback;
+} dist_state;
 
-  c.dangling = calloc((size_t)(ncurve > 0 ? ncurve : 1), 1);
-  int32_t *face_tris_off = calloc((size_t)nface + 2, sizeof(int32_t));
-  int32_t *face_tris = malloc(sizeof(int32_t) * (size_t)(mesh->ntri > 0 ? mesh->ntri : 1));
-  double *Lface = malloc(sizeof(double) * (size_t)(nface > 0 ? nface : 1));
-  mblock *blocks = NULL;
-  face_info *finfo = NULL;
-  tri_nbhd *nbhd = NULL;
-  double *dres = NULL, *wres = NULL, *rres = NULL, *xres = NULL;
-  lattice lat = {0};
-  int *fres = NULL;
-  mrun *runs = NULL;
-  int32_t *curve_segs = NULL; /* [ncurve] mesh segments on each curve */
-  if (!c.dangling || !face_tris_off || !face_tris || !Lface) goto nomem;
-  int ndangling = 0;
-  curve_segs = calloc((size_t)(ncurve > 0 ? ncurve : 1), sizeof(int32_t));
-  if (!curve_segs) goto nomem;
+/* The error of a stage's allocation that has no message of its own naming what was allocated. */
+static pm_status dist_nomem(pm_error *err) {
+  return pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory");
+}
+
+/* Reject what cannot be measured before anything is allocated: a missing mesh or model,
+ * parameters out of range, a model with nothing to compare with. */
+static pm_status dist_check(dist_state *r, const pm_mesh *mesh, const pm_model *model,
+                            const pm_distance_params *pin, pm_error *err) {
+  if (!mesh || !model) return pm_error_setf(err, PM_ERR_ARG, "distance: no mesh or no model");
+  if (pin)
+    r->p = *pin;
+  else
+    pm_distance_params_init(&r->p);
+  pm_status s = pm_distance_params_check(&r->p, err);
+  if (s) return s;
+  r->nface = model->count[PM_FACE], r->ncurve = model->count[PM_CURVE];
+  if (r->nface == 0 && r->ncurve == 0)
+    return pm_error_setf(err, PM_ERR_GEOM, "distance: the model %s has neither faces nor curves",
+                         model->name);
+  return PM_OK;
+}
+
+/* Which parts are measured (see distance.h): the surface part when the model has faces, the
+ * wire part for the dangling curves and the mesh segments on them (every segment when the model
+ * has no face). A mesh without anything to compare with those parts is an argument error. Also
+ * counts the mesh segments on each curve (they cap a boundary curve's samples) and allocates the
+ * per-face tables that dist_edge_lengths fills. */
+static pm_status dist_setup(dist_state *r, const pm_mesh *mesh, const pm_model *m,
+                            const pm_sizing *size, pm_error *err) {
+  dctx *c = &r->c;
+  const int32_t nface = r->nface, ncurve = r->ncurve;
+  c->mesh = mesh, c->m = m, c->size = size, c->p = &r->p;
+  r->eps = r->p.ref_tol * m->diagonal;
+
+  c->dangling = calloc((size_t)(ncurve > 0 ? ncurve : 1), 1);
+  r->face_tris_off = calloc((size_t)nface + 2, sizeof(int32_t));
+  r->face_tris = malloc(sizeof(int32_t) * (size_t)(mesh->ntri > 0 ? mesh->ntri : 1));
+  r->Lface = malloc(sizeof(double) * (size_t)(nface > 0 ? nface : 1));
+  if (!c->dangling || !r->face_tris_off || !r->face_tris || !r->Lface) return dist_nomem(err);
+  r->curve_segs = calloc((size_t)(ncurve > 0 ? ncurve : 1), sizeof(int32_t));
+  if (!r->curve_segs) return dist_nomem(err);
   for (int32_t i = 0; i < mesh->nseg && mesh->seg_cell; ++i)
-    if (mesh->seg_cell[i] >= 0 && mesh->seg_cell[i] < ncurve) curve_segs[mesh->seg_cell[i]]++;
+    if (mesh->seg_cell[i] >= 0 && mesh->seg_cell[i] < ncurve) r->curve_segs[mesh->seg_cell[i]]++;
   for (int32_t i = 0; i < ncurve; ++i) {
-    c.dangling[i] = m->cells[PM_CURVE][i].nup == 0;
-    ndangling += c.dangling[i];
+    c->dangling[i] = m->cells[PM_CURVE][i].nup == 0;
+    r->ndangling += c->dangling[i];
   }
 
-  /* Which parts: see distance.h. */
-  c.surf = nface > 0;
-  if (c.surf && mesh->ntri == 0) {
-    s = pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no triangles but the model %s has %d faces",
-                      m->name, (int)nface);
-    goto done;
-  }
-  c.wire_seg = malloc(sizeof(int32_t) * (size_t)(mesh->nseg > 0 ? mesh->nseg : 1));
-  if (!c.wire_seg) goto nomem;
+  c->surf = nface > 0;
+  if (c->surf && mesh->ntri == 0)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no triangles but the model %s has %d faces",
+                         m->name, (int)nface);
+  c->wire_seg = malloc(sizeof(int32_t) * (size_t)(mesh->nseg > 0 ? mesh->nseg : 1));
+  if (!c->wire_seg) return dist_nomem(err);
   for (int32_t i = 0; i < mesh->nseg; ++i) {
     int32_t cu = mesh->seg_cell ? mesh->seg_cell[i] : -1;
     int known = cu >= 0 && cu < ncurve;
-    if ((known && c.dangling[cu]) || (!known && nface == 0)) c.wire_seg[c.nwire++] = i;
+    if ((known && c->dangling[cu]) || (!known && nface == 0)) c->wire_seg[c->nwire++] = i;
   }
-  c.wire = ndangling > 0;
-  if (!c.surf && c.nwire == 0) {
-    s = pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no segments to compare with the curves of %s",
-                      m->name);
-    goto done;
-  }
+  c->wire = r->ndangling > 0;
+  if (!c->surf && c->nwire == 0)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no segments to compare with the curves of %s",
+                         m->name);
+  return PM_OK;
+}
 
-  /* BVHs of the mesh. */
-  if (mesh->ntri > 0 && (s = pm_bvh_create(mesh->xyz, mesh->nnode, mesh->tri, mesh->ntri, &c.mesh_tri, err))) {
+/* BVHs of the mesh, which the model side's samples search: its triangles, and the wire part's
+ * segments as degenerate triangles (a, b, b). */
+static pm_status dist_mesh_bvhs(dist_state *r, pm_error *err) {
+  dctx *c = &r->c;
+  const pm_mesh *mesh = c->mesh;
+  pm_status s = PM_OK;
+  if (mesh->ntri > 0 && (s = pm_bvh_create(mesh->xyz, mesh->nnode, mesh->tri, mesh->ntri, &c->mesh_tri, err))) {
     pm_error_prefix(err, "distance");
-    goto done;
+    return s;
   }
-  if (c.nwire > 0) {
-    int32_t *st = malloc(sizeof(int32_t) * 3 * (size_t)c.nwire);
-    if (!st) goto nomem;
-    for (int32_t i = 0; i < c.nwire; ++i) {
-      const int32_t *v = &mesh->seg[2 * (size_t)c.wire_seg[i]];
+  if (c->nwire > 0) {
+    int32_t *st = malloc(sizeof(int32_t) * 3 * (size_t)c->nwire);
+    if (!st) return dist_nomem(err);
+    for (int32_t i = 0; i < c->nwire; ++i) {
+      const int32_t *v = &mesh->seg[2 * (size_t)c->wire_seg[i]];
       st[3 * i] = v[0], st[3 * i + 1] = v[1], st[3 * i + 2] = v[1];
     }
-    s = pm_bvh_create(mesh->xyz, mesh->nnode, st, c.nwire, &c.mesh_wire, err);
+    s = pm_bvh_create(mesh->xyz, mesh->nnode, st, c->nwire, &c->mesh_wire, err);
     free(st);
     if (s) {
       pm_error_prefix(err, "distance");
-      goto done;
+      return s;
     }
   }
+  return PM_OK;
+}
 
-  /* Local edge lengths per face (5th percentile), from the triangles classified on it. */
-  double Lglobal = c.surf ? edge_percentile(mesh, NULL, mesh->ntri) : 0;
+/* The local edge lengths of the mesh (5th percentiles), which set the spacing of both the model
+ * samples and the reference: per face from the triangles classified on it (all triangles for a
+ * face without any), over all triangles, and over the wire part's segments. */
+static pm_status dist_edge_lengths(dist_state *r, pm_error *err) {
+  const pm_mesh *mesh = r->c.mesh;
+  const int32_t nface = r->nface;
+  int32_t *off = r->face_tris_off;
+  r->Lglobal = r->c.surf ? edge_percentile(mesh, NULL, mesh->ntri) : 0;
   for (int32_t t = 0; t < mesh->ntri; ++t) {
     int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
-    face_tris_off[(f >= 0 && f < nface ? f : nface) + 1]++;
+    off[(f >= 0 && f < nface ? f : nface) + 1]++;
   }
-  for (int32_t f = 0; f <= nface; ++f) face_tris_off[f + 1] += face_tris_off[f];
-  {
-    int32_t *fill = calloc((size_t)nface + 1, sizeof(int32_t));
-    if (!fill) goto nomem;
-    for (int32_t t = 0; t < mesh->ntri; ++t) {
-      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
-      if (!(f >= 0 && f < nface)) f = nface;
-      face_tris[face_tris_off[f] + fill[f]++] = t;
-    }
-    free(fill);
+  for (int32_t f = 0; f <= nface; ++f) off[f + 1] += off[f];
+  int32_t *fill = calloc((size_t)nface + 1, sizeof(int32_t));
+  if (!fill) return dist_nomem(err);
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+    if (!(f >= 0 && f < nface)) f = nface;
+    r->face_tris[off[f] + fill[f]++] = t;
   }
+  free(fill);
   for (int32_t f = 0; f < nface; ++f) {
-    int32_t n = face_tris_off[f + 1] - face_tris_off[f];
-    Lface[f] = n > 0 ? edge_percentile(mesh, &face_tris[face_tris_off[f]], n) : Lglobal;
-    if (!(Lface[f] > 0)) Lface[f] = Lglobal > 0 ? Lglobal : 0.01 * m->diagonal;
+    int32_t n = off[f + 1] - off[f];
+    r->Lface[f] = n > 0 ? edge_percentile(mesh, &r->face_tris[off[f]], n) : r->Lglobal;
+    if (!(r->Lface[f] > 0)) r->Lface[f] = r->Lglobal > 0 ? r->Lglobal : 0.01 * r->c.m->diagonal;
   }
-  /* Per-face budgets count the face's own triangles, and every unclassified one (a mesh read
-   * without tags could have them anywhere). */
-  const int32_t nunclass = face_tris_off[nface + 1] - face_tris_off[nface];
-#define ntri_face(f) (face_tris_off[(f) + 1] - face_tris_off[(f)] + nunclass)
-  double Lwire = c.nwire > 0 ? seg_length_percentile(mesh, c.wire_seg, c.nwire) : 0;
-  if (!(Lwire > 0)) Lwire = Lglobal > 0 ? Lglobal : 0.01 * m->diagonal;
+  r->nunclass = off[nface + 1] - off[nface];
+  double Lwire = r->c.nwire > 0 ? seg_length_percentile(mesh, r->c.wire_seg, r->c.nwire) : 0;
+  if (!(Lwire > 0)) Lwire = r->Lglobal > 0 ? r->Lglobal : 0.01 * r->c.m->diagonal;
+  r->Lwire = Lwire;
+  return PM_OK;
+}
 
-  /* Probe every face once (derivative sizes and curvature over its parameter box). */
-  finfo = malloc(sizeof(face_info) * (size_t)(nface > 0 ? nface : 1));
-  if (!finfo) goto nomem;
+/* Per-face budgets count the face's own triangles, and every unclassified one (a mesh read
+ * without tags could have them anywhere). */
+static int32_t ntri_face(const dist_state *r, int32_t f) {
+  return r->face_tris_off[f + 1] - r->face_tris_off[f] + r->nunclass;
+}
+
+/* Probe every face once (derivative sizes and curvature over its parameter box): both the
+ * reference grid and the model samples are spaced from what the probes find. */
+static pm_status dist_probe_faces(dist_state *r, pm_error *err) {
+  const pm_model *m = r->c.m;
+  const int32_t nface = r->nface;
+  face_info *finfo = r->finfo = malloc(sizeof(face_info) * (size_t)(nface > 0 ? nface : 1));
+  if (!finfo) return dist_nomem(err);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int32_t f = 0; f < nface; ++f) {
     const pm_cell *fc = &m->cells[PM_FACE][f];
     loop_box(fc, finfo[f].box);
     face_probe(fc, finfo[f].box, &finfo[f].su, &finfo[f].sv, &finfo[f].kappa);
   }
+  return PM_OK;
+}
 
-  /* Reference tessellation and polylines. */
-  if (c.surf) {
-    /* Faces in parallel, each into its own buffers, then appended in face order (so the result
-     * does not depend on the thread count). */
-    ref_faces *part = calloc((size_t)nface, sizeof(ref_faces));
-    c.face_reach = calloc((size_t)nface, sizeof(double));
-    if (!c.face_reach) {
-      free(part);
-      goto nomem;
-    }
-    pm_status *fst = calloc((size_t)nface, sizeof(pm_status));
-    pm_error *ferr = calloc((size_t)nface, sizeof(pm_error));
-    if (!part || !fst || !ferr) {
-      free(part), free(fst), free(ferr);
-      goto nomem;
-    }
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int32_t f = 0; f < nface; ++f)
-      fst[f] = ref_face(&part[f], &m->cells[PM_FACE][f], &finfo[f], eps, p.ref_spacing * Lface[f],
-                        face_budget(p.ref_max_points, p.ref_per_tri, ntri_face(f)), &ferr[f]);
-    for (int32_t f = 0; f < nface && !s; ++f) {
-      if (fst[f]) {
-        s = fst[f];
-        if (err) *err = ferr[f];
-        break;
-      }
-      int32_t base = (int32_t)(c.rf.xyz.n / 3);
-      c.rf.chord = fmax(c.rf.chord, part[f].chord);
-      c.rf.degraded += part[f].degraded;
-      c.rf.gap = fmax(c.rf.gap, part[f].gap);
-      /* The chordal bound (0 on a plane: the floor is for rounding). The sliver that the
-       * trimming polylines cut off a face along a curved boundary (2e-4 of its parameter box,
-       * trim.c) has no reference; its points are within the sliver's width of the boundary
-       * curve, which the curve candidates of model_dist measure. */
-      c.face_reach[f] = REF_REACH_MARGIN * part[f].chord + 1e-12 * m->diagonal;
-      c.reach_max = fmax(c.reach_max, c.face_reach[f]);
-      if (!dbuf_push(&c.rf.xyz, part[f].xyz.v, part[f].xyz.n) ||
-          !dbuf_push(&c.rf.uv, part[f].uv.v, part[f].uv.n) ||
-          !ibuf_push(&c.rf.face, part[f].face.v, part[f].face.n)) {
-        s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
-        break;
-      }
-      for (int64_t k = 0; k < part[f].tri.n; ++k) part[f].tri.v[k] += base;
-      if (!ibuf_push(&c.rf.tri, part[f].tri.v, part[f].tri.n))
-        s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
-    }
-    for (int32_t f = 0; f < nface; ++f) ref_faces_free(&part[f]);
-    free(part), free(fst), free(ferr);
-    if (s) goto done;
-    if (c.rf.tri.n > 0 &&
-        (s = pm_bvh_create(c.rf.xyz.v, (int32_t)(c.rf.xyz.n / 3), c.rf.tri.v, (int32_t)(c.rf.tri.n / 3),
-                           &c.rf.bvh, err))) {
-      pm_error_prefix(err, "distance: reference");
-      goto done;
-    }
-    /* The reference is within its chordal bound of its faces (at least eps; the bound is an
-     * estimate from the probed curvature, so REF_REACH_MARGIN times it leaves room for what the
-     * probes missed), but for the strip along the boundary that a face whose constrained
-     * triangulation failed leaves uncovered. */
-    c.ref_reach = REF_REACH_MARGIN * fmax(eps, c.rf.chord) + c.rf.gap;
-    c.face_box = malloc(sizeof(double) * 6 * (size_t)nface);
-    if (!c.face_box) goto nomem;
-    for (int32_t f = 0; f < nface; ++f)
-      for (int k = 0; k < 3; ++k) c.face_box[6 * f + k] = INFINITY, c.face_box[6 * f + 3 + k] = -INFINITY;
-    for (int64_t t = 0; t < c.rf.tri.n / 3; ++t) {
-      double *b = &c.face_box[6 * (size_t)c.rf.face.v[t]];
-      for (int q = 0; q < 3; ++q)
-        for (int k = 0; k < 3; ++k) {
-          double x = c.rf.xyz.v[3 * (size_t)c.rf.tri.v[3 * t + q] + k];
-          b[k] = fmin(b[k], x), b[3 + k] = fmax(b[3 + k], x);
-        }
-    }
-    out->ref_chord = c.rf.chord;
-    out->ref_faces_degraded = c.rf.degraded;
+/* The reference tessellation of the faces (surface part only) and its BVH: it picks the face and
+ * the start of a mesh point's projection (model_dist). Faces are triangulated in parallel, each
+ * into its own buffers, then appended in face order, so the result does not depend on the thread
+ * count. */
+static pm_status dist_face_reference(dist_state *r, pm_error *err) {
+  dctx *c = &r->c;
+  if (!c->surf) return PM_OK;
+  const pm_model *m = c->m;
+  const pm_distance_params *p = &r->p;
+  const int32_t nface = r->nface;
+  const double eps = r->eps;
+  ref_faces *part = calloc((size_t)nface, sizeof(ref_faces));
+  c->face_reach = calloc((size_t)nface, sizeof(double));
+  if (!c->face_reach) {
+    free(part);
+    return dist_nomem(err);
   }
-  for (int32_t i = 0; i < ncurve; ++i) {
-    ref_curves *rc = c.dangling[i] ? &c.rc_wire : &c.rc_surf;
-    if (!c.dangling[i] && !c.surf) continue;
-    if ((s = ref_curve(rc, &m->cells[PM_CURVE][i], eps, err))) goto done;
+  pm_status *fst = calloc((size_t)nface, sizeof(pm_status));
+  pm_error *ferr = calloc((size_t)nface, sizeof(pm_error));
+  if (!part || !fst || !ferr) {
+    free(part), free(fst), free(ferr);
+    return dist_nomem(err);
+  }
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int32_t f = 0; f < nface; ++f)
+    fst[f] = ref_face(&part[f], &m->cells[PM_FACE][f], &r->finfo[f], eps, p->ref_spacing * r->Lface[f],
+                      face_budget(p->ref_max_points, p->ref_per_tri, ntri_face(r, f)), &ferr[f]);
+  pm_status s = PM_OK;
+  for (int32_t f = 0; f < nface && !s; ++f) {
+    if (fst[f]) {
+      s = fst[f];
+      if (err) *err = ferr[f];
+      break;
+    }
+    int32_t base = (int32_t)(c->rf.xyz.n / 3);
+    c->rf.chord = fmax(c->rf.chord, part[f].chord);
+    c->rf.degraded += part[f].degraded;
+    c->rf.gap = fmax(c->rf.gap, part[f].gap);
+    /* The chordal bound (0 on a plane: the floor is for rounding). The sliver that the
+     * trimming polylines cut off a face along a curved boundary (2e-4 of its parameter box,
+     * trim.c) has no reference; its points are within the sliver's width of the boundary
+     * curve, which the curve candidates of model_dist measure. */
+    c->face_reach[f] = REF_REACH_MARGIN * part[f].chord + 1e-12 * m->diagonal;
+    c->reach_max = fmax(c->reach_max, c->face_reach[f]);
+    if (!dbuf_push(&c->rf.xyz, part[f].xyz.v, part[f].xyz.n) ||
+        !dbuf_push(&c->rf.uv, part[f].uv.v, part[f].uv.n) ||
+        !ibuf_push(&c->rf.face, part[f].face.v, part[f].face.n)) {
+      s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
+      break;
+    }
+    for (int64_t k = 0; k < part[f].tri.n; ++k) part[f].tri.v[k] += base;
+    if (!ibuf_push(&c->rf.tri, part[f].tri.v, part[f].tri.n))
+      s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory (reference)");
+  }
+  for (int32_t f = 0; f < nface; ++f) ref_faces_free(&part[f]);
+  free(part), free(fst), free(ferr);
+  if (s) return s;
+  if (c->rf.tri.n > 0 &&
+      (s = pm_bvh_create(c->rf.xyz.v, (int32_t)(c->rf.xyz.n / 3), c->rf.tri.v, (int32_t)(c->rf.tri.n / 3),
+                         &c->rf.bvh, err))) {
+    pm_error_prefix(err, "distance: reference");
+    return s;
+  }
+  return PM_OK;
+}
+
+/* How far the reference may lie from the faces, and each face's reference box: the bounds with
+ * which model_dist stops its searches and dist_tri_bounds skips them (surface part only). */
+static pm_status dist_face_bounds(dist_state *r, pm_error *err) {
+  dctx *c = &r->c;
+  if (!c->surf) return PM_OK;
+  const int32_t nface = r->nface;
+  /* The reference is within its chordal bound of its faces (at least eps; the bound is an
+   * estimate from the probed curvature, so REF_REACH_MARGIN times it leaves room for what the
+   * probes missed), but for the strip along the boundary that a face whose constrained
+   * triangulation failed leaves uncovered. */
+  c->ref_reach = REF_REACH_MARGIN * fmax(r->eps, c->rf.chord) + c->rf.gap;
+  c->face_box = malloc(sizeof(double) * 6 * (size_t)nface);
+  if (!c->face_box) return dist_nomem(err);
+  for (int32_t f = 0; f < nface; ++f)
+    for (int k = 0; k < 3; ++k) c->face_box[6 * f + k] = INFINITY, c->face_box[6 * f + 3 + k] = -INFINITY;
+  for (int64_t t = 0; t < c->rf.tri.n / 3; ++t) {
+    double *b = &c->face_box[6 * (size_t)c->rf.face.v[t]];
+    for (int q = 0; q < 3; ++q)
+      for (int k = 0; k < 3; ++k) {
+        double x = c->rf.xyz.v[3 * (size_t)c->rf.tri.v[3 * t + q] + k];
+        b[k] = fmin(b[k], x), b[3 + k] = fmax(b[3 + k], x);
+      }
+  }
+  return PM_OK;
+}
+
+/* The reference polylines of the curves and their BVHs: the boundary curves (surface part) and
+ * the dangling ones (wire part), separately, since each part measures against its own. Then the
+ * band within which the curves, not the trimming polylines, decide whether a point of a face is
+ * inside it (inside_exact). */
+static pm_status dist_curve_reference(dist_state *r, pm_error *err) {
+  dctx *c = &r->c;
+  const pm_model *m = c->m;
+  pm_status s = PM_OK;
+  for (int32_t i = 0; i < r->ncurve; ++i) {
+    ref_curves *rc = c->dangling[i] ? &c->rc_wire : &c->rc_surf;
+    if (!c->dangling[i] && !c->surf) continue;
+    if ((s = ref_curve(rc, &m->cells[PM_CURVE][i], r->eps, err))) return s;
   }
   for (int k = 0; k < 2; ++k) {
-    ref_curves *rc = k ? &c.rc_wire : &c.rc_surf;
+    ref_curves *rc = k ? &c->rc_wire : &c->rc_surf;
     if (rc->seg.n > 0 &&
         (s = pm_bvh_create(rc->xyz.v, (int32_t)(rc->xyz.n / 3), rc->seg.v, (int32_t)(rc->seg.n / 3),
                            &rc->bvh, err))) {
       pm_error_prefix(err, "distance: reference");
-      goto done;
+      return s;
     }
   }
+  c->band = BOUNDARY_BAND * m->diagonal + 2 * r->eps;
+  return PM_OK;
+}
 
-  c.band = BOUNDARY_BAND * m->diagonal + 2 * eps;
-  if (c.surf && mesh->ntri > 0 && p.prune) {
-    nbhd = malloc(sizeof(tri_nbhd) * (size_t)mesh->ntri);
-    double *rmax = calloc((size_t)nface + 1, sizeof(double));
-    int32_t *near_off = calloc((size_t)nface + 1, sizeof(int32_t)), *near = NULL;
-    if (!nbhd || !rmax || !near_off) {
-      free(rmax), free(near_off);
-      goto nomem;
-    }
-#pragma omp parallel for schedule(dynamic, 256)
-    for (int32_t t = 0; t < mesh->ntri; ++t) tri_nbhd_near(&c, t, &nbhd[t]);
-    for (int32_t t = 0; t < mesh->ntri; ++t) {
-      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
-      if (f >= 0 && f < nface) rmax[f] = fmax(rmax[f], nbhd[t].r);
-    }
-    /* For each face, the other faces whose boxes come within reach of its box (a triangle's
-     * centroid lies in its face's box but for the mesh's distance to it, which the
-     * search radius NBHD_REACH r covers where skipping is possible at all). */
-    int64_t nnear = 0;
-    for (int pass = 0; pass < 2; ++pass) {
-      nnear = 0;
-      for (int32_t f = 0; f < nface; ++f) {
-        if (pass) near_off[f] = (int32_t)nnear;
-        const double *a = &c.face_box[6 * (size_t)f];
-        for (int32_t f2 = 0; f2 < nface; ++f2) {
-          if (f2 == f) continue;
-          const double *b = &c.face_box[6 * (size_t)f2];
-          double s2 = 0;
-          for (int k = 0; k < 3; ++k) {
-            double e = fmax(fmax(a[k] - b[3 + k], b[k] - a[3 + k]), 0);
-            s2 += e * e;
-          }
-          if (sqrt(s2) - c.face_reach[f2] <= NBHD_REACH * rmax[f] + rmax[f]) {
-            if (pass) near[nnear] = f2;
-            ++nnear;
-          }
+/* For each face, the other faces whose boxes come within reach of its box (a triangle's
+ * centroid lies in its face's box but for the mesh's distance to it, which the search radius
+ * NBHD_REACH r covers where skipping is possible at all): near[near_off[f] .. near_off[f + 1]).
+ * rmax[f] is the largest r of f's triangles. Returns 0 when out of memory (*near stays NULL). */
+static int near_faces(const dctx *c, int32_t nface, const double *rmax, int32_t *near_off,
+                      int32_t **near_out) {
+  int32_t *near = NULL;
+  int64_t nnear = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    nnear = 0;
+    for (int32_t f = 0; f < nface; ++f) {
+      if (pass) near_off[f] = (int32_t)nnear;
+      const double *a = &c->face_box[6 * (size_t)f];
+      for (int32_t f2 = 0; f2 < nface; ++f2) {
+        if (f2 == f) continue;
+        const double *b = &c->face_box[6 * (size_t)f2];
+        double s2 = 0;
+        for (int k = 0; k < 3; ++k) {
+          double e = fmax(fmax(a[k] - b[3 + k], b[k] - a[3 + k]), 0);
+          s2 += e * e;
+        }
+        if (sqrt(s2) - c->face_reach[f2] <= NBHD_REACH * rmax[f] + rmax[f]) {
+          if (pass) near[nnear] = f2;
+          ++nnear;
         }
       }
-      if (pass) near_off[nface] = (int32_t)nnear;
-      else if (!(near = malloc(sizeof(int32_t) * (size_t)(nnear > 0 ? nnear : 1)))) break;
     }
-    if (!near) {
-      free(rmax), free(near_off);
-      goto nomem;
-    }
-#pragma omp parallel for schedule(dynamic, 256)
-    for (int32_t t = 0; t < mesh->ntri; ++t) {
-      int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
-      tri_nbhd_other(&c, f >= 0 && f < nface ? f : -1, near_off, near, &nbhd[t]);
-    }
-    free(rmax), free(near_off), free(near);
-    c.nb = nbhd;
+    if (pass) near_off[nface] = (int32_t)nnear;
+    else if (!(near = malloc(sizeof(int32_t) * (size_t)(nnear > 0 ? nnear : 1)))) break;
   }
-  /* ---- model -> mesh: blocks -------------------------------------------------------------- */
+  *near_out = near;
+  return near != NULL;
+}
+
+/* The neighbourhood bounds of the mesh triangles (tri_nbhd), with which the mesh side's
+ * samples skip the searches that cannot find anything; only with prune, which leaves every
+ * figure as it is. */
+static pm_status dist_tri_bounds(dist_state *r, pm_error *err) {
+  dctx *c = &r->c;
+  const pm_mesh *mesh = c->mesh;
+  const int32_t nface = r->nface;
+  if (!(c->surf && mesh->ntri > 0 && r->p.prune)) return PM_OK;
+  tri_nbhd *nbhd = r->nbhd = malloc(sizeof(tri_nbhd) * (size_t)mesh->ntri);
+  double *rmax = calloc((size_t)nface + 1, sizeof(double));
+  int32_t *near_off = calloc((size_t)nface + 1, sizeof(int32_t)), *near = NULL;
+  if (!nbhd || !rmax || !near_off) {
+    free(rmax), free(near_off);
+    return dist_nomem(err);
+  }
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int32_t t = 0; t < mesh->ntri; ++t) tri_nbhd_near(c, t, &nbhd[t]);
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+    if (f >= 0 && f < nface) rmax[f] = fmax(rmax[f], nbhd[t].r);
+  }
+  if (!near_faces(c, nface, rmax, near_off, &near)) {
+    free(rmax), free(near_off);
+    return dist_nomem(err);
+  }
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    int32_t f = mesh->tri_cell ? mesh->tri_cell[t] : -1;
+    tri_nbhd_other(c, f >= 0 && f < nface ? f : -1, near_off, near, &nbhd[t]);
+  }
+  free(rmax), free(near_off), free(near);
+  c->nb = nbhd;
+  return PM_OK;
+}
+
+/* Face f's grid of model samples (model -> mesh) at `spacing` x grow times the local edge
+ * length, capped by the face's budget. Fills all of b but `first`. */
+static void face_block(const dist_state *r, int32_t f, double grow, mblock *b) {
+  const pm_distance_params *p = &r->p;
+  const double *box = r->finfo[f].box, su = r->finfo[f].su, sv = r->finfo[f].sv;
+  double h = p->spacing * r->Lface[f] * grow;
+  double nu = fmax(2, ceil(su * (box[2] - box[0]) / h)), nv = fmax(2, ceil(sv * (box[3] - box[1]) / h));
+  const int64_t cap = face_budget(p->max_face_samples, p->model_per_tri, ntri_face(r, f));
+  if (nu * nv > (double)cap) {
+    double sc = sqrt((double)cap / (nu * nv));
+    nu = fmax(2, floor(nu * sc)), nv = fmax(2, floor(nv * sc));
+  }
+  b->kind = S_FACE, b->part = PART_SURF, b->cell = f;
+  b->nu = (int32_t)nu, b->nv = (int32_t)nv;
+  b->du = (box[2] - box[0]) / nu, b->dv = (box[3] - box[1]) / nv;
+  b->u0 = box[0] + 0.5 * b->du, b->v0 = box[1] + 0.5 * b->dv;
+}
+
+/* Curve i's points (model -> mesh) at `spacing` x grow times the local edge length: of the wire
+ * part for a dangling curve, else of the finest face the curve bounds. Fills all of b but
+ * `first`. */
+static void curve_block(const dist_state *r, int32_t i, double grow, mblock *b) {
+  const dctx *c = &r->c;
+  const pm_distance_params *p = &r->p;
+  const pm_cell *cu = &c->m->cells[PM_CURVE][i];
+  double h;
+  if (c->dangling[i]) {
+    h = r->Lwire;
+  } else {
+    h = INFINITY;
+    for (int32_t k = 0; k < cu->nup; ++k) h = fmin(h, r->Lface[cu->up[k]]);
+    if (!(h < INFINITY)) h = r->Lglobal;
+  }
+  h *= p->spacing * grow;
+  double n = fmax(3, ceil(pm_curve_length(cu, cu->lo[0], cu->hi[0]) / h) + 1);
+  if (n > (double)p->max_face_samples) n = (double)p->max_face_samples;
+  /* A boundary curve counts in the maximum only (its largest samples are refined): like a
+   * face, at most model_per_tri points per mesh segment on it (at least FACE_BUDGET_MIN),
+   * so that a face's shortest edges do not set the sampling of its long curves. */
+  if (!c->dangling[i] && r->curve_segs[i] > 0) {
+    double cap = (double)face_budget(p->max_face_samples, p->model_per_tri, r->curve_segs[i]);
+    if (n > cap) n = cap;
+  }
+  b->kind = S_CURVE, b->part = c->dangling[i] ? PART_WIRE : PART_SURF, b->cell = i;
+  b->nu = (int32_t)n, b->nv = 1;
+  b->u0 = cu->lo[0], b->du = (cu->hi[0] - cu->lo[0]) / (n - 1), b->v0 = 0, b->dv = 0;
+}
+
+/* The model side's samples (model -> mesh), as blocks: a grid of each face's parameter box and
+ * the points of each curve, spaced from the local edge length of the mesh and capped per face /
+ * curve by the budgets of distance.h. When the total exceeds max_samples the spacing grows (up
+ * to 8 passes) to meet it. */
+static pm_status dist_model_samples(dist_state *r, pm_error *err) {
+  const dctx *c = &r->c;
+  const pm_model *m = c->m;
+  const int32_t nface = r->nface, ncurve = r->ncurve;
   int32_t nblock = 0;
-  blocks = malloc(sizeof(mblock) * (size_t)(nface + ncurve + 1));
-  if (!blocks) goto nomem;
+  mblock *blocks = r->blocks = malloc(sizeof(mblock) * (size_t)(nface + ncurve + 1));
+  if (!blocks) return dist_nomem(err);
   double grow = 1; /* spacing multiplier to meet max_samples */
   for (int pass = 0; pass < 8; ++pass) {
     nblock = 0;
     int64_t total = 0;
-    for (int32_t f = 0; f < nface && c.surf; ++f) {
-      const pm_cell *fc = &m->cells[PM_FACE][f];
-      if (fc->nloop <= 0) continue;
-      const double *box = finfo[f].box, su = finfo[f].su, sv = finfo[f].sv;
-      double h = p.spacing * Lface[f] * grow;
-      double nu = fmax(2, ceil(su * (box[2] - box[0]) / h)), nv = fmax(2, ceil(sv * (box[3] - box[1]) / h));
-      const int64_t cap = face_budget(p.max_face_samples, p.model_per_tri, ntri_face(f));
-      if (nu * nv > (double)cap) {
-        double sc = sqrt((double)cap / (nu * nv));
-        nu = fmax(2, floor(nu * sc)), nv = fmax(2, floor(nv * sc));
-      }
+    for (int32_t f = 0; f < nface && c->surf; ++f) {
+      if (m->cells[PM_FACE][f].nloop <= 0) continue;
       mblock *b = &blocks[nblock++];
-      b->kind = S_FACE, b->part = PART_SURF, b->cell = f;
-      b->nu = (int32_t)nu, b->nv = (int32_t)nv;
-      b->du = (box[2] - box[0]) / nu, b->dv = (box[3] - box[1]) / nv;
-      b->u0 = box[0] + 0.5 * b->du, b->v0 = box[1] + 0.5 * b->dv;
+      face_block(r, f, grow, b);
       b->first = total;
       total += (int64_t)b->nu * b->nv;
     }
     for (int32_t i = 0; i < ncurve; ++i) {
-      const pm_cell *cu = &m->cells[PM_CURVE][i];
-      if (cu->degenerate) continue;
-      if (!c.dangling[i] && !c.surf) continue;
-      double h;
-      if (c.dangling[i]) {
-        h = Lwire;
-      } else {
-        h = INFINITY;
-        for (int32_t k = 0; k < cu->nup; ++k) h = fmin(h, Lface[cu->up[k]]);
-        if (!(h < INFINITY)) h = Lglobal;
-      }
-      h *= p.spacing * grow;
-      double n = fmax(3, ceil(pm_curve_length(cu, cu->lo[0], cu->hi[0]) / h) + 1);
-      if (n > (double)p.max_face_samples) n = (double)p.max_face_samples;
-      /* A boundary curve counts in the maximum only (its largest samples are refined): like a
-       * face, at most model_per_tri points per mesh segment on it (at least FACE_BUDGET_MIN),
-       * so that a face's shortest edges do not set the sampling of its long curves. */
-      if (!c.dangling[i] && curve_segs[i] > 0) {
-        double cap = (double)face_budget(p.max_face_samples, p.model_per_tri, curve_segs[i]);
-        if (n > cap) n = cap;
-      }
+      if (m->cells[PM_CURVE][i].degenerate) continue;
+      if (!c->dangling[i] && !c->surf) continue;
       mblock *b = &blocks[nblock++];
-      b->kind = S_CURVE, b->part = c.dangling[i] ? PART_WIRE : PART_SURF, b->cell = i;
-      b->nu = (int32_t)n, b->nv = 1;
-      b->u0 = cu->lo[0], b->du = (cu->hi[0] - cu->lo[0]) / (n - 1), b->v0 = 0, b->dv = 0;
+      curve_block(r, i, grow, b);
       b->first = total;
       total += b->nu;
     }
-    if (total <= p.max_samples) break;
-    grow *= sqrt((double)total / (double)p.max_samples) * 1.01;
+    if (total <= r->p.max_samples) break;
+    grow *= sqrt((double)total / (double)r->p.max_samples) * 1.01;
   }
-  int64_t nmodel = nblock > 0 ? blocks[nblock - 1].first + (int64_t)blocks[nblock - 1].nu * blocks[nblock - 1].nv : 0;
+  r->nblock = nblock;
+  r->nmodel = nblock > 0 ? blocks[nblock - 1].first + (int64_t)blocks[nblock - 1].nu * blocks[nblock - 1].nv : 0;
+  return PM_OK;
+}
 
-  /* Lattice level for the mesh side. */
-  c.level = p.tri_level;
-  while (c.level > 1 && (int64_t)mesh->ntri * ((c.level + 1) * (c.level + 2) / 2) +
-                                (int64_t)c.nwire * (c.level + 1) > p.max_samples)
-    c.level--;
-  c.npt_tri = (c.level + 1) * (c.level + 2) / 2;
-  c.npt_seg = c.level + 1;
-  out->tri_level = c.level;
-  if (c.surf && (s = lattice_build(mesh, c.level, &lat, err))) goto done;
-  int64_t ntri_s = c.surf ? lat.n : 0;
-  int64_t nmesh = ntri_s + (int64_t)c.nwire * c.npt_seg;
+/* The mesh side's samples (mesh -> model): the lattice of level tri_level on the triangles
+ * (lowered, not below 1, until the samples fit in max_samples) and level + 1 points on each
+ * wire segment. */
+static pm_status dist_mesh_samples(dist_state *r, pm_error *err) {
+  dctx *c = &r->c;
+  const pm_mesh *mesh = c->mesh;
+  c->level = r->p.tri_level;
+  while (c->level > 1 && (int64_t)mesh->ntri * ((c->level + 1) * (c->level + 2) / 2) +
+                                 (int64_t)c->nwire * (c->level + 1) > r->p.max_samples)
+    c->level--;
+  c->npt_tri = (c->level + 1) * (c->level + 2) / 2;
+  c->npt_seg = c->level + 1;
+  pm_status s = PM_OK;
+  if (c->surf && (s = lattice_build(mesh, c->level, &r->lat, err))) return s;
+  r->ntri_s = c->surf ? r->lat.n : 0;
+  r->nmesh = r->ntri_s + (int64_t)c->nwire * c->npt_seg;
+  return PM_OK;
+}
 
-  dres = malloc(sizeof(double) * CHUNK);
-  wres = malloc(sizeof(double) * CHUNK);
-  rres = malloc(sizeof(double) * CHUNK);
-  xres = malloc(sizeof(double) * 3 * CHUNK);
-  fres = malloc(sizeof(int) * CHUNK);
-  runs = malloc(sizeof(mrun) * (CHUNK + (size_t)nblock + 1));
-  topk *top = malloc(sizeof(topk) * (size_t)(2 * p.refine + 1));
-  if (!dres || !wres || !rres || !xres || !fres || !runs || !top) {
-    free(top);
-    goto nomem;
-  }
-  acc A[2][2]; /* [direction: 0 mesh->model, 1 model->mesh][part] */
-  memset(A, 0, sizeof A);
-  int ntop[2] = {0, 0};
-  topk *tops[2] = {top, top + p.refine};
-  int64_t nfallback = 0;
+/* One chunk's result buffers (both directions evaluate CHUNK samples at a time, in parallel, and
+ * reduce them in index order), the lists of each direction's largest samples, and the
+ * accumulators. */
+static pm_status dist_buffers(dist_state *r, pm_error *err) {
+  r->dres = malloc(sizeof(double) * CHUNK);
+  r->wres = malloc(sizeof(double) * CHUNK);
+  r->rres = malloc(sizeof(double) * CHUNK);
+  r->xres = malloc(sizeof(double) * 3 * CHUNK);
+  r->fres = malloc(sizeof(int) * CHUNK);
+  r->runs = malloc(sizeof(mrun) * (CHUNK + (size_t)r->nblock + 1));
+  r->top = malloc(sizeof(topk) * (size_t)(2 * r->p.refine + 1));
+  if (!r->dres || !r->wres || !r->rres || !r->xres || !r->fres || !r->runs || !r->top)
+    return dist_nomem(err);
+  r->tops[0] = r->top, r->tops[1] = r->top + r->p.refine;
+  return PM_OK;
+}
 
-  /* ---- mesh -> model ------------------------------------------------------------------------- */
-  for (int64_t s0 = 0; s0 < nmesh; s0 += CHUNK) {
-    int64_t n = nmesh - s0 < CHUNK ? nmesh - s0 : CHUNK;
+/* Evaluate mesh-side samples s0 .. s0 + n - 1 into the chunk buffers, in parallel: the lattice
+ * points of the triangles, then level + 1 points per wire segment. A point on an edge between
+ * two faces is measured through a triangle of each and keeps the smaller distance (lattice). */
+static void mesh_chunk_eval(dist_state *r, int64_t s0, int64_t n) {
+  const dctx *c = &r->c;
+  const pm_mesh *mesh = c->mesh;
+  const lattice *lat = &r->lat;
+  const int64_t ntri_s = r->ntri_s;
+  double *dres = r->dres, *wres = r->wres, *rres = r->rres, *xres = r->xres;
+  int *fres = r->fres;
 #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t k = 0; k < n; ++k) {
-      int64_t sidx = s0 + k;
-      int kind;
-      int32_t e;
-      double par[2], w;
-      if (sidx < ntri_s) {
-        kind = S_TRI, e = lat.tri[sidx];
-        par[0] = lat.par[2 * sidx], par[1] = lat.par[2 * sidx + 1];
-        w = lat.w[sidx];
-      } else {
-        int64_t r = sidx - ntri_s;
-        kind = S_SEG, e = (int32_t)(r / c.npt_seg);
-        par[0] = (double)(r % c.npt_seg) / c.level, par[1] = 0;
-        const int32_t *v = &mesh->seg[2 * (size_t)c.wire_seg[e]];
-        w = pm_v3_dist(&mesh->xyz[3 * (size_t)v[0]], &mesh->xyz[3 * (size_t)v[1]]) / c.npt_seg;
-      }
-      double *x = &xres[3 * k];
-      dres[k] = mesh_eval(&c, kind, e, par, x, &fres[k]);
-      if (kind == S_TRI && lat.alt[sidx] >= 0) {
-        double x2[3];
-        int f2;
-        double d2 = mesh_eval(&c, kind, lat.alt[sidx], &lat.apar[2 * sidx], x2, &f2);
-        if (d2 < dres[k] || !isfinite(dres[k])) dres[k] = d2, fres[k] = f2;
-      }
-      wres[k] = w;
-      double sz = size_at(&c, x);
-      rres[k] = sz > 0 ? dres[k] / sz : 0;
+  for (int64_t k = 0; k < n; ++k) {
+    int64_t sidx = s0 + k;
+    int kind;
+    int32_t e;
+    double par[2], w;
+    if (sidx < ntri_s) {
+      kind = S_TRI, e = lat->tri[sidx];
+      par[0] = lat->par[2 * sidx], par[1] = lat->par[2 * sidx + 1];
+      w = lat->w[sidx];
+    } else {
+      int64_t q = sidx - ntri_s;
+      kind = S_SEG, e = (int32_t)(q / c->npt_seg);
+      par[0] = (double)(q % c->npt_seg) / c->level, par[1] = 0;
+      const int32_t *v = &mesh->seg[2 * (size_t)c->wire_seg[e]];
+      w = pm_v3_dist(&mesh->xyz[3 * (size_t)v[0]], &mesh->xyz[3 * (size_t)v[1]]) / c->npt_seg;
     }
-    for (int64_t k = 0; k < n; ++k) {
-      if (!isfinite(dres[k])) continue;
-      int64_t sidx = s0 + k;
-      int part = sidx < ntri_s ? PART_SURF : PART_WIRE;
-      acc_add(&A[0][part], dres[k], wres[k], rres[k], &xres[3 * k]);
-      nfallback += fres[k];
-      topk t;
-      t.d = dres[k];
-      if (part == PART_SURF) {
-        t.kind = S_TRI, t.elem = lat.tri[sidx];
-        t.par[0] = lat.par[2 * sidx], t.par[1] = lat.par[2 * sidx + 1];
-        t.step[0] = t.step[1] = 0.5 / c.level;
-      } else {
-        int64_t r = sidx - ntri_s;
-        t.kind = S_SEG, t.elem = (int32_t)(r / c.npt_seg);
-        t.par[0] = (double)(r % c.npt_seg) / c.level, t.par[1] = 0;
-        t.step[0] = 0.5 / c.level, t.step[1] = 0;
-      }
-      t.key = (int64_t)t.kind << 40 | t.elem;
-      topk_offer(tops[0], &ntop[0], p.refine, &t);
+    double *x = &xres[3 * k];
+    dres[k] = mesh_eval(c, kind, e, par, x, &fres[k]);
+    if (kind == S_TRI && lat->alt[sidx] >= 0) {
+      double x2[3];
+      int f2;
+      double d2 = mesh_eval(c, kind, lat->alt[sidx], &lat->apar[2 * sidx], x2, &f2);
+      if (d2 < dres[k] || !isfinite(dres[k])) dres[k] = d2, fres[k] = f2;
     }
+    wres[k] = w;
+    double sz = size_at(c, x);
+    rres[k] = sz > 0 ? dres[k] / sz : 0;
   }
+}
 
-  /* ---- model -> mesh ------------------------------------------------------------------------- */
-  for (int64_t s0 = 0; s0 < nmodel; s0 += CHUNK) {
-    int64_t n = nmodel - s0 < CHUNK ? nmodel - s0 : CHUNK;
-    /* Runs of up to RUN consecutive samples of one block: a face's run is evaluated in one
-     * batch, and each sample's searches start from what the previous one found. */
-    int64_t nrun = 0;
-    for (int64_t k = 0; k < n;) {
-      int64_t sidx = s0 + k;
-      /* The block holding sample sidx (binary search on `first`). */
-      int32_t lo = 0, hi = nblock - 1;
-      while (lo < hi) {
-        int32_t mid = (lo + hi + 1) / 2;
-        if (blocks[mid].first <= sidx)
-          lo = mid;
-        else
-          hi = mid - 1;
-      }
-      int64_t end = blocks[lo].first + (int64_t)blocks[lo].nu * blocks[lo].nv - s0;
-      int64_t len = end - k < RUN ? end - k : RUN;
-      if (k + len > n) len = n - k;
-      runs[nrun].k = k, runs[nrun].len = (int32_t)len, runs[nrun].block = lo;
-      ++nrun, k += len;
+/* Reduce a mesh-side chunk in index order (so the thread count changes no figure): accumulate
+ * each finite sample and offer it, with the element and parameters to refine it from, to the
+ * list of the largest (one entry per element: the key). */
+static void mesh_chunk_reduce(dist_state *r, int64_t s0, int64_t n) {
+  const dctx *c = &r->c;
+  const lattice *lat = &r->lat;
+  for (int64_t k = 0; k < n; ++k) {
+    if (!isfinite(r->dres[k])) continue;
+    int64_t sidx = s0 + k;
+    int part = sidx < r->ntri_s ? PART_SURF : PART_WIRE;
+    acc_add(&r->A[0][part], r->dres[k], r->wres[k], r->rres[k], &r->xres[3 * k]);
+    r->nfallback += r->fres[k];
+    topk t;
+    t.d = r->dres[k];
+    if (part == PART_SURF) {
+      t.kind = S_TRI, t.elem = lat->tri[sidx];
+      t.par[0] = lat->par[2 * sidx], t.par[1] = lat->par[2 * sidx + 1];
+      t.step[0] = t.step[1] = 0.5 / c->level;
+    } else {
+      int64_t q = sidx - r->ntri_s;
+      t.kind = S_SEG, t.elem = (int32_t)(q / c->npt_seg);
+      t.par[0] = (double)(q % c->npt_seg) / c->level, t.par[1] = 0;
+      t.step[0] = 0.5 / c->level, t.step[1] = 0;
     }
+    t.key = (int64_t)t.kind << 40 | t.elem;
+    topk_offer(r->tops[0], &r->ntop[0], r->p.refine, &t);
+  }
+}
+
+/* The mesh -> model direction: every mesh-side sample's distance to the model, chunk by chunk. */
+static void dist_mesh_to_model(dist_state *r) {
+  for (int64_t s0 = 0; s0 < r->nmesh; s0 += CHUNK) {
+    int64_t n = r->nmesh - s0 < CHUNK ? r->nmesh - s0 : CHUNK;
+    mesh_chunk_eval(r, s0, n);
+    mesh_chunk_reduce(r, s0, n);
+  }
+}
+
+/* Cut model-side samples s0 .. s0 + n - 1 into runs of up to RUN consecutive samples of one
+ * block (r->runs): a face's run is evaluated in one batch, and each sample's searches start from
+ * what the previous one found (model_run). Returns the number of runs. */
+static int64_t model_chunk_runs(dist_state *r, int64_t s0, int64_t n) {
+  const mblock *blocks = r->blocks;
+  int64_t nrun = 0;
+  for (int64_t k = 0; k < n;) {
+    int64_t sidx = s0 + k;
+    /* The block holding sample sidx (binary search on `first`). */
+    int32_t lo = 0, hi = r->nblock - 1;
+    while (lo < hi) {
+      int32_t mid = (lo + hi + 1) / 2;
+      if (blocks[mid].first <= sidx)
+        lo = mid;
+      else
+        hi = mid - 1;
+    }
+    int64_t end = blocks[lo].first + (int64_t)blocks[lo].nu * blocks[lo].nv - s0;
+    int64_t len = end - k < RUN ? end - k : RUN;
+    if (k + len > n) len = n - k;
+    r->runs[nrun].k = k, r->runs[nrun].len = (int32_t)len, r->runs[nrun].block = lo;
+    ++nrun, k += len;
+  }
+  return nrun;
+}
+
+/* Reduce a model-side chunk in index order, as mesh_chunk_reduce. A face's largest samples are
+ * kept one per 1/64 of its grid, a curve's one per 1/64 of its points (the key), so that the
+ * refined ones are spread over the model. */
+static void model_chunk_reduce(dist_state *r, int64_t s0, int64_t n) {
+  const pm_model *m = r->c.m;
+  for (int64_t k = 0; k < n; ++k) {
+    if (!isfinite(r->dres[k])) continue;
+    const int fk = r->fres[k];
+    const mblock *b = &r->blocks[fk];
+    acc_add(&r->A[1][b->part], r->dres[k], r->wres[k], r->rres[k], &r->xres[3 * k]);
+    int64_t q = s0 + k - b->first;
+    topk t;
+    t.d = r->dres[k];
+    t.kind = b->kind, t.elem = fk;
+    if (b->kind == S_FACE) {
+      int32_t i = (int32_t)(q / b->nv), j = (int32_t)(q % b->nv);
+      t.par[0] = b->u0 + i * b->du, t.par[1] = b->v0 + j * b->dv;
+      t.step[0] = 0.5 * b->du, t.step[1] = 0.5 * b->dv;
+      t.key = ((int64_t)(S_FACE) << 40) | ((int64_t)fk << 8) | (((int64_t)i * 8 / b->nu) * 8 + (int64_t)j * 8 / b->nv);
+    } else {
+      t.par[0] = b->u0 + q * b->du, t.par[1] = 0;
+      if (q + 1 == b->nu) t.par[0] = m->cells[PM_CURVE][b->cell].hi[0];
+      t.step[0] = 0.5 * b->du, t.step[1] = 0;
+      t.key = ((int64_t)(S_CURVE) << 40) | ((int64_t)fk << 8) | (q * 64 / b->nu);
+    }
+    topk_offer(r->tops[1], &r->ntop[1], r->p.refine, &t);
+  }
+}
+
+/* The model -> mesh direction: every model-side sample's distance to the mesh (the closest-point
+ * searches of the mesh's BVHs), chunk by chunk, the runs of a chunk in parallel. */
+static void dist_model_to_mesh(dist_state *r) {
+  const dctx *c = &r->c;
+  for (int64_t s0 = 0; s0 < r->nmodel; s0 += CHUNK) {
+    int64_t n = r->nmodel - s0 < CHUNK ? r->nmodel - s0 : CHUNK;
+    int64_t nrun = model_chunk_runs(r, s0, n);
+    const mblock *blocks = r->blocks;
+    const mrun *runs = r->runs;
+    double *dres = r->dres, *wres = r->wres, *rres = r->rres, *xres = r->xres;
+    int *fres = r->fres;
 #pragma omp parallel for schedule(dynamic, 1)
-    for (int64_t q = 0; q < nrun; ++q) model_run(&c, blocks, &runs[q], s0, dres, wres, rres, xres, fres);
-    for (int64_t k = 0; k < n; ++k) {
-      if (!isfinite(dres[k])) continue;
-      const mblock *b = &blocks[fres[k]];
-      acc_add(&A[1][b->part], dres[k], wres[k], rres[k], &xres[3 * k]);
-      int64_t r = s0 + k - b->first;
-      topk t;
-      t.d = dres[k];
-      t.kind = b->kind, t.elem = fres[k];
-      if (b->kind == S_FACE) {
-        int32_t i = (int32_t)(r / b->nv), j = (int32_t)(r % b->nv);
-        t.par[0] = b->u0 + i * b->du, t.par[1] = b->v0 + j * b->dv;
-        t.step[0] = 0.5 * b->du, t.step[1] = 0.5 * b->dv;
-        t.key = ((int64_t)(S_FACE) << 40) | ((int64_t)fres[k] << 8) | (((int64_t)i * 8 / b->nu) * 8 + (int64_t)j * 8 / b->nv);
-      } else {
-        t.par[0] = b->u0 + r * b->du, t.par[1] = 0;
-        if (r + 1 == b->nu) t.par[0] = m->cells[PM_CURVE][b->cell].hi[0];
-        t.step[0] = 0.5 * b->du, t.step[1] = 0;
-        t.key = ((int64_t)(S_CURVE) << 40) | ((int64_t)fres[k] << 8) | (r * 64 / b->nu);
-      }
-      topk_offer(tops[1], &ntop[1], p.refine, &t);
-    }
+    for (int64_t q = 0; q < nrun; ++q) model_run(c, blocks, &runs[q], s0, dres, wres, rres, xres, fres);
+    model_chunk_reduce(r, s0, n);
   }
+}
 
-  /* ---- refinement of the largest samples ------------------------------------------------------- */
+/* Refine each direction's largest samples by a pattern search (refine_one), in parallel, so that
+ * the maximum is a local maximum of the distance and not just the best sample; a refined value
+ * raises its part's maximum (and its point and relative maximum) in list order. */
+static void dist_refine(dist_state *r) {
+  const dctx *c = &r->c;
   for (int dir = 0; dir < 2; ++dir) {
     double rd[256], rx[256][3];
-    int nt = ntop[dir];
+    const int nt = r->ntop[dir];
+    topk *top = r->tops[dir];
+    const mblock *blocks = r->blocks;
 #pragma omp parallel for schedule(dynamic, 1)
     for (int i = 0; i < nt; ++i) {
       pm_v3_zero(rx[i]);
-      rd[i] = refine_one(&c, blocks, &tops[dir][i], rx[i]);
+      rd[i] = refine_one(c, blocks, &top[i], rx[i]);
     }
     for (int i = 0; i < nt; ++i) {
-      int part = (tops[dir][i].kind == S_SEG ||
-                  (tops[dir][i].kind == S_CURVE && blocks[tops[dir][i].elem].part == PART_WIRE))
+      int part = (top[i].kind == S_SEG || (top[i].kind == S_CURVE && blocks[top[i].elem].part == PART_WIRE))
                      ? PART_WIRE
                      : PART_SURF;
-      acc *a = &A[dir][part];
+      acc *a = &r->A[dir][part];
       if (rd[i] > a->max) {
         a->max = rd[i];
         pm_v3_copy(a->max_at, rx[i]);
-        double sz = size_at(&c, rx[i]);
+        double sz = size_at(c, rx[i]);
         if (sz > 0) a->rel_max = fmax(a->rel_max, rd[i] / sz);
       }
     }
   }
-  free(top);
+}
 
-  /* ---- results ---------------------------------------------------------------------------------- */
-  /* The mean is over the surface part when there is one, else over the wire part; the maximum
-   * over everything. */
-  int mpart = c.surf ? PART_SURF : PART_WIRE;
+/* Fill out from the accumulators. The mean is over the surface part when there is one, else over
+ * the wire part (distance.h); the maximum over everything. */
+static void dist_results(const dist_state *r, pm_distance *out) {
+  const dctx *c = &r->c;
+  const acc(*A)[2] = r->A;
+  out->bbox_diagonal = c->m->diagonal;
+  out->has_size = c->size != NULL;
+  out->ref_chord = c->rf.chord;
+  out->ref_faces_degraded = c->rf.degraded;
+  out->tri_level = c->level;
+  int mpart = c->surf ? PART_SURF : PART_WIRE;
   out->nsamples_mesh = A[0][0].n + A[0][1].n;
   out->nsamples_model = A[1][0].n + A[1][1].n;
-  out->nfallback = nfallback;
+  out->nfallback = r->nfallback;
   out->mesh_to_model_mean = A[0][mpart].sum_w > 0 ? A[0][mpart].sum_wd / A[0][mpart].sum_w : 0;
   out->model_to_mesh_mean = A[1][mpart].sum_w > 0 ? A[1][mpart].sum_wd / A[1][mpart].sum_w : 0;
   double W = A[0][mpart].sum_w + A[1][mpart].sum_w;
   out->mean = W > 0 ? (A[0][mpart].sum_wd + A[1][mpart].sum_wd) / W : 0;
-  out->rel_mean = W > 0 && size ? (A[0][mpart].sum_wr + A[1][mpart].sum_wr) / W : 0;
+  out->rel_mean = W > 0 && c->size ? (A[0][mpart].sum_wr + A[1][mpart].sum_wr) / W : 0;
   out->max = -1;
   for (int dir = 0; dir < 2; ++dir)
     for (int part = 0; part < 2; ++part) {
@@ -1756,23 +1949,51 @@ pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_
         pm_v3_copy(out->max_at, a->max_at);
         out->max_from_model = dir == 1;
       }
-      if (size) out->rel_max = fmax(out->rel_max, a->rel_max);
+      if (c->size) out->rel_max = fmax(out->rel_max, a->rel_max);
     }
   if (out->max < 0) out->max = 0;
-  s = PM_OK;
-  goto done;
+}
 
-nomem:
-  s = pm_error_setf(err, PM_ERR_NOMEM, "distance: out of memory");
-done:
-  free(dres), free(wres), free(rres), free(xres), free(fres), free(runs);
-  lattice_free(&lat);
-  free(blocks), free(finfo), free(nbhd), free(curve_segs);
-  free(face_tris_off), free(face_tris), free(Lface);
-  free(c.dangling), free(c.wire_seg), free(c.face_reach), free(c.face_box);
-  pm_bvh_destroy(c.mesh_tri), pm_bvh_destroy(c.mesh_wire);
-  ref_faces_free(&c.rf);
-  ref_curves_free(&c.rc_surf), ref_curves_free(&c.rc_wire);
+/* Free everything the stages built (any of them may be missing after an error). */
+static void dist_free(dist_state *r) {
+  dctx *c = &r->c;
+  free(r->dres), free(r->wres), free(r->rres), free(r->xres), free(r->fres), free(r->runs), free(r->top);
+  lattice_free(&r->lat);
+  free(r->blocks), free(r->finfo), free(r->nbhd), free(r->curve_segs);
+  free(r->face_tris_off), free(r->face_tris), free(r->Lface);
+  free(c->dangling), free(c->wire_seg), free(c->face_reach), free(c->face_box);
+  pm_bvh_destroy(c->mesh_tri), pm_bvh_destroy(c->mesh_wire);
+  ref_faces_free(&c->rf);
+  ref_curves_free(&c->rc_surf), ref_curves_free(&c->rc_wire);
+}
+
+/* The stages in order. The first error stops the sequence; what was built is freed and out is
+ * left zeroed (err keeps the stage's message). */
+pm_status pm_mesh_distance(const pm_mesh *mesh, const pm_model *model, const pm_sizing *size,
+                           const pm_distance_params *pin, pm_distance *out, pm_error *err) {
+  memset(out, 0, sizeof *out);
+  dist_state r;
+  memset(&r, 0, sizeof r);
+  pm_status s = dist_check(&r, mesh, model, pin, err);
+  if (s) return s;
+  s = dist_setup(&r, mesh, model, size, err);
+  if (!s) s = dist_mesh_bvhs(&r, err);
+  if (!s) s = dist_edge_lengths(&r, err);
+  if (!s) s = dist_probe_faces(&r, err);
+  if (!s) s = dist_face_reference(&r, err);
+  if (!s) s = dist_face_bounds(&r, err);
+  if (!s) s = dist_curve_reference(&r, err);
+  if (!s) s = dist_tri_bounds(&r, err);
+  if (!s) s = dist_model_samples(&r, err);
+  if (!s) s = dist_mesh_samples(&r, err);
+  if (!s) s = dist_buffers(&r, err);
+  if (!s) {
+    dist_mesh_to_model(&r);
+    dist_model_to_mesh(&r);
+    dist_refine(&r);
+    dist_results(&r, out);
+  }
+  dist_free(&r);
   if (s) {
     pm_error e2 = err ? *err : (pm_error){0};
     memset(out, 0, sizeof *out);
