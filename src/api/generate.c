@@ -145,15 +145,14 @@ static void watch_observer(watch *w, pm_run_observer *obs) {
 
 /* ---- the runs ------------------------------------------------------------------------------ */
 
-pm_status pm_generate_with(const pm_model *model, const pm_sizing *size, const pm_method *method,
-                           const pm_method_params *params, const pm_generate_options *opts,
-                           const pm_generate_hooks *hooks, pm_mesh **out,
-                           pm_generate_result *result, pm_error *err) {
+pm_status pm_generate_report(const pm_model *model, const pm_sizing *size,
+                             const pm_method *method, const pm_method_params *params,
+                             const pm_generate_options *opts, pm_report *r,
+                             pm_sizing **final_size, pm_mesh **out, pm_generate_result *result,
+                             pm_error *err) {
+  if (final_size) *final_size = NULL;
   if (!out) return pm_error_setf(err, PM_ERR_ARG, "pm_generate: no place for the mesh");
   *out = NULL;
-  const pm_generate_hooks none = {0};
-  if (!hooks) hooks = &none;
-  if (hooks->final_size) *hooks->final_size = NULL;
   pm_generate_options defaults;
   pm_generate_options_init(&defaults);
   const pm_generate_options *o = opts ? opts : &defaults;
@@ -188,7 +187,9 @@ pm_status pm_generate_with(const pm_model *model, const pm_sizing *size, const p
     s = method->default_size(model, values, o->seed, o->threads, &base_own, err);
     base = base_own;
   }
-  watch w = {hooks->report, o, method, 0, 0, NULL};
+  pm_run_observer report;
+  if (r) pm_report_observer(r, &report);
+  watch w = {r ? &report : NULL, o, method, 0, 0, NULL};
   pm_run_observer obs;
   watch_observer(&w, &obs);
   pm_run_output ro;
@@ -204,7 +205,7 @@ pm_status pm_generate_with(const pm_model *model, const pm_sizing *size, const p
       if ((s = pm_sizing_scaled(base, scale, &scaled, err))) break;
       use = scaled;
     }
-    if (hooks->before_run && (s = hooks->before_run(hooks->ctx, w.run, err))) break;
+    if (r && w.run > 1 && (s = pm_report_new_run(r, err))) break;
     if ((s = stage(&w, "meshing", err))) break;
     pm_mesh_destroy(ro.mesh);
     memset(&ro, 0, sizeof ro);
@@ -233,11 +234,11 @@ pm_status pm_generate_with(const pm_model *model, const pm_sizing *size, const p
       result->target_met = target_met;
       result->seconds = pm_seconds() - t0;
     }
-    if (hooks->final_size) {
+    if (final_size) {
       if (scale != 1)
-        *hooks->final_size = scaled, scaled = NULL;
+        *final_size = scaled, scaled = NULL;
       else if (base_own)
-        *hooks->final_size = base_own, base_own = NULL;
+        *final_size = base_own, base_own = NULL;
     }
   }
   pm_mesh_destroy(ro.mesh);
@@ -254,5 +255,5 @@ pm_status pm_generate_with(const pm_model *model, const pm_sizing *size, const p
 pm_status pm_generate(const pm_model *model, const pm_sizing *size, const pm_method *method,
                       const pm_method_params *params, const pm_generate_options *opts,
                       pm_mesh **out, pm_generate_result *result, pm_error *err) {
-  return pm_generate_with(model, size, method, params, opts, NULL, out, result, err);
+  return pm_generate_report(model, size, method, params, opts, NULL, NULL, out, result, err);
 }

@@ -53,6 +53,13 @@ void pm_method_names(char *buf, size_t len) {
   }
 }
 
+void pm_method_help(const pm_method *m, FILE *f) {
+  if (m && m->params)
+    pm_params_help(m->params, f);
+  else
+    fprintf(f, "(no parameters)\n");
+}
+
 const char *pm_method_name(const pm_method *m) { return m ? m->name : NULL; }
 const char *pm_method_description(const pm_method *m) { return m ? m->description : NULL; }
 int pm_method_planar_only(const pm_method *m) { return m ? m->planar_only : 0; }

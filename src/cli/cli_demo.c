@@ -10,8 +10,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <packmesh/packmesh.h>
+
 #include "cli/cli.h"
-#include "api/api.h"
 #include "cli/cli_util.h"
 #include "cli/compare_study.h"
 

@@ -7,7 +7,7 @@
  *                 [--frames DIR] [--msh-parametric] [--quiet | --progress]
  *   packmesh mesh --method M --help      the method's parameters, defaults and sources
  *
- * The outputs are one set (atomic_file.h): each is reserved before the run (an unwritable one is
+ * The outputs are one set (pm_outputs, packmesh_extended.h): each is reserved before the run (an unwritable one is
  * reported at once), written under a temporary name, and all are put in place together once
  * every one is complete; on any failure, or SIGINT / SIGTERM (cli_signal.h), none of them
  * exists. Two options naming one file, or an output naming the input, are usage errors.
@@ -18,22 +18,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <packmesh/packmesh.h>
+#include <packmesh/packmesh_extended.h>
+
 #include "cli/cli.h"
-#include "api/api.h"
 #include "cli/cli_progress.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_size.h"
 #include "cli/cli_util.h"
-#include "common/base/atomic_file.h"
-#include "common/base/clock.h"
-#include "common/measure/distance.h"
-#include "common/input/input.h"
-#include "common/mesh/mesh_check.h"
-#include "common/mesh/mesh_io.h"
-#include "common/measure/quality.h"
-#include "common/report/stats.h"
-#include "common/report/run_report.h"
-
 
 #define MAX_SETS 256
 /* --target-nodes: runs allowed to bring the node count within TARGET_TOL of the target. */
@@ -58,7 +50,7 @@ static void tracing_names(char *buf, size_t len) {
     const pm_method *m = pm_method_at(i);
     if (!pm_method_traces(m)) continue;
     strncat(buf, buf[0] ? ", " : "", len - strlen(buf) - 1);
-    strncat(buf, m->name, len - strlen(buf) - 1);
+    strncat(buf, pm_method_name(m), len - strlen(buf) - 1);
   }
 }
 
@@ -96,11 +88,8 @@ static int usage_text(void) {
 }
 
 static int method_help(const pm_method *m) {
-  printf("%s: %s\n", m->name, m->description);
-  if (m->params)
-    pm_params_help(m->params, stdout);
-  else
-    printf("(no parameters)\n");
+  printf("%s: %s\n", pm_method_name(m), pm_method_description(m));
+  pm_method_help(m, stdout);
   printf("A number NNN in a SOURCE is the paper papers/NNN: 'packmesh references' cites them.\n");
   return PM_EXIT_OK;
 }
@@ -110,7 +99,9 @@ static int parse(int argc, char **argv, mesh_opts *o) {
   o->method = "bubble";
   o->seed = 1;
   o->threads = omp_get_max_threads();
-  o->max_nodes = PM_DEFAULT_MAX_NODES;
+  pm_generate_options defaults;
+  pm_generate_options_init(&defaults);
+  o->max_nodes = defaults.max_nodes;
   /* pm_cli_option advances i past an option and its value; every other branch advances it
    * explicitly. */
   for (int i = 1; i < argc;) {
@@ -205,29 +196,6 @@ static int parse(int argc, char **argv, mesh_opts *o) {
   return PM_EXIT_OK;
 }
 
-/* The reports of a node-target search's runs describe the last run only: new_run starts them
- * afresh (the stats, and the trace, which the observer then reaches through report->trace). */
-typedef struct run_reports {
-  pm_stats *stats;
-  pm_run_report *report;
-  pm_trace **trace; /* *trace NULL without --trace */
-  const char *method, *input;
-} run_reports;
-
-static pm_status new_run(void *ctx, int run, pm_error *err) {
-  run_reports *r = ctx;
-  if (run == 1) return PM_OK;
-  pm_stats_clear(r->stats);
-  pm_stats_init(r->stats);
-  pm_stats_set_run(r->stats, r->method, r->input);
-  if (!*r->trace) return PM_OK;
-  pm_trace_destroy(*r->trace);
-  *r->trace = NULL;
-  pm_status s = pm_trace_create(r->trace, err);
-  r->report->trace = *r->trace;
-  return s;
-}
-
 int pm_cli_mesh(int argc, char **argv) {
   mesh_opts o;
   int rc = parse(argc, argv, &o);
@@ -248,12 +216,12 @@ int pm_cli_mesh(int argc, char **argv) {
     char tracing[512];
     tracing_names(tracing, sizeof tracing);
     return pm_cli_usage("mesh", "%s: method %s records no iterations (the methods that do: %s)",
-                        o.trace ? "--trace" : "--frames", method->name, tracing);
+                        o.trace ? "--trace" : "--frames", pm_method_name(method), tracing);
   }
   /* Where the parameters of this method are listed, for the hint of a bad --set. */
   char params_see[160];
   snprintf(params_see, sizeof params_see, "'packmesh mesh --method %s --help' lists the parameters",
-           method->name);
+           pm_method_name(method));
 
   pm_error e = {0};
   pm_mesh_format fmt;
@@ -313,29 +281,24 @@ int pm_cli_mesh(int argc, char **argv) {
     }
 
   omp_set_num_threads((int)o.threads);
-  double t_start = pm_seconds();
+  double t_start = pm_cli_now();
   pm_model *model = NULL;
   pm_sizing *input_size = NULL, *size = NULL, *scaled = NULL;
-  pm_trace *trace = NULL;
-  pm_frames *frames = NULL;
+  pm_report *report = NULL;
   pm_mesh *out_mesh = NULL;
-  pm_stats stats;
-  pm_stats_init(&stats);
   /* A usage error found once the input is open (an option that does not apply to it): the same
    * clean-up as a failure, exit 2. */
   int usage = 0;
-  /* The progress line reads the particle methods' trace rows: a trace of its own when --trace
-   * records none (never written). */
   pm_cli_progress progress;
   pm_cli_progress_init(&progress, o.quiet ? PM_PROGRESS_OFF : o.progress ? PM_PROGRESS_ON : PM_PROGRESS_AUTO,
-                       method->name);
+                       pm_method_name(method));
   pm_cli_progress_stage(&progress, "loading the input");
-  pm_status s = pm_input_open(o.input, &model, &input_size, &e);
+  pm_status s = pm_model_open(o.input, &model, &input_size, &e);
   if (s) goto fail;
-  const double t_load = pm_seconds() - t_start;
-  if (model->heal[0] && !o.quiet) {
+  const char *heal = pm_model_healed(model);
+  if (heal[0] && !o.quiet) {
     pm_cli_progress_done(&progress);
-    fprintf(stderr, "packmesh: %s: healed: %s\n", o.input, model->heal);
+    fprintf(stderr, "packmesh: %s: healed: %s\n", o.input, heal);
   }
   /* The size field: --size, else the input's own, else the method's default (NULL). */
   if (o.size) {
@@ -362,88 +325,29 @@ int pm_cli_mesh(int argc, char **argv) {
     if (misfit == PM_MISFIT_TARGET)
       pm_error_setf(&e, PM_ERR_ARG,
                     "--target-nodes needs --size for method %s (it has no default field to scale)",
-                    method->name);
+                    pm_method_name(method));
     usage = misfit != PM_MISFIT_NONE;
     goto fail;
   }
 
-  if (o.trace && (s = pm_trace_create(&trace, &e))) goto fail;
-  if (o.frames && (s = pm_frames_create(tmp[3], model, &frames, &e))) goto fail;
-  pm_stats_set_run(&stats, method->name, o.input);
-  pm_run_report report = {&stats, trace, frames};
-  pm_run_observer observer;
-  pm_run_report_observer(&report, &observer);
-  run_reports reports = {&stats, &report, &trace, method->name, o.input};
-  pm_sizing *final_own = NULL;
-  pm_generate_hooks hooks = {&observer, new_run, &reports, &final_own};
+  if ((s = pm_report_create(pm_method_name(method), o.input, &report, &e)) ||
+      (o.trace && (s = pm_report_record_trace(report, &e))) ||
+      (o.frames && (s = pm_report_record_frames(report, tmp[3], model, &e))))
+    goto fail;
   pm_generate_result result;
-  s = pm_generate_with(model, size, method, params, &go, &hooks, &out_mesh, &result, &e);
-  scaled = final_own;
+  s = pm_generate_report(model, size, method, params, &go, report, &scaled, &out_mesh, &result, &e);
   if (s) goto fail;
   const pm_sizing *final_size = scaled ? scaled : size;
-  const double scale = result.size_scale;
-  const int runs = result.runs, target_met = result.target_met;
-  double t_run = pm_seconds() - t_start;
+  double t_run = pm_cli_now() - t_start;
 
-  /* Stats: the verdict of the checker, the quality module, the distance to the model. */
+  /* Stats: the verdict of the checker, the quality module, the distance to the model, each
+   * measuring stage timed beside the method's own phases. */
   if (o.stats) {
     pm_cli_progress_stage(&progress, "measuring the mesh");
-    /* The measuring stages are timed beside the method's own phases (time_s.check, .quality,
-     * .distance), and the model's loading before them (time_s.load), so that a run shows
-     * whether measuring costs more than meshing. */
-    pm_check_report chk = {0};
-    pm_quality q = {0};
-    if ((s = pm_stats_set_time(&stats, "load", t_load - model->time_build, &e)) ||
-        (s = pm_stats_set_time(&stats, "setup", model->time_build, &e)))
+    if ((s = pm_report_measure(report, out_mesh, model, final_size, PM_REPORT_ALL, &e)) ||
+        (s = pm_report_set_time(report, "total", t_run, &e)) ||
+        (s = pm_report_record_run(report, model, method, params, &go, &result, final_size, &e)))
       goto fail;
-    double t0 = pm_seconds();
-    if ((s = pm_mesh_check(out_mesh, model, &chk, &e))) goto fail;
-    s = pm_stats_set_check(&stats, &chk, &e);
-    pm_check_report_clear(&chk);
-    if (s || (s = pm_stats_set_time(&stats, "check", pm_seconds() - t0, &e))) goto fail;
-    t0 = pm_seconds();
-    if ((s = pm_quality_compute(out_mesh, final_size, &q, &e))) goto fail;
-    pm_stats_set_quality(&stats, &q);
-    pm_quality_clear(&q);
-    pm_stats_set_mesh(&stats, out_mesh);
-    pm_needles nd;
-    if ((s = pm_needles_classify(out_mesh, model, PM_NEEDLE_DEG, &nd, NULL, &e)) ||
-        (s = pm_stats_set_needles(&stats, &nd, PM_NEEDLE_DEG, &e)))
-      goto fail;
-    if ((s = pm_stats_set_time(&stats, "quality", pm_seconds() - t0, &e))) goto fail;
-    if (out_mesh->ntri > 0 || out_mesh->nseg > 0) {
-      pm_distance_params dp;
-      pm_distance d;
-      pm_distance_params_init(&dp);
-      t0 = pm_seconds();
-      if ((s = pm_mesh_distance(out_mesh, model, final_size, &dp, &d, &e))) goto fail;
-      pm_stats_set_distance(&stats, d.mean, d.max, d.bbox_diagonal);
-      if (d.has_size) {
-        pm_stats_add_number(&stats, "distance.rel_mean", d.rel_mean, NULL);
-        pm_stats_add_number(&stats, "distance.rel_max", d.rel_max, NULL);
-      }
-      if ((s = pm_stats_set_time(&stats, "distance", pm_seconds() - t0, &e))) goto fail;
-    }
-    stats.iterations = result.iterations;
-    stats.time_total = t_run;
-    pm_stats_add_text(&stats, "stop_reason", result.stop_reason, NULL);
-    pm_stats_add_number(&stats, "seed", (double)o.seed, NULL);
-    if (model->heal[0]) pm_stats_add_text(&stats, "heal", model->heal, NULL);
-    pm_stats_add_number(&stats, "threads", (double)o.threads, NULL);
-    pm_stats_add_text(&stats, "size", final_size ? pm_sizing_describe(final_size) : "method default", NULL);
-    if (o.target_nodes) {
-      pm_stats_add_number(&stats, "target_nodes", (double)o.target_nodes, NULL);
-      pm_stats_add_number(&stats, "size_scale", scale, NULL);
-      pm_stats_add_number(&stats, "target_runs", runs, NULL);
-      pm_stats_add_bool(&stats, "target_nodes_met", target_met, NULL);
-    }
-    if (method->params)
-      for (int k = 0; k < method->params->n; ++k) {
-        char key[160], val[64];
-        snprintf(key, sizeof key, "params.%s", method->params->desc[k].name);
-        pm_params_format(&method->params->desc[k], pm_method_params_values(params), val, sizeof val);
-        pm_stats_add_text(&stats, key, val, NULL);
-      }
   }
 
   /* Files: the mesh, the stats, the trace and the frames' index under their temporary names,
@@ -452,16 +356,17 @@ int pm_cli_mesh(int argc, char **argv) {
   pm_mesh_write_opts wopts = {0};
   wopts.msh_parametric = o.msh_parametric;
   if ((s = pm_mesh_write_with(out_mesh, tmp[0], &wopts, &e)) ||
-      (o.stats && (s = pm_stats_write_json(&stats, tmp[1], &e))) ||
-      (trace && (s = pm_trace_write_csv(trace, tmp[2], &e))) ||
-      (frames && (s = pm_frames_finish(frames, &e))))
+      (o.stats && (s = pm_report_write_stats(report, tmp[1], &e))) ||
+      (o.trace && (s = pm_report_write_trace(report, tmp[2], &e))) ||
+      (s = pm_report_finish_frames(report, &e)))
     goto fail;
   if ((s = pm_outputs_commit(outputs, &e))) goto fail;
 
   pm_cli_progress_done(&progress);
   /* A format that cannot hold an element kind leaves it out: said in one line, not silently. */
   if (!o.quiet) {
-    const int32_t count[4] = {0, out_mesh->nseg, out_mesh->ntri, out_mesh->ntet};
+    int32_t count[4] = {0};
+    for (int d = 1; d <= 3; ++d) count[d] = pm_mesh_element_count(out_mesh, d);
     static const char *const kind[4] = {"", "segments", "triangles", "tets"};
     char left[160] = "";
     for (int d = 1; d <= 3; ++d)
@@ -477,16 +382,18 @@ int pm_cli_mesh(int argc, char **argv) {
   /* A missed target is a result, not a failure: the mesh of the last run is written; the line says
    * by how much it missed (a domain's corners alone may be more nodes than asked for, a cap or
    * the method's stopping rule may keep it from getting closer). */
-  if (o.target_nodes && !target_met && !o.quiet)
+  const int32_t nodes = pm_mesh_node_count(out_mesh);
+  if (o.target_nodes && !result.target_met && !o.quiet)
     fprintf(stderr,
             "packmesh: warning: --target-nodes %ld missed: %d nodes after %d runs (%+.1f%%; the "
             "tolerance is %g%%)\n",
-            o.target_nodes, (int)out_mesh->nnode, runs,
-            100.0 * ((double)out_mesh->nnode / (double)o.target_nodes - 1), 100 * TARGET_TOL);
+            o.target_nodes, (int)nodes, result.runs,
+            100.0 * ((double)nodes / (double)o.target_nodes - 1), 100 * TARGET_TOL);
   if (!o.quiet)
     printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
-         method->name, o.input, (int)out_mesh->nnode, (int)out_mesh->nseg, (int)out_mesh->ntri,
-         (int)out_mesh->ntet, t_run, result.stop_reason[0] ? result.stop_reason : "done", o.out);
+           pm_method_name(method), o.input, (int)nodes, (int)pm_mesh_element_count(out_mesh, 1),
+           (int)pm_mesh_element_count(out_mesh, 2), (int)pm_mesh_element_count(out_mesh, 3),
+           t_run, result.stop_reason[0] ? result.stop_reason : "done", o.out);
   rc = PM_EXIT_OK;
   goto done;
 fail:
@@ -503,10 +410,8 @@ fail:
   rc = usage ? pm_cli_usage("mesh", "%s", e.msg) : pm_cli_error(&e);
 done:
   pm_outputs_destroy(outputs);
-  pm_stats_clear(&stats);
+  pm_report_destroy(report);
   pm_mesh_destroy(out_mesh);
-  pm_trace_destroy(trace);
-  pm_frames_destroy(frames);
   pm_sizing_destroy(scaled);
   pm_sizing_destroy(size);
   pm_sizing_destroy(input_size);

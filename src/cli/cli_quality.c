@@ -15,17 +15,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <packmesh/packmesh.h>
+#include <packmesh/packmesh_extended.h>
+
 #include "cli/cli.h"
 #include "cli/cli_util.h"
-#include "common/measure/distance.h"
-#include "common/geom/geom.h"
-#include "common/input/input.h"
-#include "common/mesh/mesh.h"
-#include "common/mesh/mesh_check.h"
-#include "common/mesh/mesh_io.h"
-#include "common/measure/quality.h"
-#include "common/sizing/sizing.h"
-#include "common/report/stats.h"
 
 static const char *const usage_text =
     "usage: packmesh quality MESH [--size EXPR|NUMBER] [--geometry INPUT] [--json | --csv]\n"
@@ -47,88 +41,6 @@ static const char *const usage_text =
     "R/l_min; min/max angles; eps_t and eps_g of Shimada & Gossard (1995, eq. 8-9); R/l_min\n"
     "of the triangles by site: boundary (a corner on a curve or vertex), irregular (an interior\n"
     "corner of degree other than 6), regular (three interior corners of degree 6).\n";
-
-static void row(FILE *f, const char *name, const pm_summary *s) {
-  fprintf(f, "  %-18s %11.6g %11.6g %11.6g %11.6g %11.6g %11.6g\n", name, s->min, s->p25,
-          s->median, s->p75, s->max, s->mean);
-}
-
-static void table(FILE *f, const char *path, const char *geometry, const pm_mesh *m,
-                  const pm_quality *q, const pm_check_report *r, const pm_needles *nd,
-                  const pm_distance *d, double seconds) {
-  fprintf(f, "mesh       %s\n", path);
-  if (geometry) fprintf(f, "geometry   %s\n", geometry);
-  fprintf(f, "elements   %ld nodes, %ld segments, %ld triangles, %ld tetrahedra\n",
-          (long)m->nnode, (long)m->nseg, (long)m->ntri, (long)m->ntet);
-  fprintf(f, "valid      %s\n", r->valid ? "yes" : "no");
-  for (int32_t i = 0; i < r->nproblem; ++i) fprintf(f, "  problem: %s\n", r->problem[i]);
-  for (int32_t i = 0; i < r->nshell; ++i) {
-    const pm_check_shell *s = &r->shell[i];
-    if (s->triangles == 0) continue;
-    if (s->volume >= 0)
-      fprintf(f, "volume %-3d ", s->volume);
-    else
-      fprintf(f, "surface    ");
-    fprintf(f, "V - E + F = %lld, %d component%s, %s", (long long)s->euler,
-            s->components, s->components == 1 ? "" : "s", s->closed ? "closed" : "open");
-    if (s->genus >= 0) fprintf(f, ", genus %d", s->genus);
-    fputc('\n', f);
-  }
-  const pm_kind_quality *k[2] = {&q->tri, &q->tet};
-  static const char *const title[2] = {"triangles", "tetrahedra"};
-  static const char *const ang[2][2] = {{"min angle (deg)", "max angle (deg)"},
-                                        {"min dihedral (deg)", "max dihedral (deg)"}};
-  for (int j = 0; j < 2; ++j) {
-    if (k[j]->n == 0) continue;
-    fprintf(f, "\n%-20s %11s %11s %11s %11s %11s %11s\n", title[j], "min", "p25", "median",
-            "p75", "max", "mean");
-    row(f, "radius ratio", &k[j]->s_radius_ratio);
-    row(f, "aspect ratio", &k[j]->s_aspect_ratio);
-    row(f, ang[j][0], &k[j]->s_min_angle);
-    row(f, ang[j][1], &k[j]->s_max_angle);
-    if (k[j]->eps_t_nodes > 0)
-      fprintf(f, "  eps_t %.6g over %ld interior nodes, eps_g %.6g\n", k[j]->eps_t,
-              (long)k[j]->eps_t_nodes, k[j]->eps_g);
-    else
-      fprintf(f, "  eps_t: no interior nodes, eps_g %.6g\n", k[j]->eps_g);
-    if (k[j]->has_size)
-      fprintf(f, "  edge length / size: mean %.6g, std %.6g over %lld edges\n",
-              k[j]->size_ratio.mean, k[j]->size_ratio_std, (long long)k[j]->nedge);
-    if (k[j]->degenerate) fprintf(f, "  degenerate: %ld\n", (long)k[j]->degenerate);
-    if (j == 0) {
-      const int64_t *b = q->tri_min_angle_bins, *o = q->tri_max_angle_over;
-      fprintf(f,
-              "  min angle in [0,10) %lld  [10,20) %lld  [20,30) %lld  [30,40) %lld  "
-              "[40,50) %lld  [50,60] %lld\n",
-              (long long)b[0], (long long)b[1], (long long)b[2], (long long)b[3],
-              (long long)b[4], (long long)b[5]);
-      fprintf(f, "  max angle > 90 %lld  > 120 %lld  > 150 %lld\n", (long long)o[0],
-              (long long)o[1], (long long)o[2]);
-      fprintf(f, "  needles (an angle below %g deg): %lld, forced %lld (sharp corners %lld, "
-                 "features below the floor %lld), unforced %lld\n",
-              PM_NEEDLE_DEG, (long long)nd->count, (long long)(nd->corner + nd->feature),
-              (long long)nd->corner, (long long)nd->feature, (long long)nd->unforced);
-      const pm_summary *a = q->tri_site_aspect;
-      fprintf(f, "  triangles by site: boundary %lld, irregular %lld, regular %lld\n",
-              (long long)a[PM_TRI_BOUNDARY].n, (long long)a[PM_TRI_IRREGULAR].n,
-              (long long)a[PM_TRI_REGULAR].n);
-      for (int w = 0; w < PM_TRI_SITES; ++w) {
-        if (a[w].n == 0) continue;
-        char name[40];
-        snprintf(name, sizeof name, "R/l_min %s", pm_tri_site_name((pm_tri_site)w));
-        row(f, name, &a[w]);
-      }
-    }
-  }
-  if (d) {
-    fprintf(f, "\ndistance   mean %.6g, max %.6g (model diagonal %.6g)\n", d->mean, d->max,
-            d->bbox_diagonal);
-    if (d->has_size)
-      fprintf(f, "           relative to the size field: mean %.6g, max %.6g\n", d->rel_mean,
-              d->rel_max);
-  }
-  fprintf(f, "\ntime       %.3f s\n", seconds);
-}
 
 int pm_cli_quality(int argc, char **argv) {
   const char *path = NULL, *size_text = NULL, *geometry = NULL;
@@ -174,14 +86,9 @@ int pm_cli_quality(int argc, char **argv) {
   double t0 = pm_cli_now();
   pm_error e = {0};
   pm_mesh *m = NULL;
-  pm_quality q = {0};
-  pm_check_report r = {0};
-  pm_stats st;
-  pm_stats_init(&st);
+  pm_report *report = NULL;
   pm_sizing *size = NULL, *input_size = NULL;
   pm_model *model = NULL;
-  pm_distance dist;
-  int has_dist = 0;
   char *out = NULL;
   size_t len = 0;
   int code = PM_EXIT_FAIL;
@@ -190,46 +97,28 @@ int pm_cli_quality(int argc, char **argv) {
     code = pm_cli_usage("quality", "--size: %s", e.msg);
     goto done;
   }
-  if (geometry && pm_input_open(geometry, &model, &input_size, &e)) {
+  if (geometry && pm_model_open(geometry, &model, &input_size, &e)) {
     code = pm_cli_fail("--geometry: %s", e.msg);
     goto done;
   }
   const pm_sizing *field = size ? size : input_size;
-  pm_needles nd;
-  if (pm_mesh_read(path, &m, &e) || pm_quality_compute(m, field, &q, &e) ||
-      pm_mesh_check(m, model, &r, &e) ||
-      pm_needles_classify(m, model, PM_NEEDLE_DEG, &nd, NULL, &e)) {
+  if (pm_mesh_read(path, &m, &e) || pm_report_create("external", path, &report, &e) ||
+      pm_report_measure(report, m, model, field, PM_REPORT_CHECK | PM_REPORT_QUALITY, &e)) {
     code = pm_cli_error(&e);
     goto done;
   }
-  if (model && (m->ntri > 0 || m->nseg > 0)) {
-    pm_distance_params dp;
-    pm_distance_params_init(&dp);
-    if (pm_mesh_distance(m, model, field, &dp, &dist, &e)) {
-      code = pm_cli_fail("distance to %s: %s", geometry, e.msg);
-      goto done;
-    }
-    has_dist = 1;
+  if (model && pm_report_measure(report, m, model, field, PM_REPORT_DISTANCE, &e)) {
+    code = pm_cli_fail("distance to %s: %s", geometry, e.msg);
+    goto done;
   }
-  double seconds = pm_cli_now() - t0;
+  if (pm_report_set_time(report, "total", pm_cli_now() - t0, &e) ||
+      (field && pm_report_add_text(report, "size", pm_sizing_describe(field), &e)) ||
+      (geometry && pm_report_add_text(report, "geometry", geometry, &e))) {
+    code = pm_cli_error(&e);
+    goto done;
+  }
   if (json) {
-    pm_stats_set_run(&st, "external", path);
-    pm_stats_set_mesh(&st, m);
-    pm_stats_set_quality(&st, &q);
-    if (has_dist) {
-      pm_stats_set_distance(&st, dist.mean, dist.max, dist.bbox_diagonal);
-      if (dist.has_size &&
-          (pm_stats_add_number(&st, "distance.rel_mean", dist.rel_mean, &e) ||
-           pm_stats_add_number(&st, "distance.rel_max", dist.rel_max, &e))) {
-        code = pm_cli_error(&e);
-        goto done;
-      }
-    }
-    if (pm_stats_set_check(&st, &r, &e) || pm_stats_set_time(&st, "total", seconds, &e) ||
-        (m->ntri > 0 && pm_stats_set_needles(&st, &nd, PM_NEEDLE_DEG, &e)) ||
-        (field && pm_stats_add_text(&st, "size", pm_sizing_describe(field), &e)) ||
-        (geometry && pm_stats_add_text(&st, "geometry", geometry, &e)) ||
-        pm_stats_to_json(&st, &out, &e)) {
+    if (pm_report_stats_json(report, &out, &e)) {
       code = pm_cli_error(&e);
       goto done;
     }
@@ -241,11 +130,8 @@ int pm_cli_quality(int argc, char **argv) {
       code = pm_cli_fail("out of memory");
       goto done;
     }
-    pm_status s = PM_OK;
-    if (csv)
-      s = pm_stats_write_elements_csv(f, m, &q, &e);
-    else
-      table(f, path, geometry, m, &q, &r, &nd, has_dist ? &dist : NULL, seconds);
+    pm_status s = csv ? pm_report_write_elements_csv(report, m, f, &e)
+                      : pm_report_write_table(report, geometry, f, &e);
     if (fclose(f) != 0 && !s) s = pm_error_setf(&e, PM_ERR_NOMEM, "out of memory");
     if (s) {
       code = pm_cli_error(&e);
@@ -258,9 +144,7 @@ done:
   pm_sizing_destroy(input_size);
   pm_model_destroy(model);
   free(out);
-  pm_stats_clear(&st);
-  pm_check_report_clear(&r);
-  pm_quality_clear(&q);
+  pm_report_destroy(report);
   pm_mesh_destroy(m);
   return code;
 }

@@ -3,7 +3,6 @@
 
 #include <string.h>
 
-#include "api/api.h"
 
 pm_status pm_cli_size_parse(const char *text, pm_sizing **out, pm_error *err) {
   *out = NULL;
@@ -16,7 +15,7 @@ pm_status pm_cli_size_parse(const char *text, pm_sizing **out, pm_error *err) {
 pm_status pm_cli_size_resolve(pm_sizing *parsed, const pm_method *method, const pm_model *model,
                               uint64_t seed, int threads, pm_sizing **out, pm_error *err) {
   *out = parsed;
-  if (parsed || strcmp(method->name, "psys") == 0) return PM_OK; /* psys infers its own field */
+  if (parsed || strcmp(pm_method_name(method), "psys") == 0) return PM_OK; /* psys infers its own field */
   pm_status s = pm_sizing_inferred(model, seed, threads, out, err);
   if (s) pm_error_prefix(err, "--size inferred");
   return s;

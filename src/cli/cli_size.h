@@ -8,7 +8,7 @@
 #ifndef PM_CLI_SIZE_H
 #define PM_CLI_SIZE_H
 
-#include "common/method/method.h"
+#include <packmesh/packmesh.h>
 
 /* Read the text: *out receives a number's or an expression's field, or NULL for "inferred".
  * Fails (a usage error for the caller) when the text is neither. */

@@ -22,6 +22,7 @@
 #define PM_ATOMIC_FILE_H
 
 #include <packmesh/packmesh.h>
+#include <packmesh/packmesh_extended.h>
 
 #include <stdio.h>
 
@@ -52,33 +53,8 @@ pm_status pm_atomic_write(const char *path, const void *data, size_t len, pm_err
 
 /* ---- a set of outputs ---- */
 
-typedef struct pm_outputs pm_outputs;
-
-/* An empty set; NULL when out of memory. */
-pm_outputs *pm_outputs_create(void);
-
-/* Reserve `path` (a file, or a folder when `folder` is set) and return in *tmp (owned by the
- * set, valid until it is destroyed) the name to write it under: an empty temporary file with
- * the same extension in the same folder, or an empty temporary folder beside the destination
- * (whose missing parent folders are made, and removed again if the set is not committed).
- * PM_ERR_ARG when path names an output of the set already (pm_path_same); PM_ERR_IO naming path
- * when it cannot be written (a missing or read-only folder, a file where a folder is asked for
- * or the reverse). */
-pm_status pm_outputs_add(pm_outputs *s, const char *path, int folder, const char **tmp,
-                         pm_error *err);
-
-/* Rename every temporary onto its destination, in the order added. A folder replaces a missing
- * or empty destination folder; into an existing folder its files are moved one by one. On
- * failure nothing of the set is left (see above). */
-pm_status pm_outputs_commit(pm_outputs *s, pm_error *err);
-
-/* Remove what was not committed, and release the set. Accepts NULL. */
-void pm_outputs_destroy(pm_outputs *s);
-
-/* 1 when a and b name the same file: the same name in the same folder (folders compared by
- * device and inode when they exist, so that "x.msh" and "./x.msh" or a path through a link are
- * one file). Trailing slashes are ignored. */
-int pm_path_same(const char *a, const char *b);
+/* pm_outputs (create, add, commit, destroy) and pm_path_same are part of the extended API
+ * (packmesh_extended.h). */
 
 /* ---- live temporaries ---- */
 
@@ -90,8 +66,7 @@ int pm_tmp_track(const char *path, int folder);
 /* Forget record `id` (the temporary was renamed or removed). Accepts -1. */
 void pm_tmp_untrack(int id);
 
-/* Remove every recorded temporary, the latest first. Async-signal-safe. */
-void pm_tmp_remove_all(void);
+/* pm_tmp_remove_all (packmesh_extended.h) removes every recorded temporary. */
 
 #ifdef __cplusplus
 }

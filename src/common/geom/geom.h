@@ -180,6 +180,8 @@ struct pm_model {
   double time_build;    /* seconds spent building the cell complex once the file was read
                            (loops, trimming polylines and inside tests, projection grids); 0 for
                            a backend that does not measure it */
+  double time_open;     /* seconds pm_input_open took, time_build included (0 for a model made
+                           otherwise) */
   void *impl;           /* backend data */
   void (*destroy_impl)(pm_model *m);
 };

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "common/base/clock.h"
 #include "common/input/cases.h"
 #include "common/geom/geom_analytic.h"
 #include "common/geom/geom_cad.h"
@@ -353,11 +354,9 @@ static pm_status open_case_file(const char *path, pm_model **model, pm_sizing **
   return s;
 }
 
-pm_status pm_input_open(const char *spec, pm_model **model, pm_sizing **default_size,
-                        pm_error *err) {
-  *model = NULL;
-  if (default_size) *default_size = NULL;
-  if (!spec || !spec[0]) return pm_error_setf(err, PM_ERR_ARG, "no input given");
+/* The model of a spec, without the timing. */
+static pm_status open_spec(const char *spec, pm_model **model, pm_sizing **default_size,
+                           pm_error *err) {
   if (strncmp(spec, "case:", 5) == 0) return pm_case_open(spec + 5, model, default_size, err);
   if (is_cad(spec)) return pm_cad_load(spec, model, err);
   if (has_ext(spec, ".json")) return open_case_file(spec, model, default_size, err);
@@ -365,4 +364,15 @@ pm_status pm_input_open(const char *spec, pm_model **model, pm_sizing **default_
                        "cannot tell what '%s' is: give a CAD file (.step .stp .iges .igs .brep), "
                        "case:NAME or a case file (.json)",
                        spec);
+}
+
+pm_status pm_input_open(const char *spec, pm_model **model, pm_sizing **default_size,
+                        pm_error *err) {
+  *model = NULL;
+  if (default_size) *default_size = NULL;
+  if (!spec || !spec[0]) return pm_error_setf(err, PM_ERR_ARG, "no input given");
+  const double t0 = pm_seconds();
+  pm_status s = open_spec(spec, model, default_size, err);
+  if (!s) (*model)->time_open = pm_seconds() - t0;
+  return s;
 }

@@ -57,6 +57,7 @@
 #define PM_MESH_IO_H
 
 #include <packmesh/packmesh.h>
+#include <packmesh/packmesh_extended.h>
 
 #include "common/mesh/mesh.h"
 
@@ -67,40 +68,13 @@ extern "C" {
 /* Entity tag of the catch-all entity for unclassified nodes and untagged elements in .msh. */
 #define PM_MSH_UNTAGGED 1073741824
 
-typedef enum pm_mesh_format {
-  PM_MESH_MSH = 0,
-  PM_MESH_VTK,
-  PM_MESH_VTU,
-  PM_MESH_STL,
-  PM_MESH_OBJ,
-  PM_MESH_MEDIT,
-  PM_MESH_FORMAT_COUNT
-} pm_mesh_format;
-
-/* The format of a path from its extension; PM_ERR_ARG naming the extension when unknown. */
-pm_status pm_mesh_format_of(const char *path, pm_mesh_format *fmt, pm_error *err);
-
-/* 1 when files of format fmt hold elements of dimension dim (1 segments, 2 triangles, 3 tets):
- * .stl holds triangles only, .obj segments and triangles, the others all three. A writer leaves
- * out what its format cannot hold. */
-int pm_mesh_format_holds(pm_mesh_format fmt, int dim);
-
-/* The extension of a format, without the dot ("msh"). */
-const char *pm_mesh_format_ext(pm_mesh_format fmt);
+/* pm_mesh_format, pm_mesh_format_of / _holds / _ext, pm_mesh_write_opts and pm_mesh_write_with
+ * are part of the extended API (packmesh_extended.h). */
 
 /* Write m to path (format by extension), atomically. Element indices must be in range and cell
  * indices below PM_MSH_UNTAGGED - 1 (PM_ERR_ARG otherwise); PM_ERR_IO when the file cannot be
  * written; PM_ERR_BACKEND when gmsh fails. */
 pm_status pm_mesh_write(const pm_mesh *m, const char *path, pm_error *err);
-
-/* What a writer may add beyond the default (zero-initialize, then set). */
-typedef struct pm_mesh_write_opts {
-  int msh_parametric; /* 1: .msh nodes on curves and faces carry their parameters */
-} pm_mesh_write_opts;
-
-/* pm_mesh_write with options; opts may be NULL (the defaults, as pm_mesh_write). */
-pm_status pm_mesh_write_with(const pm_mesh *m, const char *path, const pm_mesh_write_opts *opts,
-                             pm_error *err);
 
 /* Read a mesh from path (.msh, .vtk, .vtu, .stl, .mesh, .obj). *out receives a new mesh
  * (pm_mesh_destroy) on success, NULL on failure. PM_ERR_IO for a missing or unreadable file (or
