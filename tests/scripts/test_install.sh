@@ -3,7 +3,7 @@
 #   1. `cmake --install` into a fresh prefix: libpackmesh.so, packmesh.h, packmesh.pc, the CMake
 #      package and the command;
 #   2. libpackmesh.so exports the public API only: every dynamic symbol is pm_*;
-#   3. the three examples compile with nothing but `pkg-config --cflags --libs packmesh`, and run;
+#   3. the four examples compile with nothing but `pkg-config --cflags --libs packmesh`, and run;
 #      mesh_cad meshes case:qi3 with bubble to the node count `packmesh mesh case:qi3 --method
 #      bubble` prints;
 #   4. the examples build again through find_package(packmesh) in CMake.
@@ -19,6 +19,7 @@ cmake --install "$build" --prefix "$prefix" >"$work/install.log" || { cat "$work
 lib=$(dirname "$(find "$prefix" -name 'libpackmesh.so' | head -1)")
 [ -n "$lib" ] && [ -f "$lib/libpackmesh.so" ] || fail "no libpackmesh.so installed"
 [ -f "$prefix/include/packmesh/packmesh.h" ] || fail "no packmesh.h installed"
+[ -f "$prefix/include/packmesh/packmesh_extended.h" ] || fail "no packmesh_extended.h installed"
 pc=$(find "$prefix" -name packmesh.pc | head -1)
 [ -n "$pc" ] || fail "no packmesh.pc installed"
 [ -n "$(find "$prefix" -name packmesh-config.cmake)" ] || fail "no CMake package installed"
@@ -35,7 +36,7 @@ echo "exported: $nexp pm_* symbols, nothing else"
 # 3. pkg-config only.
 export PKG_CONFIG_PATH=$(dirname "$pc")
 flags=$(pkg-config --cflags --libs packmesh)
-for ex in mesh_cad compare_quality size_callback; do
+for ex in mesh_cad compare_quality size_callback run_stats; do
   # shellcheck disable=SC2086
   cc -std=c11 -Wall -Wextra -Werror $extra "$src/examples/$ex.c" $flags -lm -Wl,-rpath,"$lib" \
      -o "$work/$ex" || fail "$ex does not compile with pkg-config --cflags --libs packmesh ($flags)"
@@ -55,6 +56,15 @@ out=$("$work/size_callback") || fail "size_callback failed: $out"
 echo "$out"
 med=$(echo "$out" | sed -n 's/.*median \([0-9.]*\),.*/\1/p')
 awk -v m="$med" 'BEGIN { exit !(m > 0.8 && m < 1.25) }' || fail "size_callback: edges do not follow the field (median $med)"
+out=$("$work/run_stats" case:qi3) || fail "run_stats failed: $out"
+python3 - "$n_cli" "$out" <<'PY' || fail "run_stats printed: $(echo "$out" | head -c 400)"
+import json, sys
+s = json.loads(sys.argv[2])
+assert s["method"] == "bubble" and s["input"] == "case:qi3", s
+assert s["nodes"] == int(sys.argv[1]) and s["valid"] is True, s
+assert s["tri"]["count"] == s["triangles"] > 0 and s["distance"]["max"] > 0, s
+print(f"run_stats: {s['nodes']} nodes, valid, {len(s['params'])} parameters recorded")
+PY
 
 # 4. find_package(packmesh).
 cmake -S "$src/examples" -B "$work/build-examples" -DCMAKE_PREFIX_PATH="$prefix" \
