@@ -7,6 +7,7 @@
  *   compare_plot.c     gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
  *   compare_report.c   report.md and report.html
  *   compare_sysinfo.c  library versions and the machine, for the report
+ *   compare_children.c the helper process groups a signal handler must end
  *
  * Every run is its own `packmesh mesh` process (the binary running the harness, found through
  * /proc/self/exe), started in the study folder, so the command recorded for a row is exactly
@@ -19,6 +20,7 @@
 
 #include <stddef.h>
 #include <stdio.h>
+#include <sys/types.h>
 
 #include "common/report/stats.h"
 #include "common/backends/versions.h"
@@ -258,6 +260,19 @@ pm_status pm_cmp_mkdirs(const char *path, pm_error *err);
  * wait status in *wstatus and sets *timed_out. -1 when the program could not be started. */
 int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path,
                        const char *err_path, double timeout_s, int *wstatus, int *timed_out);
+
+/* ---- helper processes and signals ---------------------------------------------------------- */
+
+/* Record a helper's process group, ended by pm_cmp_children_kill_all; returns its record, -1
+ * when the table is full. pm_cmp_children_forget releases it (accepts -1). */
+int pm_cmp_children_add(pid_t pgid);
+void pm_cmp_children_forget(int id);
+
+/* End (SIGKILL) the process group of every helper the harness is running now (gnuplot,
+ * dpkg-query). Async-signal-safe: the command's SIGINT / SIGTERM handler calls it before the
+ * process exits, so that no helper outlives an interrupted study. The `packmesh mesh` children
+ * of pm_cmp_run are not among them: pm_cmp_run ends those itself (see above). */
+void pm_cmp_children_kill_all(void);
 
 #ifdef __cplusplus
 }
