@@ -1,13 +1,14 @@
 /* The comparison harness behind `packmesh compare` and `packmesh demo`: a suite (compare/README.md
  * documents its JSON), the rows it expands to (one per case x method x seed x sweep value), and
  * the functions of the harness, one concern per file:
- *   compare_suite.c    read and check a suite, expand it into rows
- *   compare_run.c      run the rows as child processes (parallel, time-limited, resumable)
- *   compare_results.c  results.csv, elements.csv, per-row values for tables and plots
- *   compare_plot.c     gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
- *   compare_report.c   report.md and report.html
- *   compare_sysinfo.c  library versions and the machine, for the report
- *   compare_children.c the helper process groups a signal handler must end
+ *   compare_suite.c       read and check a suite, expand it into rows
+ *   compare_run.c         run the rows as child processes (parallel, time-limited, resumable)
+ *   compare_results.c     results.csv, elements.csv, per-row values for tables and plots
+ *   compare_plot.c        gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
+ *   compare_report.c      report.md and report.html
+ *   compare_sysinfo.c     library versions and the machine, for the report
+ *   compare_references.c  the papers cited as papers/NNN
+ *   compare_children.c    the helper process groups a signal handler must end
  *
  * Every run is its own `packmesh mesh` process (the binary running the harness, found through
  * /proc/self/exe), started in the study folder, so the command recorded for a row is exactly
@@ -260,6 +261,21 @@ pm_status pm_cmp_mkdirs(const char *path, pm_error *err);
  * wait status in *wstatus and sets *timed_out. -1 when the program could not be started. */
 int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path,
                        const char *err_path, double timeout_s, int *wstatus, int *timed_out);
+
+/* ---- the papers ---------------------------------------------------------------------------- */
+
+/* The papers packmesh implements, by the keys its help and reports cite them with: "papers/003"
+ * (reports, descriptions) or "003" in a parameter's [SOURCE] (`packmesh mesh --method M --help`).
+ * `packmesh references` prints them in full; a comparison report lists the ones it cites. */
+typedef struct pm_cmp_reference {
+  const char *key;      /* "003": cited as papers/003 */
+  const char *citation; /* authors, title, where and when it appeared */
+  const char *used_for; /* what packmesh takes from it */
+} pm_cmp_reference;
+
+/* The number of papers and the i-th, in key order (NULL outside 0 .. count - 1). */
+int pm_cmp_reference_count(void);
+const pm_cmp_reference *pm_cmp_reference_at(int i);
 
 /* ---- helper processes and signals ---------------------------------------------------------- */
 
