@@ -1,5 +1,5 @@
 /* packmesh compare SUITE.json -o DIR: run a comparison suite (compare/README.md) and write its
- * results, figures and report into DIR (compare_study.h describes the pieces).
+ * results, figures and report into DIR through the comparison engine (compare/src/compare.h).
  *
  *   packmesh compare SUITE.json -o DIR [--jobs N] [--timeout SECONDS] [--retry-failed] [--quiet]
  *
@@ -11,10 +11,11 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "cli/cli_compare.h"
+
 #include "cli/cli.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_util.h"
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
 #include "common/base/clock.h"
 
@@ -37,8 +38,8 @@ static const char *const usage_text =
     "SIGINT / SIGTERM end the running runs and exit 130 / 143; the next run resumes.\n"
     "The suite format is described in compare/README.md.\n";
 
-int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
-                   const char *invocation) {
+int pm_cli_compare_execute(pm_cmp_suite *s, const char *dir, const pm_cli_compare_options *o,
+                           const char *invocation) {
   double t0 = pm_seconds();
   pm_error e = {0};
   pm_cli_signals_detail("; the finished runs are kept (run the same command again to resume)");
@@ -108,8 +109,8 @@ static void invocation_text(int argc, char **argv, const char *prefix, char *out
   }
 }
 
-int pm_cmp_parse_option(const char *command, int argc, char **argv, int *i, const char **dir,
-                        pm_cmp_options *o, int *code) {
+int pm_cli_compare_option(const char *command, int argc, char **argv, int *i, const char **dir,
+                          pm_cli_compare_options *o, int *code) {
   const char *a = argv[*i], *v = NULL;
   int r;
   *code = 0;
@@ -141,7 +142,7 @@ int pm_cmp_parse_option(const char *command, int argc, char **argv, int *i, cons
 
 int pm_cli_compare(int argc, char **argv) {
   const char *suite = NULL, *dir = NULL;
-  pm_cmp_options o = {0};
+  pm_cli_compare_options o = {0};
   for (int i = 1; i < argc;) {
     const char *a = argv[i], *v = NULL;
     int r;
@@ -150,7 +151,7 @@ int pm_cli_compare(int argc, char **argv) {
       return PM_EXIT_OK;
     }
     int code = 0;
-    if (pm_cmp_parse_option("compare", argc, argv, &i, &dir, &o, &code)) {
+    if (pm_cli_compare_option("compare", argc, argv, &i, &dir, &o, &code)) {
       if (code) return code;
       continue;
     }
@@ -178,5 +179,5 @@ int pm_cli_compare(int argc, char **argv) {
   if (pm_cmp_suite_load(suite, &s, &e)) return pm_cli_error(&e);
   char inv[8192];
   invocation_text(argc, argv, "packmesh compare", inv, sizeof inv);
-  return pm_cmp_execute(&s, dir, &o, inv);
+  return pm_cli_compare_execute(&s, dir, &o, inv);
 }

@@ -1,5 +1,5 @@
 /* packmesh references: the full citations behind the papers/NNN keys (the table is the
- * comparison harness's, compare_study.h: pm_cmp_reference_count, pm_cmp_reference_at).
+ * comparison engine's, compare.h: pm_cmp_reference_count, pm_cmp_reference_at).
  *
  *   packmesh references [--json]
  */
@@ -10,7 +10,7 @@
 
 #include "cli/cli.h"
 #include "cli/cli_util.h"
-#include "cli/compare_study.h"
+#include "compare/src/compare.h"
 
 static int usage_text(void) {
   printf("usage: packmesh references [--json]\n"

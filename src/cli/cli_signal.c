@@ -10,8 +10,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
+#include "compare/src/compare.h"
 
 static pid_t owner;
 static pthread_t owner_thread;

@@ -17,8 +17,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
+#include "compare/src/study.h"
 
 static const char *const lead[] = {"case",   "method", "seed",  "sweep_key", "sweep_value",
                                    "status", "error",  "command", "row",     "label",

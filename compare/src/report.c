@@ -12,8 +12,8 @@
 #include <string.h>
 #include <time.h>
 
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
+#include "compare/src/study.h"
 
 #define CELL 1100 /* bytes of a table cell (an error message is up to 1024) */
 

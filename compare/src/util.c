@@ -13,8 +13,8 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "cli/compare_study.h"
 #include "common/base/clock.h"
+#include "compare/src/study.h"
 
 int pm_cmp_strcat(char **buf, size_t *len, size_t *cap, const char *text) {
   size_t n = strlen(text);

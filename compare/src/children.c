@@ -1,4 +1,4 @@
-/* The process groups of the helpers the engine is running (gnuplot, dpkg-query: compare_util.c's
+/* The process groups of the helpers the engine is running (gnuplot, dpkg-query: util.c's
  * pm_cmp_run_program), so that a signal handler can end them before the process exits. The table
  * is fixed and lock-free: a slot holds a process group id or 0, so pm_cmp_children_kill_all,
  * which a SIGINT / SIGTERM handler calls, only loads atomics and calls kill (async-signal-safe).
@@ -7,7 +7,7 @@
 #include <stdatomic.h>
 #include <sys/types.h>
 
-#include "cli/compare_study.h"
+#include "compare/src/study.h"
 
 #define GROUPS 64
 

@@ -1,11 +1,10 @@
-/* The papers packmesh implements, cited as papers/NNN (compare_study.h: pm_cmp_reference_count,
- * pm_cmp_reference_at): `packmesh references` prints them; a comparison report lists the ones it
- * cites.
+/* The papers packmesh implements, cited as papers/NNN (compare.h: pm_cmp_reference_count, _at):
+ * `packmesh references` prints them; a comparison report lists the ones it cites.
  *
  * The citations are taken from the papers' own first pages; where a first page does not print
  * the venue (000 gives no institution or year), the citation says only what the document says.
  */
-#include "cli/compare_study.h"
+#include "compare/src/compare.h"
 
 static const pm_cmp_reference refs[] = {
     {"000",
