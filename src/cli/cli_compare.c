@@ -1,5 +1,5 @@
 /* packmesh compare SUITE.json -o DIR: run a comparison suite (compare/README.md) and write its
- * results, figures and report into DIR (compare_study.h describes the pieces).
+ * results, figures and report into DIR through the comparison engine (compare/src/compare.h).
  *
  *   packmesh compare SUITE.json -o DIR [--jobs N] [--timeout SECONDS] [--retry-failed] [--quiet]
  *
@@ -11,12 +11,11 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "cli/cli_compare.h"
+
 #include "cli/cli.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_util.h"
-#include "cli/compare_study.h"
-#include "common/base/atomic_file.h"
-#include "common/base/clock.h"
 
 static const char *const usage_text =
     "usage: packmesh compare SUITE.json -o DIR [--jobs N] [--timeout SECONDS] [--retry-failed]\n"
@@ -37,9 +36,9 @@ static const char *const usage_text =
     "SIGINT / SIGTERM end the running runs and exit 130 / 143; the next run resumes.\n"
     "The suite format is described in compare/README.md.\n";
 
-int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
-                   const char *invocation) {
-  double t0 = pm_seconds();
+int pm_cli_compare_execute(pm_cmp_suite *s, const char *dir, const pm_cli_compare_options *o,
+                           const char *invocation) {
+  double t0 = pm_cli_now();
   pm_error e = {0};
   pm_cli_signals_detail("; the finished runs are kept (run the same command again to resume)");
   if (o->timeout_s > 0) s->timeout_s = o->timeout_s;
@@ -51,9 +50,7 @@ int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
   }
   int code = PM_EXIT_OK;
   pm_cmp_figures figs = {0};
-  char path[4400];
-  snprintf(path, sizeof path, "%s/suite.json", st.dir);
-  if (pm_atomic_write(path, st.suite.text, strlen(st.suite.text), &e)) {
+  if (pm_cmp_suite_save(&st, &e)) {
     code = pm_cli_error(&e);
     goto done;
   }
@@ -76,7 +73,7 @@ int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
     code = pm_cli_error(&e);
     goto done;
   }
-  st.wall_s = pm_seconds() - t0;
+  st.wall_s = pm_cli_now() - t0;
   if (pm_cmp_report(&st, &figs, invocation, &e)) {
     code = pm_cli_error(&e);
     goto done;
@@ -87,7 +84,7 @@ int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
   for (int i = 0; i < figs.n; ++i) drawn += figs.fig[i].drawn;
   printf("%d runs: %d succeeded, %d did not; %d of %d figures drawn%s; %.1f s\n", st.nrow, nok,
          st.nrow - nok, drawn, figs.n, figs.have_gnuplot ? "" : " (gnuplot is not installed)",
-         pm_seconds() - t0);
+         pm_cli_now() - t0);
   printf("results: %s/results.csv\n", st.dir);
   printf("report: %s/report.html (and report.md)\n", st.dir);
 done:
@@ -108,8 +105,8 @@ static void invocation_text(int argc, char **argv, const char *prefix, char *out
   }
 }
 
-int pm_cmp_parse_option(const char *command, int argc, char **argv, int *i, const char **dir,
-                        pm_cmp_options *o, int *code) {
+int pm_cli_compare_option(const char *command, int argc, char **argv, int *i, const char **dir,
+                          pm_cli_compare_options *o, int *code) {
   const char *a = argv[*i], *v = NULL;
   int r;
   *code = 0;
@@ -141,7 +138,7 @@ int pm_cmp_parse_option(const char *command, int argc, char **argv, int *i, cons
 
 int pm_cli_compare(int argc, char **argv) {
   const char *suite = NULL, *dir = NULL;
-  pm_cmp_options o = {0};
+  pm_cli_compare_options o = {0};
   for (int i = 1; i < argc;) {
     const char *a = argv[i], *v = NULL;
     int r;
@@ -150,7 +147,7 @@ int pm_cli_compare(int argc, char **argv) {
       return PM_EXIT_OK;
     }
     int code = 0;
-    if (pm_cmp_parse_option("compare", argc, argv, &i, &dir, &o, &code)) {
+    if (pm_cli_compare_option("compare", argc, argv, &i, &dir, &o, &code)) {
       if (code) return code;
       continue;
     }
@@ -178,5 +175,5 @@ int pm_cli_compare(int argc, char **argv) {
   if (pm_cmp_suite_load(suite, &s, &e)) return pm_cli_error(&e);
   char inv[8192];
   invocation_text(argc, argv, "packmesh compare", inv, sizeof inv);
-  return pm_cmp_execute(&s, dir, &o, inv);
+  return pm_cli_compare_execute(&s, dir, &o, inv);
 }

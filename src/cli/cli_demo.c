@@ -13,8 +13,8 @@
 #include <packmesh/packmesh.h>
 
 #include "cli/cli.h"
+#include "cli/cli_compare.h"
 #include "cli/cli_util.h"
-#include "cli/compare_study.h"
 
 static const char *const usage_text =
     "usage: packmesh demo [-o DIR] [--jobs N] [--quiet]\n"
@@ -42,7 +42,7 @@ static const demo_method candidates[] = {
 
 int pm_cli_demo(int argc, char **argv) {
   const char *dir = "packmesh-demo";
-  pm_cmp_options o = {0};
+  pm_cli_compare_options o = {0};
   for (int i = 1; i < argc;) {
     const char *a = argv[i];
     if (pm_cli_flag(a, "help") || strcmp(a, "-h") == 0) {
@@ -50,7 +50,7 @@ int pm_cli_demo(int argc, char **argv) {
       return PM_EXIT_OK;
     }
     int code = 0;
-    if (pm_cmp_parse_option("demo", argc, argv, &i, &dir, &o, &code)) {
+    if (pm_cli_compare_option("demo", argc, argv, &i, &dir, &o, &code)) {
       if (code) return code;
       continue;
     }
@@ -97,5 +97,5 @@ int pm_cli_demo(int argc, char **argv) {
   char inv[4200];
   snprintf(inv, sizeof inv, "packmesh demo -o %s", dir);
   if (o.jobs) snprintf(inv + strlen(inv), sizeof inv - strlen(inv), " --jobs %d", o.jobs);
-  return pm_cmp_execute(&s, dir, &o, inv);
+  return pm_cli_compare_execute(&s, dir, &o, inv);
 }

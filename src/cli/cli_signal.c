@@ -1,24 +1,23 @@
 /* SIGINT and SIGTERM in the packmesh command (see cli_signal.h). Everything the handler touches
  * is set up before it can run and read without locks; it calls only async-signal-safe
- * functions (kill, unlink, rmdir, write, _exit, pthread_kill, pthread_self). */
+ * functions (kill, unlink, rmdir, write, _exit, pthread_kill, pthread_self) and
+ * pm_cmp_children_kill_all, which ends the comparison engine's helper process groups with kill. */
 #include "cli/cli_signal.h"
 
 #include <pthread.h>
 #include <signal.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
 
-#include "common/base/atomic_file.h"
+#include <packmesh/packmesh_extended.h>
 
-#define GROUPS 64
+#include "compare/src/compare.h"
 
 static pid_t owner;
 static pthread_t owner_thread;
 static char head[96];
 static char detail[160];
-static atomic_int group[GROUPS]; /* process groups to end, 0 free */
 static volatile sig_atomic_t handling;
 
 static void put(const char *s) {
@@ -43,10 +42,7 @@ static void on_signal(int sig) {
   }
   if (handling) return;
   handling = 1;
-  for (int i = 0; i < GROUPS; ++i) {
-    int g = atomic_load(&group[i]);
-    if (g > 0) kill(-g, SIGKILL);
-  }
+  pm_cmp_children_kill_all();
   pm_tmp_remove_all();
   put(head);
   put(sig == SIGINT ? "SIGINT" : "SIGTERM");
@@ -77,16 +73,4 @@ void pm_cli_signals_detail(const char *text) {
   pthread_sigmask(SIG_BLOCK, &s, &old);
   snprintf(detail, sizeof detail, "%s", text ? text : "");
   pthread_sigmask(SIG_SETMASK, &old, NULL);
-}
-
-int pm_cli_signals_group(pid_t pgid) {
-  for (int i = 0; i < GROUPS; ++i) {
-    int expected = 0;
-    if (atomic_compare_exchange_strong(&group[i], &expected, (int)pgid)) return i;
-  }
-  return -1;
-}
-
-void pm_cli_signals_forget(int id) {
-  if (id >= 0 && id < GROUPS) atomic_store(&group[id], 0);
 }

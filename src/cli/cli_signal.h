@@ -12,18 +12,11 @@
 #ifndef PM_CLI_SIGNAL_H
 #define PM_CLI_SIGNAL_H
 
-#include <sys/types.h>
-
 /* Install the handler for `command` (its name, for the message). */
 void pm_cli_signals_install(const char *command);
 
 /* What the message adds after "interrupted by SIGINT" (for instance "; nothing was written");
  * copied. */
 void pm_cli_signals_detail(const char *detail);
-
-/* Record a helper's process group, ended (SIGKILL) by the handler; returns its record, -1 when
- * the table is full. pm_cli_signals_forget releases it (accepts -1). */
-int pm_cli_signals_group(pid_t pgid);
-void pm_cli_signals_forget(int id);
 
 #endif /* PM_CLI_SIGNAL_H */

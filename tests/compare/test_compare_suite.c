@@ -1,11 +1,11 @@
-/* Suite parsing and expansion into rows (src/cli/compare_suite.c): accepted forms, sweep
+/* Suite parsing and expansion into rows (compare/src/suite.c): accepted forms, sweep
  * ranges, strict keys, row order with matched node counts, ids. */
 #include "test_support.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "cli/compare_study.h"
+#include "compare/src/study.h"
 
 static void parse_ok(const char *text, pm_cmp_suite *s) {
   pm_error e = {0};

@@ -3,8 +3,23 @@
 
 A file may include its own folder and the folders below it; nothing above and nothing beside.
 The three method folders (bubble, psys, peers) stand side by side: none includes another.
-Public headers (<packmesh/...>) may be included anywhere. Exit status 1 lists every offending
-line as FILE:LINE: FROM includes TO (above / beside).
+Public headers (<packmesh/...>) may be included anywhere.
+
+The comparison engine (compare/src, the library packmesh_compare) sits between the library and
+the command: cli -> compare -> libpackmesh. Besides the order of LAYERS, which implies it, this
+is checked edge by edge, so that no reordering of the list can let it slip:
+  - compare/src includes nothing of src/cli;
+  - no file of the library (src/ but src/cli) includes compare;
+  - compare/src uses libpackmesh through <packmesh/packmesh.h> and src/common, not src/api's
+    internal headers;
+  - outside compare/src, the engine is included through its public header only
+    ("compare/src/compare.h"; study.h is the engine's own).
+The command (src/cli) includes its own files and the engine's public header only: it uses the
+library through <packmesh/packmesh.h> and <packmesh/packmesh_extended.h>.
+A header named without a folder must lie beside the file that includes it.
+
+Exit status 1 lists every offending line as FILE:LINE: FROM includes TO (above / beside), or
+the rule it breaks.
 
 Usage: check_layers.py SOURCE_DIR
 """
@@ -29,6 +44,9 @@ LAYERS = [
     "compare",   # the comparison engine
     "cli",       # the packmesh command
 ]
+
+# The one header of the comparison engine that files outside compare/src may include.
+COMPARE_PUBLIC = "compare/src/compare.h"
 
 RANK = {}
 for i, layer in enumerate(LAYERS):
@@ -59,6 +77,23 @@ def folder_of_include(inc, own):
     return parts[0]
 
 
+def rule_broken(own, to, inc):
+    """The cli -> compare -> libpackmesh rule an include breaks, or None. The command sees the
+    library through its public headers only, which are <...> includes and never checked here."""
+    if own == "compare" and to == "cli":
+        return "the comparison engine includes the command (cli -> compare, never back)"
+    if own == "compare" and to == "api":
+        return "the comparison engine includes src/api (use <packmesh/packmesh.h>)"
+    if own not in ("compare", "cli") and to == "compare":
+        return "the library includes the comparison engine (compare -> libpackmesh, never back)"
+    if own == "cli" and to not in ("cli", "compare"):
+        return ("the command includes the library's internals (it is built on "
+                "<packmesh/packmesh.h> and <packmesh/packmesh_extended.h> only)")
+    if own != "compare" and to == "compare" and inc != COMPARE_PUBLIC:
+        return f"the comparison engine is included through {COMPARE_PUBLIC} only"
+    return None
+
+
 def main():
     if len(sys.argv) != 2:
         print("usage: check_layers.py SOURCE_DIR", file=sys.stderr)
@@ -82,11 +117,20 @@ def main():
                         if not m:
                             continue
                         checked += 1
-                        to = folder_of_include(m.group(1), own)
+                        inc = m.group(1)
+                        if "/" not in inc and not os.path.isfile(os.path.join(dirpath, inc)):
+                            bad.append(f"{rel}:{n}: includes \"{inc}\" without a folder, and it "
+                                       "is not beside the file")
+                            continue
+                        to = folder_of_include(inc, own)
+                        why = rule_broken(own, to, inc)
+                        if why:
+                            bad.append(f"{rel}:{n}: includes \"{inc}\": {why}")
+                            continue
                         if to == own:
                             continue
                         if to not in RANK:
-                            bad.append(f"{rel}:{n}: includes \"{m.group(1)}\" of unknown folder '{to}'")
+                            bad.append(f"{rel}:{n}: includes \"{inc}\" of unknown folder '{to}'")
                         elif RANK[to] > RANK[own]:
                             bad.append(f"{rel}:{n}: {own} includes {to} (above it)")
                         elif RANK[to] == RANK[own]:

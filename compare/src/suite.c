@@ -13,7 +13,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "cli/compare_study.h"
+#include "compare/src/study.h"
 
 #define MAX_ENTRIES 10000 /* cases, methods, seeds, sweep values: a cap on each list */
 #define MAX_ROWS 100000

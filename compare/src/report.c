@@ -12,9 +12,8 @@
 #include <string.h>
 #include <time.h>
 
-#include "cli/cli_references.h"
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
+#include "compare/src/study.h"
 
 #define CELL 1100 /* bytes of a table cell (an error message is up to 1024) */
 
@@ -452,8 +451,8 @@ static void inputs(doc *d, const pm_cmp_study *st) {
  * figure captions, the suite's description), in full. */
 static void references(doc *d) {
   int any = 0;
-  for (int i = 0; i < pm_cli_reference_count(); ++i) {
-    const pm_cli_reference *r = pm_cli_reference_at(i);
+  for (int i = 0; i < pm_cmp_reference_count(); ++i) {
+    const pm_cmp_reference *r = pm_cmp_reference_at(i);
     char key[32];
     snprintf(key, sizeof key, "papers/%s", r->key);
     if (!d->md.s || !strstr(d->md.s, key)) continue;

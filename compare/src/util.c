@@ -13,9 +13,8 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "cli/cli_signal.h"
-#include "cli/compare_study.h"
 #include "common/base/clock.h"
+#include "compare/src/study.h"
 
 int pm_cmp_strcat(char **buf, size_t *len, size_t *cap, const char *text) {
   size_t n = strlen(text);
@@ -154,13 +153,13 @@ int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path
   }
   setpgid(pid, pid);
   /* A signal ending packmesh ends the helper too. */
-  int group = pm_cli_signals_group(pid);
+  int group = pm_cmp_children_add(pid);
   double t0 = pm_seconds();
   for (;;) {
     pid_t w = waitpid(pid, wstatus, WNOHANG);
     if (w == pid) break;
     if (w < 0 && errno != EINTR) {
-      pm_cli_signals_forget(group);
+      pm_cmp_children_forget(group);
       return -1;
     }
     if (!*timed_out && pm_seconds() - t0 > timeout_s) {
@@ -171,7 +170,7 @@ int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path
     struct timespec ts = {0, 10 * 1000 * 1000};
     nanosleep(&ts, NULL);
   }
-  pm_cli_signals_forget(group);
+  pm_cmp_children_forget(group);
   /* exec failure is exit code 127 from the child. */
   if (WIFEXITED(*wstatus) && WEXITSTATUS(*wstatus) == 127) return -1;
   return 0;

@@ -28,9 +28,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
 #include "common/measure/quality.h"
+#include "compare/src/study.h"
 
 #define GNUPLOT_TIMEOUT_S 60
 #define MAX_TRACE_POINTS 2000 /* a curve keeps at most this many points (every k-th row) */

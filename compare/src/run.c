@@ -16,6 +16,8 @@
  * after END_GRACE_S). After a child that did not succeed, temporaries ("*.pmtmp-*",
  * elements.csv.part) left in its run folder are removed.
  */
+#include <packmesh/packmesh.h>
+
 #include <cjson/cJSON.h>
 #include <dirent.h>
 #include <errno.h>
@@ -32,10 +34,9 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "api/api.h"
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
 #include "common/base/clock.h"
+#include "compare/src/study.h"
 
 #define MAX_ARGS 600
 /* Seconds a child has between SIGTERM and SIGKILL. */

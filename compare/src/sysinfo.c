@@ -8,8 +8,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
+#include "compare/src/study.h"
 
 /* The first line of a helper's stdout, "" when it cannot run. */
 static void first_line(char *const argv[], int need_success, char *out, size_t len) {

@@ -12,13 +12,14 @@
  *                 `packmesh quality MESH --csv` (kind, index, cell, radius_ratio, aspect_ratio,
  *                 min_angle_deg, max_angle_deg).
  */
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "cli/compare_study.h"
 #include "common/base/atomic_file.h"
+#include "compare/src/study.h"
 
 static const char *const lead[] = {"case",   "method", "seed",  "sweep_key", "sweep_value",
                                    "status", "error",  "command", "row",     "label",
@@ -227,6 +228,13 @@ static pm_status write_elements(const pm_cmp_study *st, pm_error *err) {
   }
   free(line);
   return pm_atomic_commit(&a, err);
+}
+
+pm_status pm_cmp_suite_save(const pm_cmp_study *st, pm_error *err) {
+  char path[PATH_MAX];
+  if (snprintf(path, sizeof path, "%s/suite.json", st->dir) >= (int)sizeof path)
+    return pm_error_setf(err, PM_ERR_IO, "study folder name too long: %s", st->dir);
+  return pm_atomic_write(path, st->suite.text, strlen(st->suite.text), err);
 }
 
 pm_status pm_cmp_results_write(const pm_cmp_study *st, pm_error *err) {

@@ -1,19 +1,17 @@
-/* The comparison harness behind `packmesh compare` and `packmesh demo`: a suite (compare/README.md
- * documents its JSON), the rows it expands to (one per case x method x seed x sweep value), and
- * the functions of the harness, one concern per file:
- *   compare_suite.c    read and check a suite, expand it into rows
- *   compare_run.c      run the rows as child processes (parallel, time-limited, resumable)
- *   compare_results.c  results.csv, elements.csv, per-row values for tables and plots
- *   compare_plot.c     gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
- *   compare_report.c   report.md and report.html
- *   compare_sysinfo.c  library versions and the machine, for the report
+/* packmesh_compare, the comparison engine behind `packmesh compare` and `packmesh demo`: what its
+ * callers (the packmesh command, src/cli) use. A suite (compare/README.md documents its JSON) is
+ * read and expanded into a study of rows, one per case x method x seed x sweep value; the rows
+ * are run as `packmesh mesh` child processes; the results, figures and report are written into
+ * the study folder. The engine's own declarations are in study.h, which callers do not include.
  *
- * Every run is its own `packmesh mesh` process (the binary running the harness, found through
- * /proc/self/exe), started in the study folder, so the command recorded for a row is exactly
- * the one that made it, and a crash or hang of a library costs one row, never the study.
+ * The engine prints nothing but pm_cmp_run's progress (to the stream its caller gives) and
+ * never exits; its errors come back as pm_status with a pm_error. Dependencies run one way,
+ * cli -> compare -> libpackmesh: the command uses the engine, the engine uses libpackmesh (its
+ * public header and headers of src/common), never the command. compare/README.md ("Code") names
+ * the files.
  */
-#ifndef PM_COMPARE_STUDY_H
-#define PM_COMPARE_STUDY_H
+#ifndef PM_COMPARE_H
+#define PM_COMPARE_H
 
 #include <packmesh/packmesh.h>
 
@@ -21,7 +19,6 @@
 #include <stdio.h>
 
 #include "common/report/stats.h"
-#include "common/backends/versions.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -92,8 +89,6 @@ typedef enum pm_cmp_status {
   PM_CMP_SKIPPED      /* not run: the reference run of its group failed (match_nodes) */
 } pm_cmp_status;
 
-const char *pm_cmp_status_name(pm_cmp_status s);
-
 typedef struct pm_cmp_row {
   int index;
   char id[192];        /* folder name under runs/, unique in the study */
@@ -129,12 +124,6 @@ typedef struct pm_cmp_study {
 pm_status pm_cmp_study_init(pm_cmp_study *st, pm_cmp_suite *s, const char *dir, pm_error *err);
 void pm_cmp_study_clear(pm_cmp_study *st);
 
-/* Labels for messages: "qi3 bubble seed 2 k0=30". */
-void pm_cmp_row_title(const pm_cmp_study *st, const pm_cmp_row *r, char *buf, size_t len);
-
-/* The sweep value text of a row ("" without a sweep). */
-const char *pm_cmp_row_sweep(const pm_cmp_study *st, const pm_cmp_row *r);
-
 /* ---- running ------------------------------------------------------------------------------- */
 
 typedef struct pm_cmp_run_opts {
@@ -155,22 +144,14 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err);
 
 /* ---- results ------------------------------------------------------------------------------- */
 
-/* Read runs/ID/stats.json of every OK row into row->flat (done by the runner too). */
-pm_status pm_cmp_results_load(pm_cmp_study *st, pm_error *err);
+/* The suite's text as suite.json in the study folder (atomically): the study can be rerun from
+ * its own folder. */
+pm_status pm_cmp_suite_save(const pm_cmp_study *st, pm_error *err);
 
 /* results.csv and elements.csv in the study folder (atomically). */
 pm_status pm_cmp_results_write(const pm_cmp_study *st, pm_error *err);
 
-/* A numeric stats value of a row (NaN when missing or not a number). */
-double pm_cmp_row_value(const pm_cmp_row *r, const char *key);
-
-/* The per-element values of one column ("aspect_ratio", ...) of one kind ("tri", "tet") in
- * runs/ID/elements.csv, appended to *v (realloc'ed; *n and *cap updated). */
-pm_status pm_cmp_row_elements(const pm_cmp_study *st, const pm_cmp_row *r, const char *kind,
-                              const char *column, double **v, size_t *n, size_t *cap,
-                              pm_error *err);
-
-/* ---- figures and report --------------------------------------------------------------------- */
+/* ---- figures and report -------------------------------------------------------------------- */
 
 typedef struct pm_cmp_figure {
   char name[128];      /* file stem under plots/ */
@@ -197,70 +178,36 @@ void pm_cmp_figures_clear(pm_cmp_figures *figs);
 pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
                         const char *invocation, pm_error *err);
 
-/* ---- environment --------------------------------------------------------------------------- */
-
-typedef struct pm_cmp_sysinfo {
-  pm_lib_versions lib;
-  char os[256];        /* uname: system, release, machine */
-  char cpu[256];       /* model name of /proc/cpuinfo */
-  int cores;           /* online processors */
-  double mem_gib;      /* MemTotal of /proc/meminfo */
-  char gnuplot[128];   /* `gnuplot --version`, "" when there is none */
-  char packages[2048]; /* Debian package versions of the libraries (dpkg-query), or "" */
-} pm_cmp_sysinfo;
-
-void pm_cmp_sysinfo_get(pm_cmp_sysinfo *si);
-
-/* ---- the whole study (cli_compare.c) ------------------------------------------------------ */
-
-typedef struct pm_cmp_options {
-  int jobs;            /* parallel runs; 0: the number of cores */
-  double timeout_s;    /* > 0: overrides the suite's time limit per run */
-  int retry_failed;    /* rerun rows that failed in an earlier invocation */
-  int quiet;           /* no progress */
-} pm_cmp_options;
-
-/* Run the suite (moved in: cleared on return) into dir: the runs, results.csv, elements.csv,
- * plots/, report.md and report.html. `invocation` is the command line shown in the report.
- * Prints progress and, at the end, where the report is. Returns the exit code: 0 when the
- * study completed (whatever some runs did: their errors are in their rows), 1 when it could
- * not (a folder that cannot be written, an interruption). */
-int pm_cmp_execute(pm_cmp_suite *s, const char *dir, const pm_cmp_options *o,
-                   const char *invocation);
-
-/* The study options that compare and demo share: -o DIR / --output DIR, --jobs N, --quiet.
- * Returns 1 when argv[*i] is one of them (consumed; *i moves past it), with *code the usage
- * exit code when its value is wrong (0 when fine); 0 when it is not one of them. */
-int pm_cmp_parse_option(const char *command, int argc, char **argv, int *i, const char **dir,
-                        pm_cmp_options *o, int *code);
-
-/* ---- helpers shared by the files above ---------------------------------------------------- */
-
-/* Append text to a growing string (*buf malloc'ed); 0 on success, -1 out of memory. */
-int pm_cmp_strcat(char **buf, size_t *len, size_t *cap, const char *text);
-int pm_cmp_appendf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 4, 5)))
-#endif
-    ;
+/* ---- helpers for callers ------------------------------------------------------------------- */
 
 /* Shell-quote one word ("abc" stays, "a b" -> 'a b'). */
 void pm_cmp_shell_quote(const char *word, char *out, size_t len);
 
-/* Read a whole file (NUL-terminated, malloc'ed); NULL when it cannot be read. */
-char *pm_cmp_read_file(const char *path, size_t *len);
+/* ---- the papers ---------------------------------------------------------------------------- */
 
-/* mkdir -p. */
-pm_status pm_cmp_mkdirs(const char *path, pm_error *err);
+/* The papers packmesh implements, by the keys its help and reports cite them with: "papers/003"
+ * (reports, descriptions) or "003" in a parameter's [SOURCE] (`packmesh mesh --method M --help`).
+ * `packmesh references` prints them in full; a comparison report lists the ones it cites. */
+typedef struct pm_cmp_reference {
+  const char *key;      /* "003": cited as papers/003 */
+  const char *citation; /* authors, title, where and when it appeared */
+  const char *used_for; /* what packmesh takes from it */
+} pm_cmp_reference;
 
-/* Run argv (argv[0] a program name looked up in PATH, or a path) in cwd with a time limit;
- * stdout to out_path (NULL: /dev/null), stderr to err_path (NULL: /dev/null). Returns the
- * wait status in *wstatus and sets *timed_out. -1 when the program could not be started. */
-int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path,
-                       const char *err_path, double timeout_s, int *wstatus, int *timed_out);
+/* The number of papers and the i-th, in key order (NULL outside 0 .. count - 1). */
+int pm_cmp_reference_count(void);
+const pm_cmp_reference *pm_cmp_reference_at(int i);
+
+/* ---- helper processes and signals ---------------------------------------------------------- */
+
+/* End (SIGKILL) the process group of every helper the engine is running now (gnuplot,
+ * dpkg-query). Async-signal-safe: the caller's SIGINT / SIGTERM handler calls it before the
+ * process exits, so that no helper outlives an interrupted study. The `packmesh mesh` children
+ * of pm_cmp_run are not among them: pm_cmp_run ends those itself (see above). */
+void pm_cmp_children_kill_all(void);
 
 #ifdef __cplusplus
 }
 #endif
 
-#endif /* PM_COMPARE_STUDY_H */
+#endif /* PM_COMPARE_H */
