@@ -35,4 +35,11 @@ static inline const char *pm_test_cad(const char *file, char *buf, size_t len) {
 }
 static inline int pm_test_have_cad(void) { return access(PM_CAD_DIR "/CATALOG.md", R_OK) == 0; }
 
+/* The number of newlines in s. */
+static inline int pm_test_count_lines(const char *s) {
+  int n = 0;
+  for (; *s; ++s) n += *s == '\n';
+  return n;
+}
+
 #endif /* PM_TEST_SUPPORT_H */

@@ -26,12 +26,6 @@ static char *slurp(FILE *f) {
   return s;
 }
 
-static int count_lines(const char *s) {
-  int n = 0;
-  for (; *s; ++s) n += *s == '\n';
-  return n;
-}
-
 static pm_model *open_model(const char *spec, pm_sizing **size) {
   pm_model *m = NULL;
   pm_error e = {0};
@@ -77,7 +71,7 @@ static void method_tables(void **state) {
         PM_ASSERT_OK(pm_method_param_info(m, k, &info, &e), e);
         assert_non_null(strstr(text, info.key));
       }
-      assert_true(count_lines(text) >= pm_method_param_count(m));
+      assert_true(pm_test_count_lines(text) >= pm_method_param_count(m));
     }
     free(text);
   }
@@ -176,7 +170,7 @@ static void report_of_a_run(void **state) {
   FILE *f = fopen(path, "r");
   fseek(f, 0, SEEK_END);
   char *trace = slurp(f);
-  assert_int_equal(count_lines(trace), res.iterations + 1);
+  assert_int_equal(pm_test_count_lines(trace), res.iterations + 1);
   assert_true(strncmp(trace, "step,bubbles,", 13) == 0);
   free(trace);
   remove(path);
@@ -192,7 +186,7 @@ static void report_of_a_run(void **state) {
   PM_ASSERT_OK(pm_report_write_elements_csv(r, mesh, f, &e), e);
   char *csv = slurp(f);
   assert_true(strncmp(csv, "kind,index,cell,radius_ratio,", 29) == 0);
-  assert_int_equal(count_lines(csv),
+  assert_int_equal(pm_test_count_lines(csv),
                    1 + pm_mesh_element_count(mesh, 2)); /* triangles and tets only */
   free(csv);
 

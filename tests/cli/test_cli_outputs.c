@@ -37,12 +37,6 @@ static int count_names(const char *d, const char *part) {
   return n;
 }
 
-static int lines_of(const char *s) {
-  int n = 0;
-  for (; *s; ++s) n += *s == '\n';
-  return n;
-}
-
 /* ---- a later output fails: nothing is left ------------------------------------------------ */
 
 static void failed_outputs_leave_nothing(void **state) {
@@ -182,7 +176,7 @@ static void interrupted_cleanly(int ws, int sig, int left, const char *what) {
   char pe[700];
   snprintf(pe, sizeof pe, "%s/cli.stderr", pm_test_dir);
   char *err = pm_test_slurp(pe);
-  if (!WIFEXITED(ws) || WEXITSTATUS(ws) != 128 + sig || lines_of(err) != 1 ||
+  if (!WIFEXITED(ws) || WEXITSTATUS(ws) != 128 + sig || pm_test_count_lines(err) != 1 ||
       !strstr(err, sig == SIGINT ? "interrupted by SIGINT" : "interrupted by SIGTERM")) {
     char copy[600];
     snprintf(copy, sizeof copy, "%s", err);
@@ -306,7 +300,8 @@ static void compare_interrupted_running(void **state) {
   char pe[700];
   snprintf(pe, sizeof pe, "%s/cli.stderr", pm_test_dir);
   char *err = pm_test_slurp(pe);
-  if (!WIFEXITED(ws) || WEXITSTATUS(ws) != 143 || lines_of(err) != 1 || !strstr(err, "SIGTERM"))
+  if (!WIFEXITED(ws) || WEXITSTATUS(ws) != 143 || pm_test_count_lines(err) != 1 ||
+      !strstr(err, "SIGTERM"))
     fail_msg("compare during the runs: status %d, stderr '%s'", ws, err);
   free(err);
   assert_int_equal(count_names(pm_test_dir, ".pmtmp-"), 0);

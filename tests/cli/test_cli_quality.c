@@ -154,12 +154,6 @@ static void compare_summary(const cJSON *obj, double *v, size_t n, const char *w
 /* Run the command line; capture stdout and stderr; return the exit code. */
 static int run(const char *args, char **out, char **err) { return pm_test_cli(dir, args, out, err); }
 
-static int count_lines(const char *s) {
-  int n = 0;
-  for (; *s; ++s) n += *s == '\n';
-  return n;
-}
-
 static void json_matches_independent_computation(void **state) {
   (void)state;
   if (!make_mesh()) skip();
@@ -289,7 +283,7 @@ static void json_matches_independent_computation(void **state) {
   free(err);
   snprintf(args, sizeof args, "quality '%s' --csv", msh);
   assert_int_equal(run(args, &out, &err), 0);
-  assert_int_equal(count_lines(out), (int)n + 1);
+  assert_int_equal(pm_test_count_lines(out), (int)n + 1);
   assert_int_equal(strncmp(out, "kind,index,cell,radius_ratio,aspect_ratio,min_angle_deg,max_angle_deg\n", 70), 0);
   double *qc = malloc(n * sizeof *qc);
   size_t k = 0;
@@ -396,7 +390,8 @@ static void expect_error(const char *args, int code, const char *needle) {
   char *out, *err;
   int c = run(args, &out, &err);
   if (c != code) fail_msg("'%s': exit %d, expected %d (stderr: %s)", args, c, code, err);
-  if (count_lines(err) != 1) fail_msg("'%s': stderr has %d lines: %s", args, count_lines(err), err);
+  if (pm_test_count_lines(err) != 1)
+    fail_msg("'%s': stderr has %d lines: %s", args, pm_test_count_lines(err), err);
   assert_int_equal(strncmp(err, "packmesh: ", 10), 0);
   if (!strstr(err, needle)) fail_msg("'%s': stderr '%s' does not name '%s'", args, err, needle);
   assert_string_equal(out, "");
