@@ -309,6 +309,18 @@ PM_API const int32_t *pm_mesh_element_cells(const pm_mesh *m, int dim);
 /* Read a mesh (.msh, .vtk, .vtu, .stl, .mesh, .obj), made by packmesh or another tool. */
 PM_API pm_status pm_mesh_read(const char *path, pm_mesh **out, pm_error *err);
 
+/* Put the nodes that carry no cell (node dimension -1: a mesh read from .stl, .vtk, .vtu, .mesh,
+ * .obj, or another tool's .msh) on the cells of `model` (in) they lie on -- a vertex or curve
+ * within 1e-5 of the diagonal (and 1/20 of the node's shortest edge), else the nearest face, or
+ * the volume of their tets -- with their parameters, and give their elements the cell of the
+ * model (a file's own tags name no model cell). Then the measures that depend on where a node
+ * lies (eps_t's interior nodes, the split of triangles by site, the checker's face patches) are
+ * those of the same mesh written by packmesh with its tags. m (in-out); nodes with a cell are
+ * kept. *classified and *unmatched (out, may be NULL): nodes classified, and nodes of triangles
+ * or segments farther than 1e-3 of the diagonal from every cell (left at -1). */
+PM_API pm_status pm_mesh_classify(pm_mesh *m, const pm_model *model, int32_t *classified,
+                                  int32_t *unmatched, pm_error *err);
+
 /* Write a mesh; the format follows the extension (.msh, .vtk, .vtu, .stl, .obj, .mesh), as
  * `packmesh mesh -o` writes it (per-element quality included in .msh and .vtu). The file is
  * written under a temporary name and renamed: on failure nothing is left at path. */

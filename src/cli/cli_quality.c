@@ -30,7 +30,9 @@ static const char *const usage_text =
     "  --geometry IN the model MESH discretizes: a CAD file (.step, .stp, .iges, .igs, .brep),\n"
     "                case:NAME or a case file (.json). The checker then verifies conformity,\n"
     "                closed shells and orientation against it (element entity tag t = cell t-1),\n"
-    "                and the two-sided distance between mesh and model is measured. A case's own\n"
+    "                and the two-sided distance between mesh and model is measured. Nodes that the\n"
+    "                file does not put on cells (.stl, .vtk, .vtu, .mesh, .obj) are classified\n"
+    "                onto the model's vertices, curves, faces and volumes first. A case's own\n"
     "                size field is used when --size is not given.\n"
     "  --json   the stats JSON (the keys of packmesh mesh --stats) on stdout\n"
     "  --csv    per-element measures, one row per element:\n"
@@ -102,7 +104,13 @@ int pm_cli_quality(int argc, char **argv) {
     goto done;
   }
   const pm_sizing *field = size ? size : input_size;
+  /* A mesh without entity tags is put on the model's cells first, so that its interior nodes
+   * and sites are those of the same mesh with its tags (pm_mesh_classify). */
+  int32_t classified = 0, unmatched = 0;
   if (pm_mesh_read(path, &m, &e) || pm_report_create("external", path, &report, &e) ||
+      (model && pm_mesh_classify(m, model, &classified, &unmatched, &e)) ||
+      (classified > 0 && (pm_report_add_number(report, "classified.nodes", classified, &e) ||
+                          pm_report_add_number(report, "classified.unmatched", unmatched, &e))) ||
       pm_report_measure(report, m, model, field, PM_REPORT_CHECK | PM_REPORT_QUALITY, &e)) {
     code = pm_cli_error(&e);
     goto done;

@@ -377,6 +377,71 @@ static void geometry_checks_and_distance(void **state) {
   free(err);
 }
 
+/* The number at a dotted key of a stats object (NAN when missing). */
+static double stat_at(const cJSON *root, const char *dotted) {
+  char key[128];
+  snprintf(key, sizeof key, "%s", dotted);
+  const cJSON *o = root;
+  for (char *part = strtok(key, "."); part && o; part = strtok(NULL, "."))
+    o = cJSON_GetObjectItem(o, part);
+  return cJSON_IsNumber(o) ? o->valuedouble : cJSON_IsBool(o) ? cJSON_IsTrue(o) : NAN;
+}
+
+static cJSON *quality_json(const char *args) {
+  char *out, *err;
+  int code = run(args, &out, &err);
+  if (code != 0) fail_msg("'%s': exit %d: %s", args, code, err);
+  cJSON *root = cJSON_Parse(out);
+  assert_non_null(root);
+  free(out);
+  free(err);
+  return root;
+}
+
+/* --geometry classifies the nodes of files without entity tags: the same mesh as .vtk and .mesh
+ * gives the figures of its .msh, where without a model every node of a closed shell counts as
+ * interior. */
+static void untagged_formats_classified(void **state) {
+  (void)state;
+  static const char *const keys[] = {
+      "nodes",          "valid",           "tri.eps_t",
+      "tri.eps_t_nodes", "tri.by_site.boundary.count", "tri.by_site.regular.count",
+      "tri.by_site.irregular.count", "tet.eps_t", "tet.eps_t_nodes"};
+  const int nkey = (int)(sizeof keys / sizeof keys[0]);
+  char args[2400], path[3][600];
+  const char *ext[3] = {"msh", "vtk", "mesh"};
+  for (int f = 0; f < 3; ++f) {
+    snprintf(path[f], sizeof path[f], "%s/boxhole.%s", dir, ext[f]);
+    snprintf(args, sizeof args, "mesh case:boxhole --method gmsh-frontal --volume -o '%s'",
+             path[f]);
+    char *out, *err;
+    if (run(args, &out, &err) != 0) fail_msg("%s: %s", args, err);
+    free(out);
+    free(err);
+  }
+  snprintf(args, sizeof args, "quality '%s' --geometry case:boxhole --json", path[0]);
+  cJSON *tagged = quality_json(args);
+  assert_true(stat_at(tagged, "valid") == 1);
+  assert_true(isnan(stat_at(tagged, "classified.nodes")));
+  for (int f = 1; f < 3; ++f) {
+    snprintf(args, sizeof args, "quality '%s' --geometry case:boxhole --json", path[f]);
+    cJSON *root = quality_json(args);
+    for (int k = 0; k < nkey; ++k)
+      if (!(stat_at(root, keys[k]) == stat_at(tagged, keys[k])))
+        fail_msg(".%s %s: %.12g, .msh %.12g", ext[f], keys[k], stat_at(root, keys[k]),
+                 stat_at(tagged, keys[k]));
+    assert_true(stat_at(root, "classified.nodes") == stat_at(tagged, "nodes"));
+    assert_true(stat_at(root, "classified.unmatched") == 0);
+    cJSON_Delete(root);
+  }
+  /* Without the model, the .vtk's curve and vertex nodes count as interior. */
+  snprintf(args, sizeof args, "quality '%s' --json", path[1]);
+  cJSON *bare = quality_json(args);
+  assert_true(stat_at(bare, "tri.eps_t_nodes") > stat_at(tagged, "tri.eps_t_nodes"));
+  cJSON_Delete(bare);
+  cJSON_Delete(tagged);
+}
+
 static void write_file(const char *name, const char *text, char *path) {
   snprintf(path, 512, "%s/%s", dir, name);
   FILE *f = fopen(path, "w");
@@ -463,6 +528,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(json_matches_independent_computation),
       cmocka_unit_test(geometry_checks_and_distance),
+      cmocka_unit_test(untagged_formats_classified),
       cmocka_unit_test(errors),
       cmocka_unit_test(help_and_version),
   };

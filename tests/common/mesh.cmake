@@ -8,3 +8,5 @@ pm_add_test(test_stats LABELS unit SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_stats.
 target_link_libraries(test_stats PRIVATE cjson)
 pm_add_test(test_mesh_check_cad LABELS backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh_check_cad.c)
 pm_add_test(test_mesh_read LABELS unit backend SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_mesh_read.c)
+# Untagged meshes classified back onto the model's cells (classify.c).
+pm_add_test(test_classify LABELS unit SOURCES ${CMAKE_CURRENT_LIST_DIR}/test_classify.c)
