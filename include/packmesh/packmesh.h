@@ -309,8 +309,8 @@ PM_API const int32_t *pm_mesh_element_cells(const pm_mesh *m, int dim);
 /* Read a mesh (.msh, .vtk, .vtu, .stl, .mesh, .obj), made by packmesh or another tool. */
 PM_API pm_status pm_mesh_read(const char *path, pm_mesh **out, pm_error *err);
 
-/* Put the nodes that carry no cell (node dimension -1: a mesh read from .stl, .vtk, .vtu, .mesh,
- * .obj, or another tool's .msh) on the cells of `model` (in) they lie on -- a vertex or curve
+/* Put the nodes that carry no cell (node dimension -1: a mesh read from .stl, .mesh, .obj, or
+ * another tool's .msh, .vtk or .vtu) on the cells of `model` (in) they lie on -- a vertex or curve
  * within 1e-5 of the diagonal (and 1/20 of the node's shortest edge), else the nearest face, or
  * the volume of their tets -- with their parameters, and give their elements the cell of the
  * model (a file's own tags name no model cell). Then the measures that depend on where a node

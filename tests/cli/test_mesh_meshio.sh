@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The files packmesh writes are read by meshio (Debian's python3-meshio, which
 # scripts/install-deps.sh installs): a solid with segments, triangles and tets written as .msh
-# (the default: no parametric nodes, which meshio 7 refuses) and as .vtu, read back by meshio with
-# the node and element counts packmesh printed, and the per-element quality (.vtu cell data, .msh
-# $ElementData) with the median R / l_min packmesh quality gives. Without python3-meshio the test
+# (the default: no parametric nodes, which meshio 7 refuses) as .vtu and as legacy .vtk, read back by meshio with
+# the node and element counts packmesh printed, and the per-element quality (.vtu and .vtk cell
+# data, .msh $ElementData) with the median R / l_min packmesh quality gives; .vtu and .vtk also
+# carry each element's model cell (cell data "cell"), on every triangle. Without python3-meshio the test
 # is reported as skipped (exit 77), never passed.
 # Usage: test_mesh_meshio.sh PACKMESH PYTHON
 set -uo pipefail
@@ -16,7 +17,7 @@ fi
 dir=$(mktemp -d /tmp/pm_test_meshio.XXXXXX)
 trap 'rm -rf "$dir"' EXIT
 fails=0
-for ext in msh vtu; do
+for ext in msh vtu vtk; do
   line=$("$packmesh" mesh case:boxhole --method bubble --volume -o "$dir/m.$ext") || {
     echo "FAIL: packmesh mesh -o m.$ext failed"; fails=$((fails + 1)); continue; }
   # "bubble case:boxhole: N nodes, S segments, T triangles, K tets in ..."
@@ -35,6 +36,10 @@ import numpy
 rl = numpy.concatenate([a for b, a in zip(m.cells, m.cell_data["aspect_ratio"])
                         if b.type == "triangle"])
 print("tri_aspect_median %.9f" % numpy.median(rl))
+if not sys.argv[1].endswith(".msh"):
+    tags = numpy.concatenate([a for b, a in zip(m.cells, m.cell_data["cell"])
+                              if b.type == "triangle"])
+    print("tri_untagged", int((tags < 0).sum()))
 PY
 ) || { echo "FAIL: meshio cannot read m.$ext"; fails=$((fails + 1)); continue; }
   # meshio may print notes of its own before the line of counts
@@ -56,6 +61,15 @@ PY
     fails=$((fails + 1))
   else
     echo "m.$ext: cell data aspect_ratio (R/l_min) median $med, as packmesh quality measures"
+  fi
+  if [ "$ext" != msh ]; then
+    untagged=$(echo "$raw" | sed -n 's/^tri_untagged //p')
+    if [ "$untagged" != 0 ]; then
+      echo "FAIL: m.$ext: cell data 'cell' has '$untagged' untagged triangles"
+      fails=$((fails + 1))
+    else
+      echo "m.$ext: cell data 'cell' gives every triangle its face"
+    fi
   fi
 done
 exit $((fails > 0))

@@ -323,6 +323,90 @@ static void vtk_variants(void **state) {
   expect_refused("q.vtk", quad, strlen(quad), PM_ERR_ARG, "VTK_QUAD");
 }
 
+/* The data sections: packmesh's arrays (cell, node_dim, node_cell, node_par) are read in ASCII
+ * and binary, other SCALARS passed over, the rest of the file after another data keyword left;
+ * wrong counts and values are refused by name. */
+#define SQUARE_GRID                                                                           \
+  "# vtk DataFile Version 3.0\nsquare\nASCII\nDATASET UNSTRUCTURED_GRID\n"                   \
+  "POINTS 4 double\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n"                                           \
+  "CELLS 3 11\n3 0 1 2\n3 0 2 3\n2 0 1\nCELL_TYPES 3\n5\n5\n3\n"
+
+static void vtk_data_arrays(void **state) {
+  (void)state;
+  pm_mesh *m = NULL;
+  pm_error e = {0};
+  const char *tagged =
+      SQUARE_GRID "POINT_DATA 4\nSCALARS node_dim int 1\nLOOKUP_TABLE default\n0 0 2 -1\n"
+                  "SCALARS weight float\nLOOKUP_TABLE default\n1 2 3 4\n"
+                  "SCALARS node_cell int 1\nLOOKUP_TABLE default\n3 5 0 -1\n"
+                  "SCALARS node_par double 2\nLOOKUP_TABLE default\n0 0 0 0 0.25 0.5 9 9\n"
+                  "CELL_DATA 3\nSCALARS cell int\nLOOKUP_TABLE default\n0 0 7\n"
+                  "VECTORS v double\nthis is not read\n";
+  PM_ASSERT_OK(read_mem("t.vtk", tagged, strlen(tagged), &m, &e), e);
+  assert_int_equal(m->nnode, 4);
+  const int8_t dims[4] = {0, 0, 2, -1};
+  const int32_t cells[4] = {3, 5, 0, -1};
+  for (int v = 0; v < 4; ++v) {
+    assert_int_equal(m->node_dim[v], dims[v]);
+    assert_int_equal(m->node_cell[v], cells[v]);
+  }
+  PM_ASSERT_NEAR(m->node_par[4], 0.25, 0);
+  PM_ASSERT_NEAR(m->node_par[5], 0.5, 0);
+  PM_ASSERT_NEAR(m->node_par[6], 0, 0); /* an unclassified node has no parameters */
+  assert_int_equal(m->tri_cell[0], 0);
+  assert_int_equal(m->tri_cell[1], 0);
+  assert_int_equal(m->seg_cell[0], 7);
+  pm_mesh_destroy(m);
+
+  /* BINARY: a 4-byte cell array and an 8-byte one passed over. */
+  buf b = {0};
+  puts_(&b, "# vtk DataFile Version 3.0\nbin\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n");
+  const float xy[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  for (int i = 0; i < 4; ++i) put_f32(&b, xy[i][0], 1), put_f32(&b, xy[i][1], 1), put_f32(&b, 0, 1);
+  puts_(&b, "\nCELLS 2 8\n");
+  const int32_t conn[8] = {3, 0, 1, 2, 3, 0, 2, 3};
+  for (int i = 0; i < 8; ++i) put_i32(&b, conn[i], 1);
+  puts_(&b, "\nCELL_TYPES 2\n");
+  put_i32(&b, 5, 1), put_i32(&b, 5, 1);
+  puts_(&b, "\nCELL_DATA 2\nSCALARS q double 1\nLOOKUP_TABLE default\n");
+  put_f64(&b, 0.5, 1), put_f64(&b, 0.75, 1);
+  puts_(&b, "\nSCALARS cell int 1\nLOOKUP_TABLE default\n");
+  put_i32(&b, 4, 1), put_i32(&b, 6, 1);
+  puts_(&b, "\n");
+  PM_ASSERT_OK(read_mem("d.vtk", b.s, b.n, &m, &e), e);
+  assert_int_equal(m->ntri, 2);
+  assert_int_equal(m->tri_cell[0], 4);
+  assert_int_equal(m->tri_cell[1], 6);
+  assert_int_equal(m->node_dim[0], -1);
+  pm_mesh_destroy(m);
+  free(b.s);
+
+  refused("count.vtk", SQUARE_GRID "CELL_DATA 4\nSCALARS cell int 1\nLOOKUP_TABLE default\n1 2 3 4\n",
+          "CELL_DATA 4 for 3 cells");
+  refused("before.vtk",
+          "# vtk DataFile Version 3.0\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 3 double\n"
+          "0 0 0 1 0 0 0 1 0\nCELL_DATA 1\nSCALARS cell int 1\nLOOKUP_TABLE default\n0\n",
+          "CELL_DATA before CELLS");
+  refused("dim.vtk",
+          SQUARE_GRID "POINT_DATA 4\nSCALARS node_dim int 1\nLOOKUP_TABLE default\n0 4 0 0\n"
+                      "SCALARS node_cell int 1\nLOOKUP_TABLE default\n0 0 0 0\n",
+          "point 1: node_dim 4");
+  refused("neg.vtk", SQUARE_GRID "CELL_DATA 3\nSCALARS cell int 1\nLOOKUP_TABLE default\n0 -2 0\n",
+          "cell 1 has cell index -2");
+  refused("half.vtk", SQUARE_GRID "CELL_DATA 3\nSCALARS cell double 1\nLOOKUP_TABLE default\n0 0.5 0\n",
+          "cell 1 has cell index 0.5");
+  refused("type.vtk", SQUARE_GRID "CELL_DATA 3\nSCALARS cell bit 1\nLOOKUP_TABLE default\n0 1 0\n",
+          "SCALARS of type 'bit'");
+  refused("comp.vtk", SQUARE_GRID "CELL_DATA 3\nSCALARS cell int 9\nLOOKUP_TABLE default\n0\n",
+          "9 components");
+  refused("short.vtk", SQUARE_GRID "CELL_DATA 3\nSCALARS cell int 1\nLOOKUP_TABLE default\n0 1\n",
+          "data value");
+  refused("twice.vtk",
+          SQUARE_GRID "CELL_DATA 3\nSCALARS cell int 1\nLOOKUP_TABLE default\n0 1 0\n"
+                      "SCALARS cell int 1\nLOOKUP_TABLE default\n0 1 0\n",
+          "a second array");
+}
+
 static void stl_variants(void **state) {
   (void)state;
   pm_mesh *m = NULL;
@@ -572,7 +656,7 @@ int main(void) {
   if (pm_gmsh_begin(&e)) return 1;
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(element_types_match_gmsh), cmocka_unit_test(msh_binary_and_swapped),
-      cmocka_unit_test(msh_written_by_gmsh),      cmocka_unit_test(vtk_variants),
+      cmocka_unit_test(msh_written_by_gmsh),      cmocka_unit_test(vtk_variants), cmocka_unit_test(vtk_data_arrays),
       cmocka_unit_test(stl_variants),             cmocka_unit_test(medit_variants),
       cmocka_unit_test(vtu_variants),             cmocka_unit_test(obj_variants),
       cmocka_unit_test(hostile_files),

@@ -1,5 +1,5 @@
-/* Classification of a mesh read from a file without entity tags (.stl, .vtk, .mesh, .obj, or a
- * .msh of another tool) onto the cells of the model it discretizes, so that the measures that
+/* Classification of a mesh read from a file without entity tags (.stl, .mesh, .obj, or a .msh,
+ * .vtk or .vtu of another tool) onto the cells of the model it discretizes, so that the measures that
  * depend on where a node lies -- eps_t's interior nodes, the by-site split of the triangles, the
  * checker's per-face patches -- are the same as for the mesh packmesh wrote with its tags.
  *

@@ -82,14 +82,12 @@ static pm_status check_mesh(const pm_mesh *m, pm_error *err) {
 
 static void put_double(FILE *f, double x) { fprintf(f, "%.17g", x); }
 
-/* ---- writing by hand: .vtu and .obj -------------------------------------------------------- */
+/* ---- writing by hand: .vtk, .vtu and .obj -------------------------------------------------------- */
 
 
-/* One quality measure per cell: segments first (-1: a segment has no such measure), then the
- * triangles' values, then the tets'. */
-static void vtu_quality_array(FILE *f, const pm_mesh *m, const char *name, const double *tri,
-                              const double *tet) {
-  fprintf(f, "        <DataArray type=\"Float64\" Name=\"%s\" format=\"ascii\">\n", name);
+/* The values of the cells in VTK's order, one per line: segments first (-1: a segment has no
+ * such measure), then the triangles', then the tets'. */
+static void put_cell_values(FILE *f, const pm_mesh *m, const double *tri, const double *tet) {
   for (int32_t i = 0; i < m->nseg; ++i) fputs("-1\n", f);
   for (int32_t i = 0; i < m->ntri; ++i) {
     put_double(f, tri[i]);
@@ -99,7 +97,87 @@ static void vtu_quality_array(FILE *f, const pm_mesh *m, const char *name, const
     put_double(f, tet[i]);
     fputc('\n', f);
   }
-  fputs("        </DataArray>\n", f);
+}
+
+/* The cell of each cell in VTK's order (-1 untagged). */
+static void put_cell_cells(FILE *f, const pm_mesh *m) {
+  for (int32_t i = 0; i < m->nseg; ++i) fprintf(f, "%ld\n", (long)m->seg_cell[i]);
+  for (int32_t i = 0; i < m->ntri; ++i) fprintf(f, "%ld\n", (long)m->tri_cell[i]);
+  for (int32_t i = 0; i < m->ntet; ++i) fprintf(f, "%ld\n", (long)m->tet_cell[i]);
+}
+
+/* The points, one per line. */
+static void put_points(FILE *f, const pm_mesh *m) {
+  for (int32_t v = 0; v < m->nnode; ++v) {
+    for (int k = 0; k < 3; ++k) {
+      if (k) fputc(' ', f);
+      put_double(f, m->xyz[3 * (size_t)v + k]);
+    }
+    fputc('\n', f);
+  }
+}
+
+/* The point data of both VTK formats, each array under the header its format gives it (legacy
+ * SCALARS lines, XML DataArray tags): node_dim, node_cell (-1 when unclassified), node_par. */
+static void put_node_dims(FILE *f, const pm_mesh *m) {
+  for (int32_t v = 0; v < m->nnode; ++v) fprintf(f, "%d\n", (int)m->node_dim[v]);
+}
+
+static void put_node_cells(FILE *f, const pm_mesh *m) {
+  for (int32_t v = 0; v < m->nnode; ++v)
+    fprintf(f, "%ld\n", (long)(m->node_dim[v] >= 0 ? m->node_cell[v] : -1));
+}
+
+static void put_node_pars(FILE *f, const pm_mesh *m) {
+  for (int32_t v = 0; v < m->nnode; ++v) {
+    put_double(f, m->node_par[2 * (size_t)v]);
+    fputc(' ', f);
+    put_double(f, m->node_par[2 * (size_t)v + 1]);
+    fputc('\n', f);
+  }
+}
+
+/* VTK cell types: 3 = VTK_LINE, 5 = VTK_TRIANGLE, 10 = VTK_TETRA. */
+static void put_cell_types(FILE *f, const pm_mesh *m) {
+  for (int32_t i = 0; i < m->nseg; ++i) fputs("3\n", f);
+  for (int32_t i = 0; i < m->ntri; ++i) fputs("5\n", f);
+  for (int32_t i = 0; i < m->ntet; ++i) fputs("10\n", f);
+}
+
+/* Legacy VTK, ASCII: the same points, cells, cell data and point data as .vtu, for the tools that
+ * read the legacy format only. */
+static int write_vtk(const pm_mesh *m, const pm_element_values *q, FILE *f) {
+  int64_t ncell = (int64_t)m->nseg + m->ntri + m->ntet;
+  int64_t size = 3 * (int64_t)m->nseg + 4 * (int64_t)m->ntri + 5 * (int64_t)m->ntet;
+  fprintf(f, "# vtk DataFile Version 3.0\npackmesh %s\nASCII\nDATASET UNSTRUCTURED_GRID\n"
+             "POINTS %ld double\n", pm_version(), (long)m->nnode);
+  put_points(f, m);
+  fprintf(f, "CELLS %lld %lld\n", (long long)ncell, (long long)size);
+  for (int32_t i = 0; i < m->nseg; ++i)
+    fprintf(f, "2 %ld %ld\n", (long)m->seg[2 * (size_t)i], (long)m->seg[2 * (size_t)i + 1]);
+  for (int32_t i = 0; i < m->ntri; ++i) {
+    const int32_t *t = m->tri + 3 * (size_t)i;
+    fprintf(f, "3 %ld %ld %ld\n", (long)t[0], (long)t[1], (long)t[2]);
+  }
+  for (int32_t i = 0; i < m->ntet; ++i) {
+    const int32_t *t = m->tet + 4 * (size_t)i;
+    fprintf(f, "4 %ld %ld %ld %ld\n", (long)t[0], (long)t[1], (long)t[2], (long)t[3]);
+  }
+  fprintf(f, "CELL_TYPES %lld\n", (long long)ncell);
+  put_cell_types(f, m);
+  fprintf(f, "CELL_DATA %lld\nSCALARS cell int 1\nLOOKUP_TABLE default\n", (long long)ncell);
+  put_cell_cells(f, m);
+  for (int a = 0; a < PM_ELEMENT_VALUES; ++a) {
+    fprintf(f, "SCALARS %s double 1\nLOOKUP_TABLE default\n", pm_element_value_names[a]);
+    put_cell_values(f, m, q->tri[a], q->tet[a]);
+  }
+  fprintf(f, "POINT_DATA %ld\nSCALARS node_dim int 1\nLOOKUP_TABLE default\n", (long)m->nnode);
+  put_node_dims(f, m);
+  fprintf(f, "SCALARS node_cell int 1\nLOOKUP_TABLE default\n");
+  put_node_cells(f, m);
+  fprintf(f, "SCALARS node_par double 2\nLOOKUP_TABLE default\n");
+  put_node_pars(f, m);
+  return !ferror(f);
 }
 
 static int write_vtu(const pm_mesh *m, const pm_element_values *q, FILE *f) {
@@ -113,41 +191,31 @@ static int write_vtu(const pm_mesh *m, const pm_element_values *q, FILE *f) {
           (long)m->nnode, (long long)ncell);
   fprintf(f, "      <PointData Scalars=\"node_dim\">\n"
              "        <DataArray type=\"Int32\" Name=\"node_dim\" format=\"ascii\">\n");
-  for (int32_t v = 0; v < m->nnode; ++v) fprintf(f, "%d\n", (int)m->node_dim[v]);
+  put_node_dims(f, m);
   fprintf(f, "        </DataArray>\n"
              "        <DataArray type=\"Int32\" Name=\"node_cell\" format=\"ascii\">\n");
-  for (int32_t v = 0; v < m->nnode; ++v)
-    fprintf(f, "%ld\n", (long)(m->node_dim[v] >= 0 ? m->node_cell[v] : -1));
+  put_node_cells(f, m);
   fprintf(f, "        </DataArray>\n"
              "        <DataArray type=\"Float64\" Name=\"node_par\" NumberOfComponents=\"2\" "
              "format=\"ascii\">\n");
-  for (int32_t v = 0; v < m->nnode; ++v) {
-    put_double(f, m->node_par[2 * (size_t)v]);
-    fputc(' ', f);
-    put_double(f, m->node_par[2 * (size_t)v + 1]);
-    fputc('\n', f);
-  }
+  put_node_pars(f, m);
   fprintf(f, "        </DataArray>\n      </PointData>\n"
              "      <CellData Scalars=\"cell\">\n"
              "        <DataArray type=\"Int32\" Name=\"cell\" format=\"ascii\">\n");
-  for (int32_t i = 0; i < m->nseg; ++i) fprintf(f, "%ld\n", (long)m->seg_cell[i]);
-  for (int32_t i = 0; i < m->ntri; ++i) fprintf(f, "%ld\n", (long)m->tri_cell[i]);
-  for (int32_t i = 0; i < m->ntet; ++i) fprintf(f, "%ld\n", (long)m->tet_cell[i]);
+  put_cell_cells(f, m);
   fprintf(f, "        </DataArray>\n");
   /* Per-element quality (quality.h), for colouring in ParaView: radius ratio, R / l_min and the
    * smallest angle (a tet's smallest dihedral angle). */
-  for (int a = 0; a < PM_ELEMENT_VALUES; ++a)
-    vtu_quality_array(f, m, pm_element_value_names[a], q->tri[a], q->tet[a]);
+  for (int a = 0; a < PM_ELEMENT_VALUES; ++a) {
+    fprintf(f, "        <DataArray type=\"Float64\" Name=\"%s\" format=\"ascii\">\n",
+            pm_element_value_names[a]);
+    put_cell_values(f, m, q->tri[a], q->tet[a]);
+    fputs("        </DataArray>\n", f);
+  }
   fprintf(f, "      </CellData>\n"
              "      <Points>\n"
              "        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n");
-  for (int32_t v = 0; v < m->nnode; ++v) {
-    for (int k = 0; k < 3; ++k) {
-      if (k) fputc(' ', f);
-      put_double(f, m->xyz[3 * (size_t)v + k]);
-    }
-    fputc('\n', f);
-  }
+  put_points(f, m);
   fprintf(f, "        </DataArray>\n      </Points>\n      <Cells>\n"
              "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
   for (int32_t i = 0; i < m->nseg; ++i)
@@ -166,12 +234,9 @@ static int write_vtu(const pm_mesh *m, const pm_element_values *q, FILE *f) {
   for (int32_t i = 0; i < m->nseg; ++i) fprintf(f, "%lld\n", (long long)(off += 2));
   for (int32_t i = 0; i < m->ntri; ++i) fprintf(f, "%lld\n", (long long)(off += 3));
   for (int32_t i = 0; i < m->ntet; ++i) fprintf(f, "%lld\n", (long long)(off += 4));
-  /* VTK cell types: 3 = VTK_LINE, 5 = VTK_TRIANGLE, 10 = VTK_TETRA. */
   fprintf(f, "        </DataArray>\n"
              "        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n");
-  for (int32_t i = 0; i < m->nseg; ++i) fputs("3\n", f);
-  for (int32_t i = 0; i < m->ntri; ++i) fputs("5\n", f);
-  for (int32_t i = 0; i < m->ntet; ++i) fputs("10\n", f);
+  put_cell_types(f, m);
   fprintf(f, "        </DataArray>\n      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n"
              "</VTKFile>\n");
   return !ferror(f);
@@ -216,11 +281,11 @@ static int write_obj(const pm_mesh *m, FILE *f) {
 static pm_status hand_write(const pm_mesh *m, pm_mesh_format fmt, FILE *f, const char *path,
                             pm_error *err) {
   int ok;
-  if (fmt == PM_MESH_VTU) {
+  if (fmt == PM_MESH_VTU || fmt == PM_MESH_VTK) {
     pm_element_values q;
     pm_status s = pm_element_values_compute(m, &q, err);
     if (s) return s;
-    ok = write_vtu(m, &q, f);
+    ok = fmt == PM_MESH_VTU ? write_vtu(m, &q, f) : write_vtk(m, &q, f);
     pm_element_values_clear(&q);
   } else {
     ok = write_obj(m, f);
@@ -245,7 +310,7 @@ pm_status pm_mesh_write_with(const pm_mesh *m, const char *path, const pm_mesh_w
   if (fmt == PM_MESH_STL && m->ntri == 0)
     return pm_error_setf(err, PM_ERR_ARG, "%s: an STL file holds triangles; the mesh has none",
                          path);
-  int by_hand = fmt == PM_MESH_VTU || fmt == PM_MESH_OBJ;
+  int by_hand = fmt == PM_MESH_VTU || fmt == PM_MESH_VTK || fmt == PM_MESH_OBJ;
   pm_atomic_file a;
   s = pm_atomic_begin(&a, path, by_hand, err);
   if (s) return s;

@@ -13,13 +13,15 @@
  *          order). Unclassified nodes and untagged elements go on a catch-all entity of tag
  *          PM_MSH_UNTAGGED. Reading reverses this exactly (node and element order included, as
  *          they are stored by increasing node / element tag).
- *   .vtk   legacy VTK, ASCII, written by gmsh (points and cells; no tags).
+ *   .vtk   legacy VTK 3.0, ASCII, written here (gmsh's writer stores no tags): the points,
+ *          cells and arrays of .vtu below, as SCALARS of CELL_DATA and POINT_DATA, so that
+ *          ParaView colours the legacy file by quality and packmesh reads its cells back.
  *   .stl   ASCII STL, written by gmsh, one solid per face (triangles only; a mesh without
  *          triangles is refused).
  *   .mesh  Medit (INRIA), written by gmsh: element references are the entity tags (cell + 1,
  *          PM_MSH_UNTAGGED for untagged elements); vertex references carry no meaning.
- *   In .vtk and .mesh files point i is node i of the mesh (gmsh numbers nodes entity by entity,
- *   so for these formats every node is put on one entity).
+ *   In .mesh files point i is node i of the mesh (gmsh numbers nodes entity by entity, so for
+ *   this format every node is put on one entity).
  *   .vtu   VTK XML unstructured grid (ParaView), ASCII, written here (gmsh 4.8.4 has no .vtu
  *          writer): points, lines / triangles / tets, cell data "cell" (the cell index, -1 when
  *          untagged) and the per-element values of element_measure.h, "radius_ratio", "aspect_ratio"
@@ -36,10 +38,10 @@
  * coordinates must be finite and within +-PM_COORD_MAX (mesh.h), and every node an element uses
  * must be one the file defines; a file that fails any check is refused with a message naming the
  * file, the line (or byte) and the fault. Element entity tags t become cells t - 1 for .msh and
- * .mesh (PM_MSH_UNTAGGED becomes -1), .stl solids are cells 0, 1, ... in file order, .vtu cells
- * come from its "cell" array, .obj elements from their "g cell_N" groups; nodes are classified from .msh (MSH 4.1: the entity block;
- * MSH 2: the lowest-dimensional element using the node, as gmsh does) and from .vtu's node_dim /
- * node_cell / node_par arrays; other formats carry no classification (node_dim = -1). Lines,
+ * .mesh (PM_MSH_UNTAGGED becomes -1), .stl solids are cells 0, 1, ... in file order, .vtu and .vtk
+ * cells come from their "cell" array, .obj elements from their "g cell_N" groups; nodes are classified from .msh (MSH 4.1: the entity block;
+ * MSH 2: the lowest-dimensional element using the node, as gmsh does) and from .vtu's and .vtk's
+ * node_dim / node_cell / node_par arrays; other formats carry no classification (node_dim = -1). Lines,
  * triangles and tets are read; a higher-order element is reduced to its corner nodes (the other
  * nodes are dropped unless an element has them as corners); any other element type
  * (quadrangles, hexahedra, prisms, pyramids) is refused with a message naming it. Point

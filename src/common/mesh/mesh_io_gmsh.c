@@ -1,4 +1,4 @@
-/* The mesh formats gmsh writes (.msh, .vtk, .stl, .mesh): see mesh_io.h for the conventions.
+/* The mesh formats gmsh writes (.msh, .stl, .mesh): see mesh_io.h for the conventions.
  *
  * gmsh error reporting: with General.AbortOnError = 0 (gmsh_session.c), gmsh 4.8.4 reports most
  * failures of gmshWrite (an unknown output format, an unwritable file) only through its "last
@@ -86,7 +86,7 @@ static size_t element_order(const pm_mesh *m, ent_key *ek) {
   return ne;
 }
 
-/* Build the mesh as discrete entities of the current gmsh model. gmsh's VTK and Medit writers
+/* Build the mesh as discrete entities of the current gmsh model. gmsh's Medit and STL writers
  * number nodes entity by entity; so that node i of the mesh stays point i of the file, those
  * formats get every node on one entity (they store no node classification anyway). */
 static pm_status gmsh_build(const pm_mesh *m, int classify, int parametric, pm_error *err) {

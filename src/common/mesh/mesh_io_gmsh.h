@@ -8,7 +8,7 @@
 #include "common/mesh/mesh.h"
 #include "common/mesh/mesh_io.h"
 
-/* Write m in format fmt (.msh, .vtk, .stl or .mesh) to the temporary file tmp with gmsh; path
+/* Write m in format fmt (.msh, .stl or .mesh) to the temporary file tmp with gmsh; path
  * is the destination, named in messages. .msh files get the node parameters when parametric is
  * set, and the per-element values of element_measure.h as $ElementData. The mesh is checked
  * already (element indices, cell indices below PM_MSH_UNTAGGED - 1). */

@@ -4,12 +4,18 @@
  * VTK 5's (OFFSETS and CONNECTIVITY arrays). Point i is node i (tag i + 1); cells carry no tag.
  * Cells read: lines, poly-lines (one segment per pair of consecutive points), triangles, tets,
  * and their quadratic forms (reduced to their corners); vertices are ignored; any other cell
- * type is refused by name. What follows POINT_DATA, CELL_DATA or FIELD is not read.
+ * type is refused by name. Of the data sections, the SCALARS arrays packmesh writes are read:
+ * cell data "cell" (the element's cell, -1 untagged; UNSTRUCTURED_GRID only) and point data
+ * "node_dim", "node_cell", "node_par" (the node's classification, as in .vtu); other SCALARS
+ * arrays are passed over, and what follows any other data keyword (VECTORS, FIELD, ...) is not
+ * read.
  *
  * Checked: every count against the bytes left, each cell's point count against its type, and
  * every point a cell uses against the number of points ("cell 4 uses point 77; the file has 3
  * points").
  */
+#include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,6 +32,12 @@ typedef struct cell_list {
   const char *at; /* where the list starts, for messages */
 } cell_list;
 
+/* A SCALARS array packmesh reads (NULL values: absent). */
+typedef struct data_array {
+  double *v;      /* [n * ncomp] */
+  const char *at; /* where its values start, for messages */
+} data_array;
+
 typedef struct vtk {
   pm_rd *r;
   int binary;
@@ -35,6 +47,7 @@ typedef struct vtk {
   int32_t *types;  /* [cells.n] */
   uint64_t ntypes;
   const char *types_at;
+  data_array cell, node_dim, node_cell, node_par;
 } vtk;
 
 static void list_free(cell_list *l) {
@@ -228,6 +241,140 @@ static pm_status read_types(vtk *v) {
   return PM_OK;
 }
 
+/* The data types of legacy VTK arrays: size in bytes, real or integer, signed. */
+typedef struct data_type {
+  const char *name;
+  int size, real, is_signed;
+} data_type;
+
+static const data_type data_types[] = {
+    {"unsigned_char", 1, 0, 0},  {"char", 1, 0, 1},          {"unsigned_short", 2, 0, 0},
+    {"short", 2, 0, 1},          {"unsigned_int", 4, 0, 0},  {"int", 4, 0, 1},
+    {"unsigned_long", 8, 0, 0},  {"long", 8, 0, 1},          {"vtktypeuint64", 8, 0, 0},
+    {"vtktypeint64", 8, 0, 1},   {"vtktypeuint32", 4, 0, 0}, {"vtktypeint32", 4, 0, 1},
+    {"float", 4, 1, 1},          {"double", 8, 1, 1},
+};
+
+/* One value of a data array: a text number, or `t->size` big-endian bytes. */
+static pm_status data_value(vtk *v, const data_type *t, double *out) {
+  pm_rd *r = v->r;
+  if (!v->binary) return pm_rd_double(r, out, "a data value");
+  const unsigned char *b;
+  pm_status s = pm_rd_bytes(r, (size_t)t->size, "a data value", &b);
+  if (s) return s;
+  int swap = !pm_rd_host_big();
+  if (t->real) {
+    *out = t->size == 8 ? pm_rd_f64(b, swap) : (double)pm_rd_f32(b, swap);
+    return PM_OK;
+  }
+  uint64_t u = 0;
+  for (int k = 0; k < t->size; ++k) u = u << 8 | b[k]; /* big-endian, as the format requires */
+  if (t->is_signed && t->size < 8 && (u >> (8 * t->size - 1)))
+    u |= ~UINT64_C(0) << (8 * t->size); /* sign-extend */
+  *out = t->is_signed ? (double)(int64_t)u : (double)u;
+  return PM_OK;
+}
+
+/* The SCALARS arrays after "POINT_DATA n" or "CELL_DATA n": those packmesh writes are kept,
+ * others read past. Returns at the first keyword that is not SCALARS. */
+static pm_status read_data(vtk *v, int on_cells) {
+  pm_rd *r = v->r;
+  const char *at = r->p;
+  uint64_t n;
+  pm_status s = pm_rd_uint(r, 0, &n, "the number of %s data values", on_cells ? "cell" : "point");
+  if (s) return s;
+  if (on_cells ? !v->cells.off : !v->have_points)
+    return pm_rd_fail(r, at, 0, "%s before %s", on_cells ? "CELL_DATA" : "POINT_DATA",
+                      on_cells ? "CELLS" : "POINTS");
+  uint64_t want = on_cells ? v->cells.n : v->npoint;
+  if (n != want)
+    return pm_rd_fail(r, at, 0, "%s %llu for %llu %s", on_cells ? "CELL_DATA" : "POINT_DATA",
+                      (unsigned long long)n, (unsigned long long)want,
+                      on_cells ? "cells" : "points");
+  while (!s && pm_rd_peek_word(r, "SCALARS", 1)) {
+    const char *name, *type;
+    size_t nlen, tlen;
+    pm_rd_skip_space(r);
+    at = r->p;
+    if (!pm_rd_token(r, &name, &nlen) || (pm_rd_skip_space(r), !pm_rd_token(r, &type, &tlen)))
+      return pm_rd_fail(r, at, 0, "the file ends in a SCALARS line");
+    const data_type *t = NULL;
+    for (size_t i = 0; i < sizeof data_types / sizeof data_types[0]; ++i)
+      if (strlen(data_types[i].name) == tlen && strncasecmp(type, data_types[i].name, tlen) == 0)
+        t = &data_types[i];
+    if (!t) {
+      char q[40];
+      pm_rd_quote(type, tlen, q);
+      return pm_rd_fail(r, at, 0, "SCALARS of type '%s' (a VTK integer or real type expected)", q);
+    }
+    uint64_t ncomp = 1;
+    if (!pm_rd_peek_word(r, "LOOKUP_TABLE", 1)) {
+      if ((s = pm_rd_uint(r, 1, &ncomp, "the number of SCALARS components"))) return s;
+      if (ncomp > 4)
+        return pm_rd_fail(r, at, 0, "SCALARS with %llu components (1 to 4)",
+                          (unsigned long long)ncomp);
+      if ((s = pm_rd_expect(r, "LOOKUP_TABLE", 1, "the LOOKUP_TABLE line"))) return s;
+    }
+    pm_rd_skip_space(r);
+    const char *table;
+    size_t len;
+    if (!pm_rd_token(r, &table, &len)) return pm_rd_fail(r, r->p, 0, "the file ends in a LOOKUP_TABLE line");
+    if (v->binary && (s = data_line(v))) return s;
+    if ((s = pm_rd_room(r, n * ncomp, v->binary ? (uint64_t)t->size : 2, v->binary, "data values")))
+      return s;
+    data_array *keep = NULL;
+#define NAMED(w) (nlen == sizeof(w) - 1 && strncmp(name, w, nlen) == 0)
+    if (on_cells && NAMED("cell") && ncomp == 1) keep = &v->cell;
+    if (!on_cells && NAMED("node_dim") && ncomp == 1) keep = &v->node_dim;
+    if (!on_cells && NAMED("node_cell") && ncomp == 1) keep = &v->node_cell;
+    if (!on_cells && NAMED("node_par") && ncomp == 2) keep = &v->node_par;
+#undef NAMED
+    if (keep && keep->v) return pm_rd_fail(r, at, 0, "a second array of this name");
+    if (keep) {
+      keep->at = r->p;
+      keep->v = malloc((n > 0 ? n * ncomp : 1) * sizeof *keep->v);
+      if (!keep->v) return pm_error_setf(r->err, PM_ERR_NOMEM, "out of memory reading %s", r->name);
+    }
+    for (uint64_t i = 0; i < n * ncomp && !s; ++i) {
+      double x;
+      if (!(s = data_value(v, t, &x)) && keep) keep->v[i] = x;
+    }
+  }
+  return s;
+}
+
+/* A value of a "cell", "node_dim" or "node_cell" array as an index in [lo, INT32_MAX). */
+static int index_value(double x, double lo, int32_t *out) {
+  if (!(x >= lo && x < INT32_MAX) || x != (double)(int64_t)x) return 0;
+  *out = (int32_t)x;
+  return 1;
+}
+
+/* The nodes' classification from node_dim, node_cell and node_par, when the first two are
+ * there (as .vtu: a node with dimension -1 or cell -1 is unclassified). */
+static pm_status classify_points(vtk *v) {
+  pm_rd *r = v->r;
+  if (!v->node_dim.v || !v->node_cell.v) return PM_OK;
+  for (uint64_t i = 0; i < v->npoint; ++i) {
+    int32_t d, c;
+    if (!index_value(v->node_dim.v[i], -1, &d) || d > 3 || !index_value(v->node_cell.v[i], -1, &c))
+      return pm_rd_fail(r, v->node_dim.at, 0, "point %llu: node_dim %g, node_cell %g (-1..3 and "
+                        "-1 or more expected)", (unsigned long long)i, v->node_dim.v[i],
+                        v->node_cell.v[i]);
+    rd_node *n = &r->node[i];
+    n->dim = (int8_t)(d >= 0 && c >= 0 ? d : -1);
+    n->cell = n->dim >= 0 ? c : -1;
+    if (n->dim < 0 || !v->node_par.v) continue;
+    for (int k = 0; k < 2; ++k) {
+      n->par[k] = v->node_par.v[2 * i + k];
+      if (!isfinite(n->par[k]))
+        return pm_rd_fail(r, v->node_par.at, 0, "point %llu has a non-finite parameter",
+                          (unsigned long long)i);
+    }
+  }
+  return PM_OK;
+}
+
 /* VTK's cell types: name, and what packmesh makes of them. */
 typedef struct vtk_type {
   int id;
@@ -303,16 +450,22 @@ static pm_status refuse(vtk *v, const char *at, const char *what, uint64_t index
 static pm_status build(vtk *v, int polydata) {
   pm_rd *r = v->r;
   if (!v->have_points) return pm_error_setf(r->err, PM_ERR_PARSE, "%s: no POINTS", r->name);
-  pm_status s = PM_OK;
+  pm_status s = classify_points(v);
+  if (s) return s;
   if (!polydata) {
     if (!v->cells.off) return pm_error_setf(r->err, PM_ERR_PARSE, "%s: no CELLS", r->name);
     if (!v->types) return pm_error_setf(r->err, PM_ERR_PARSE, "%s: CELLS without CELL_TYPES", r->name);
     if (v->ntypes != v->cells.n)
       return pm_rd_fail(r, v->types_at, 0, "CELL_TYPES gives %llu types for %llu cells",
                         (unsigned long long)v->ntypes, (unsigned long long)v->cells.n);
-    for (uint64_t i = 0; i < v->cells.n && !s; ++i)
+    for (uint64_t i = 0; i < v->cells.n && !s; ++i) {
+      int32_t cell = -1;
+      if (v->cell.v && !index_value(v->cell.v[i], -1, &cell))
+        return pm_rd_fail(r, v->cell.at, 0, "cell %llu has cell index %g (-1 or more expected)",
+                          (unsigned long long)i, v->cell.v[i]);
       s = pm_rd_vtk_cell(r, v->cells.at, v->binary, v->types[i], i, v->cells.conn + v->cells.off[i],
-                         v->cells.off[i + 1] - v->cells.off[i], v->npoint, -1);
+                         v->cells.off[i + 1] - v->cells.off[i], v->npoint, cell);
+    }
     return s;
   }
   for (uint64_t i = 0; i < v->lines.n && !s; ++i)
@@ -364,6 +517,7 @@ pm_status pm_rd_parse_vtk(pm_rd *r) {
     if (r->err) r->err->code = PM_ERR_ARG;
     return PM_ERR_ARG;
   }
+  int in_data = 0;
   while (!s) {
     pm_rd_skip_space(r);
     if (r->p >= r->end) break;
@@ -387,8 +541,11 @@ pm_status pm_rd_parse_vtk(pm_rd *r) {
       list_free(&ignored);
     } else if (polydata && IS("TRIANGLE_STRIPS")) {
       s = refuse(&v, at, "triangle strip", 0);
-    } else if (IS("POINT_DATA") || IS("CELL_DATA") || IS("FIELD") || IS("METADATA")) {
-      break; /* data arrays: not read */
+    } else if (IS("POINT_DATA") || (!polydata && IS("CELL_DATA"))) {
+      in_data = 1;
+      s = read_data(&v, IS("CELL_DATA"));
+    } else if (in_data || IS("CELL_DATA") || IS("FIELD") || IS("METADATA")) {
+      break; /* other data arrays, and a POLYDATA's cell data: not read */
     } else {
       char q[40];
       pm_rd_quote(t, n, q);
@@ -401,5 +558,9 @@ pm_status pm_rd_parse_vtk(pm_rd *r) {
   list_free(&v.lines);
   list_free(&v.polys);
   free(v.types);
+  free(v.cell.v);
+  free(v.node_dim.v);
+  free(v.node_cell.v);
+  free(v.node_par.v);
   return s;
 }
