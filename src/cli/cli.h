@@ -10,7 +10,8 @@
  * main.c dispatches through the table of cli_commands.c.
  *
  * Each subcommand's usage function writes the text `packmesh NAME --help` prints. That text is
- * the one description of the command, laid out so that a program can read it:
+ * the one description of the command: its man page is made from it (cli_usage.h reads it), so
+ * it follows a layout that reader relies on:
  *   - it starts with "usage: packmesh NAME ..." and its continuation lines (indented); a line
  *     that starts, after its indent, with "packmesh " is another form of the command;
  *   - an option is a line indented by two or more spaces whose text starts with '-': its names
@@ -28,6 +29,7 @@ int pm_cli_cases(int argc, char **argv);
 int pm_cli_compare(int argc, char **argv);
 int pm_cli_demo(int argc, char **argv);
 int pm_cli_references(int argc, char **argv);
+int pm_cli_help(int argc, char **argv);
 
 void pm_cli_quality_usage(FILE *f);
 void pm_cli_mesh_usage(FILE *f);
@@ -35,5 +37,6 @@ void pm_cli_cases_usage(FILE *f);
 void pm_cli_compare_usage(FILE *f);
 void pm_cli_demo_usage(FILE *f);
 void pm_cli_references_usage(FILE *f);
+void pm_cli_help_usage(FILE *f);
 
 #endif /* PM_CLI_H */

@@ -20,6 +20,8 @@ static const pm_cli_command commands[] = {
      "run the default comparison on built-in cases (-o DIR)"},
     {"references", pm_cli_references, pm_cli_references_usage,
      "the full citations of the papers cited as papers/NNN"},
+    {"help", pm_cli_help, pm_cli_help_usage,
+     "a command's help, and the man pages made from it"},
 };
 #define NCOMMANDS ((int)(sizeof commands / sizeof commands[0]))
 
@@ -88,7 +90,7 @@ const char pm_cli_top_description[] =
     "packmesh meshes CAD models, planar domains and built-in cases with two particle-based\n"
     "methods (bubble, psys) and classic peers (gmsh, CGAL) on one geometry, connection and\n"
     "quality layer, measures meshes, and runs comparison studies of the methods.\n"
-    "'packmesh COMMAND --help' describes a command.";
+    "'packmesh COMMAND --help' (or 'packmesh help COMMAND') describes a command.";
 
 /* The widest line `packmesh --help` prints. */
 #define LINE_WIDTH 96

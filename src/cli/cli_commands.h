@@ -1,5 +1,6 @@
 /* The packmesh command's top level: the table of its subcommands and what holds for all of them
- * (exit codes, environment, files), which `packmesh --help` prints. */
+ * (exit codes, environment, files). `packmesh --help` prints these tables and packmesh(1) is
+ * made from the same ones (cli_man.c), so that the two cannot say different things. */
 #ifndef PM_CLI_COMMANDS_H
 #define PM_CLI_COMMANDS_H
 

@@ -15,7 +15,7 @@ int main(int argc, char **argv) {
     printf("packmesh %s\n", pm_version());
     return PM_EXIT_OK;
   }
-  if (strcmp(cmd, "--help") == 0 || strcmp(cmd, "-h") == 0 || strcmp(cmd, "help") == 0) {
+  if (strcmp(cmd, "--help") == 0 || strcmp(cmd, "-h") == 0) {
     pm_cli_top_usage(stdout);
     return PM_EXIT_OK;
   }
