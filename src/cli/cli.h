@@ -10,8 +10,8 @@
  * main.c dispatches through the table of cli_commands.c.
  *
  * Each subcommand's usage function writes the text `packmesh NAME --help` prints. That text is
- * the one description of the command: its man page is made from it (cli_usage.h reads it), so
- * it follows a layout that reader relies on:
+ * the one description of the command: its man page and the bash completion are made from it
+ * (cli_usage.h reads it), so it follows a layout they rely on:
  *   - it starts with "usage: packmesh NAME ..." and its continuation lines (indented); a line
  *     that starts, after its indent, with "packmesh " is another form of the command;
  *   - an option is a line indented by two or more spaces whose text starts with '-': its names

@@ -21,7 +21,7 @@ static const pm_cli_command commands[] = {
     {"references", pm_cli_references, pm_cli_references_usage,
      "the full citations of the papers cited as papers/NNN"},
     {"help", pm_cli_help, pm_cli_help_usage,
-     "a command's help, and the man pages made from it"},
+     "a command's help, and the man pages and bash completion made from it"},
 };
 #define NCOMMANDS ((int)(sizeof commands / sizeof commands[0]))
 

@@ -1,6 +1,7 @@
 /* The packmesh command's top level: the table of its subcommands and what holds for all of them
- * (exit codes, environment, files). `packmesh --help` prints these tables and packmesh(1) is
- * made from the same ones (cli_man.c), so that the two cannot say different things. */
+ * (exit codes, environment, files). `packmesh --help` prints these tables; packmesh(1) and the
+ * bash completion are made from the same ones (cli_man.c, cli_completion.c), so that the three
+ * cannot say different things. */
 #ifndef PM_CLI_COMMANDS_H
 #define PM_CLI_COMMANDS_H
 

@@ -1,8 +1,9 @@
-/* packmesh help: the overview of `packmesh --help`, a command's --help, and the manual pages
- * made from them (cli_man.h).
+/* packmesh help: the overview of `packmesh --help`, a command's --help, and what is made from
+ * them: the manual pages (cli_man.h) and the bash completion (cli_completion.h).
  *
  *   packmesh help [COMMAND]
  *   packmesh help --man [COMMAND] [-o FILE]
+ *   packmesh help --bash-completion [-o FILE]
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,21 +14,29 @@
 
 #include "cli/cli.h"
 #include "cli/cli_commands.h"
+#include "cli/cli_completion.h"
 #include "cli/cli_man.h"
 #include "cli/cli_util.h"
 
 void pm_cli_help_usage(FILE *f) {
   fputs("usage: packmesh help [COMMAND]\n"
         "       packmesh help --man [COMMAND] [-o FILE]\n"
+        "       packmesh help --bash-completion [-o FILE]\n"
         "\n"
         "Prints the overview of 'packmesh --help', or COMMAND's help as 'packmesh COMMAND --help'\n"
-        "does. The manual pages are made from these texts and from the tables behind them (the\n"
-        "methods and their parameters, the built-in cases, the references), so that they say\n"
-        "what --help says.\n"
+        "does. The manual pages and the bash completion are made from these texts and from the\n"
+        "tables behind them (the methods and their parameters, the built-in cases, the\n"
+        "references), so that they say what --help says.\n"
         "  --man              the manual page packmesh(1), or packmesh-COMMAND(1), in roff ('man -l\n"
         "                     FILE' shows it)\n"
+        "  --bash-completion  the bash completion: commands, options, methods, the --set keys of\n"
+        "                     the method given, built-in cases, and files by their extensions\n"
         "  -o, --output FILE  write FILE, whole or not at all, instead of standard output\n"
-        "  --help             this text\n",
+        "  --help             this text\n"
+        "cmake --install puts the pages into share/man/man1 and the completion into\n"
+        "share/bash-completion/completions under its prefix. Without installing, 'packmesh help\n"
+        "--bash-completion -o ~/.local/share/bash-completion/completions/packmesh' gives the\n"
+        "completion to one user.\n",
         f);
 }
 
@@ -55,7 +64,7 @@ static int deliver(const char *text, size_t len, const char *out) {
 }
 
 int pm_cli_help(int argc, char **argv) {
-  enum { TEXT, MAN } what = TEXT;
+  enum { TEXT, MAN, COMPLETION } what = TEXT;
   const char *command = NULL, *out = NULL;
   for (int i = 1; i < argc;) {
     const char *a = argv[i], *v = NULL;
@@ -64,8 +73,9 @@ int pm_cli_help(int argc, char **argv) {
       pm_cli_help_usage(stdout);
       return PM_EXIT_OK;
     }
-    if (pm_cli_flag(a, "man")) {
-      what = MAN;
+    if (pm_cli_flag(a, "man") || pm_cli_flag(a, "bash-completion")) {
+      if (what != TEXT) return pm_cli_usage("help", "--man and --bash-completion exclude each other");
+      what = pm_cli_flag(a, "man") ? MAN : COMPLETION;
       ++i;
       continue;
     }
@@ -93,8 +103,10 @@ int pm_cli_help(int argc, char **argv) {
                pm_cli_command_at(i)->name);
     return pm_cli_usage("help", "unknown command '%s' (known: %s)", command, names);
   }
+  if (what == COMPLETION && command)
+    return pm_cli_usage("help", "--bash-completion takes no COMMAND ('%s')", command);
   if (what == TEXT) {
-    if (out) return pm_cli_usage("help", "-o applies to --man");
+    if (out) return pm_cli_usage("help", "-o applies to --man and --bash-completion");
     if (c)
       c->usage(stdout);
     else
@@ -106,7 +118,7 @@ int pm_cli_help(int argc, char **argv) {
   size_t len = 0;
   FILE *f = open_memstream(&text, &len);
   if (!f) return pm_cli_fail("out of memory");
-  int bad = pm_cli_man_page(command, f);
+  int bad = what == MAN ? pm_cli_man_page(command, f) : pm_cli_bash_completion(f);
   if (fclose(f) != 0) bad = 1;
   int rc = bad ? pm_cli_fail("out of memory") : deliver(text, len, out);
   free(text);

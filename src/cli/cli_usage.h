@@ -1,7 +1,7 @@
 /* A command's usage text (the text of `packmesh NAME --help`, laid out as cli.h describes) read
  * into its parts: the forms of its command line, and its body as paragraphs and options in
- * their order. The man pages (cli_man.c) are made from these parts, so that they hold no second
- * copy of what --help says. */
+ * their order. The man pages (cli_man.c) and the bash completion (cli_completion.c) are made
+ * from these parts, so that neither holds a second copy of what --help says. */
 #ifndef PM_CLI_USAGE_H
 #define PM_CLI_USAGE_H
 
