@@ -7,7 +7,8 @@
 # A fresh Debian 12 machine run as root has no sudo, so the script never calls sudo as root and
 # the README runs it without sudo. clang and libclang-rt-14-dev (libFuzzer) build the fuzz targets
 # (fuzz/README.md); strace lets test_cli_outputs deliver a signal at each rename of a run (the
-# test is skipped without it); python3-meshio reads packmesh's files back in test_mesh_meshio.
+# test is skipped without it); python3-meshio reads packmesh's files back in test_mesh_meshio;
+# groff-base renders the man pages in test_cli_man (groff -ww: no warning).
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 
@@ -29,6 +30,7 @@ packages=(
   gnuplot-nox
   clang libclang-rt-14-dev strace
   python3-meshio python3-numpy
+  groff-base
 )
 
 elevate=()

@@ -9,14 +9,18 @@
 #include "cli/cli.h"
 #include "cli/cli_util.h"
 
-static int usage_text(void) {
-  printf("usage: packmesh cases [--json]\n"
-         "Lists the built-in cases: use them as INPUT written case:NAME.\n");
-  return PM_EXIT_OK;
+void pm_cli_cases_usage(FILE *f) {
+  fputs("usage: packmesh cases [--json]\n"
+        "Lists the built-in cases: use them as INPUT written case:NAME. Each has a dimension (2:\n"
+        "a planar domain, 3: a solid), a default size field and the paper or construction it\n"
+        "comes from.\n"
+        "  --json  the same as a JSON array of objects (name, dim, size, description, source)\n"
+        "  --help  this text\n",
+        f);
 }
 
 int pm_cli_cases(int argc, char **argv) {
-  int json = 0, done = pm_cli_listing_args(argc, argv, "cases", usage_text, &json);
+  int json = 0, done = pm_cli_listing_args(argc, argv, "cases", pm_cli_cases_usage, &json);
   if (done >= 0) return done;
   const int n = pm_case_count();
   if (!json) {

@@ -26,15 +26,19 @@ static const char *const usage_text =
     "sweep_value, status, error, command, then every --stats key), elements.csv (per-element\n"
     "measures), runs/ID/ (mesh, stats, trace, log of each run), plots/ (gnuplot scripts, data,\n"
     "SVG, PNG, PDF) and report.md + report.html.\n"
+    "  -o, --output DIR  the study's folder (made when missing; an earlier study in it resumes)\n"
     "  --jobs N          runs at once (default: the number of cores)\n"
     "  --timeout S       time limit of each run in seconds (default: the suite's, else 600)\n"
     "  --retry-failed    rerun the runs that failed in an earlier invocation into DIR\n"
     "  --quiet           no progress on stderr\n"
+    "  --help            this text\n"
     "Running again into the same DIR resumes: finished runs are not redone; a run whose\n"
     "command changed (an edited suite) is. A failed run (error, crash, time limit) is recorded\n"
     "in its row and the study goes on; the exit code is 0 once the report is written.\n"
     "SIGINT / SIGTERM end the running runs and exit 130 / 143; the next run resumes.\n"
     "The suite format is described in compare/README.md.\n";
+
+void pm_cli_compare_usage(FILE *f) { fputs(usage_text, f); }
 
 int pm_cli_compare_execute(pm_cmp_suite *s, const char *dir, const pm_cli_compare_options *o,
                            const char *invocation) {

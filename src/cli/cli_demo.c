@@ -21,9 +21,15 @@ static const char *const usage_text =
     "\n"
     "Runs the default comparison on built-in cases (qi3, shimada, and the CAD solid boxhole\n"
     "with tets) with bubble, psys, gmsh-frontal and cgal (planar cases), node counts matched\n"
-    "to bubble's, and writes the study into DIR (default ./packmesh-demo): results.csv,\n"
-    "elements.csv, plots/ and report.html / report.md. Running it again resumes. See\n"
-    "'packmesh compare --help' for what the folder holds.\n";
+    "to bubble's, and writes the study into DIR: results.csv, elements.csv, plots/ and\n"
+    "report.html / report.md. Running it again resumes. See 'packmesh compare --help' for what\n"
+    "the folder holds.\n"
+    "  -o, --output DIR  the study's folder (default ./packmesh-demo)\n"
+    "  --jobs N          runs at once (default: the number of cores)\n"
+    "  --quiet           no progress on stderr\n"
+    "  --help            this text\n";
+
+void pm_cli_demo_usage(FILE *f) { fputs(usage_text, f); }
 
 /* Per-run time limit: the demo is meant to finish in two minutes on two cores. */
 #define DEMO_TIMEOUT_S 90

@@ -22,6 +22,7 @@
 #include <packmesh/packmesh_extended.h>
 
 #include "cli/cli.h"
+#include "cli/cli_commands.h"
 #include "cli/cli_progress.h"
 #include "cli/cli_signal.h"
 #include "cli/cli_size.h"
@@ -54,37 +55,56 @@ static void tracing_names(char *buf, size_t len) {
   }
 }
 
-static int usage_text(void) {
+void pm_cli_mesh_usage(FILE *f) {
   char names[512], tracing[512];
   pm_method_names(names, sizeof names);
   tracing_names(tracing, sizeof tracing);
-  printf("usage: packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]\n"
-         "                    [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]\n"
-         "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--msh-parametric]\n"
-         "                    [--stats STATS.json] [--trace TRACE.csv] [--frames DIR]\n"
-         "                    [--quiet | --progress]\n"
-         "       packmesh mesh --method M --help\n\n"
-         "INPUT is a CAD file (.step .stp .iges .igs .brep), case:NAME (packmesh cases) or a case\n"
-         "file (.json). --size is the desired edge length: a number, an expression in x, y, z, r,\n"
-         "or 'inferred' (psys's sizing inference). Without --size the input's own size (built-in\n"
-         "cases, case files) or the method's default is used.\n"
-         "On a terminal a progress line shows the run in flight (method, phase, iteration,\n"
-         "particles, elapsed time); --progress shows it into a file or pipe too, a line every 2 s;\n"
-         "--quiet prints nothing but errors.\n"
-         "--msh-parametric writes each .msh node's parameters on its curve or face (gmsh reads\n"
-         "them; meshio 7 does not, so they are off by default).\n"
-         "--volume also meshes the input's volumes with tets (an input without volumes is a usage\n"
-         "error; 'packmesh cases' gives the cases' dimensions). --trace and --frames record the\n"
-         "iterations of the particle methods (%s); the others record none, and\n"
-         "asking them is a usage error. --target-nodes N scales the size field until the node\n"
-         "count is within %g%% of N (at most %d runs); a miss is a warning on stderr, and\n"
-         "target_nodes_met in --stats.\n"
-         "The outputs (-o, --stats, --trace, --frames) are written together or not at all; two of\n"
-         "them naming one file is a usage error; SIGINT / SIGTERM leave none (exit 130 / 143).\n"
-         "methods: %s (default bubble)\n"
-         "'packmesh mesh --method M --help' lists M's parameters (--set KEY=VALUE).\n",
-         tracing, 100 * TARGET_TOL, TARGET_RUNS, names);
-  return PM_EXIT_OK;
+  pm_generate_options defaults;
+  pm_generate_options_init(&defaults);
+  fprintf(f,
+          "usage: packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]\n"
+          "                    [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]\n"
+          "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--msh-parametric]\n"
+          "                    [--stats STATS.json] [--trace TRACE.csv] [--frames DIR]\n"
+          "                    [--quiet | --progress]\n"
+          "       packmesh mesh --method M --help\n\n"
+          "Meshes INPUT with one method, checks the mesh and writes it to OUT, in the format its\n"
+          "extension names. INPUT is a CAD file (" PM_CLI_CAD_EXTENSIONS "), case:NAME (packmesh\n"
+          "cases) or a case file (.json).\n"
+          "  --method M          the mesher, one of the methods below (default bubble)\n"
+          "  --size S            the desired edge length: a number, an expression in x, y, z, r, or\n"
+          "                      'inferred' (psys's sizing inference). Without --size the input's own\n"
+          "                      size (built-in cases, case files) or the method's default is used.\n"
+          "  --set KEY=VALUE     set one of the method's parameters (repeatable); 'packmesh mesh\n"
+          "                      --method M --help' lists M's with their defaults, ranges and sources\n"
+          "  --seed N            the seed of every random choice (default 1): one seed, one mesh\n"
+          "  --threads N         threads, 1 to 1024 (default: OMP_NUM_THREADS, else one per core)\n"
+          "  --volume            also mesh the input's volumes with tets (an input without volumes is\n"
+          "                      a usage error; 'packmesh cases' gives the cases' dimensions)\n"
+          "  --target-nodes N    scale the size field until the node count is within %g%% of N (at\n"
+          "                      most %d runs); a miss is a warning on stderr, and target_nodes_met in\n"
+          "                      --stats\n"
+          "  --max-nodes N       the node cap (default %lld): a size field that would need more nodes\n"
+          "                      is refused before any method grows\n"
+          "  -o, --output OUT    the mesh: .msh, .vtk, .vtu, .stl, .obj or .mesh\n"
+          "  --msh-parametric    write each .msh node's parameters on its curve or face (gmsh reads\n"
+          "                      them; meshio 7 does not, so they are off by default)\n"
+          "  --stats FILE        the run's stats as JSON: counts, validity, quality, distance, times\n"
+          "  --trace FILE        the iterations of the run as CSV, a row each (for convergence plots)\n"
+          "  --frames DIR        snapshots of the particles during the run: ParaView .vtu files\n"
+          "                      indexed by DIR/frames.pvd, and SVG pictures of planar ones\n"
+          "  --quiet             print nothing but errors\n"
+          "  --progress          show the progress line (method, phase, iteration, particles,\n"
+          "                      elapsed time) into a file or pipe too, a line every 2 s; on a\n"
+          "                      terminal it is shown anyway\n"
+          "  --help              this text; with --method M, M's parameters\n"
+          "--trace and --frames record the iterations of the particle methods (%s); the\n"
+          "others record none, and asking them is a usage error.\n"
+          "The outputs (-o, --stats, --trace, --frames) are written together or not at all; two of\n"
+          "them naming one file is a usage error; SIGINT / SIGTERM leave none (exit 130 / 143).\n"
+          "methods: %s (default bubble)\n"
+          "'packmesh mesh --method M --help' lists M's parameters (--set KEY=VALUE).\n",
+          100 * TARGET_TOL, TARGET_RUNS, (long long)defaults.max_nodes, tracing, names);
 }
 
 static int method_help(const pm_method *m) {
@@ -200,7 +220,10 @@ int pm_cli_mesh(int argc, char **argv) {
   mesh_opts o;
   int rc = parse(argc, argv, &o);
   if (rc) return rc;
-  if (o.help && !o.method_given) return usage_text();
+  if (o.help && !o.method_given) {
+    pm_cli_mesh_usage(stdout);
+    return PM_EXIT_OK;
+  }
   const pm_method *method = pm_method_find(o.method);
   if (!method) {
     char names[512];

@@ -19,30 +19,36 @@
 #include <packmesh/packmesh_extended.h>
 
 #include "cli/cli.h"
+#include "cli/cli_commands.h"
 #include "cli/cli_util.h"
 
 static const char *const usage_text =
-    "usage: packmesh quality MESH [--size EXPR|NUMBER] [--geometry INPUT] [--json | --csv]\n"
+    "usage: packmesh quality MESH.(msh|vtk|vtu|stl|obj|mesh) [--size EXPR|NUMBER]\n"
+    "                        [--geometry INPUT] [--json | --csv]\n"
     "\n"
     "Measure the elements of MESH (.msh, .vtk, .vtu, .stl, .mesh or .obj) and check its validity.\n"
-    "  --size S      the desired edge length d(x, y, z), a number or an expression in x, y, z, r\n"
-    "                (\"0.1\", \"0.2*abs(r-2)+0.15\"): adds edge length / d at the edge midpoints\n"
-    "  --geometry IN the model MESH discretizes: a CAD file (.step, .stp, .iges, .igs, .brep),\n"
-    "                case:NAME or a case file (.json). The checker then verifies conformity,\n"
-    "                closed shells and orientation against it (element entity tag t = cell t-1),\n"
-    "                and the two-sided distance between mesh and model is measured. Nodes that the\n"
-    "                file does not put on cells (.stl, .mesh, .obj, other tools' files) are\n"
-    "                classified onto the model's vertices, curves, faces and volumes first. A\n"
-    "                case's own size field is used when --size is not given.\n"
-    "  --json   the stats JSON (the keys of packmesh mesh --stats) on stdout\n"
-    "  --csv    per-element measures, one row per element:\n"
-    "           kind,index,cell,radius_ratio,aspect_ratio,min_angle_deg,max_angle_deg\n"
-    "           (for tets the angles are dihedral angles)\n"
-    "  --help   this text\n"
+    "  --size S          the desired edge length d(x, y, z), a number or an expression in x, y,\n"
+    "                    z, r (\"0.1\", \"0.2*abs(r-2)+0.15\"): adds edge length / d at the edge\n"
+    "                    midpoints\n"
+    "  --geometry INPUT  the model MESH discretizes: a CAD file (" PM_CLI_CAD_EXTENSIONS "),\n"
+    "                    case:NAME or a case file (.json). The checker then verifies conformity,\n"
+    "                    closed shells and orientation against it (element entity tag t = cell\n"
+    "                    t-1), and the two-sided distance between mesh and model is measured.\n"
+    "                    Nodes that the file does not put on cells (.stl, .mesh, .obj, other\n"
+    "                    tools' files) are classified onto the model's vertices, curves, faces\n"
+    "                    and volumes first. A case's own size field is used when --size is not\n"
+    "                    given.\n"
+    "  --json            the stats JSON (the keys of packmesh mesh --stats) on stdout\n"
+    "  --csv             per-element measures, one row per element:\n"
+    "                    kind,index,cell,radius_ratio,aspect_ratio,min_angle_deg,max_angle_deg\n"
+    "                    (for tets the angles are dihedral angles)\n"
+    "  --help            this text\n"
     "Measures: radius ratio 2r/R (triangles, 1 = equilateral) and 3r/R (tets); aspect ratio\n"
     "R/l_min; min/max angles; eps_t and eps_g of Shimada & Gossard (1995, eq. 8-9); R/l_min\n"
     "of the triangles by site: boundary (a corner on a curve or vertex), irregular (an interior\n"
     "corner of degree other than 6), regular (three interior corners of degree 6).\n";
+
+void pm_cli_quality_usage(FILE *f) { fputs(usage_text, f); }
 
 int pm_cli_quality(int argc, char **argv) {
   const char *path = NULL, *size_text = NULL, *geometry = NULL;

@@ -12,15 +12,17 @@
 #include "cli/cli_util.h"
 #include "compare/src/compare.h"
 
-static int usage_text(void) {
-  printf("usage: packmesh references [--json]\n"
-         "The papers that help texts and reports cite as papers/NNN (or NNN in a parameter's\n"
-         "[SOURCE]), with their full citations and what packmesh takes from each.\n");
-  return PM_EXIT_OK;
+void pm_cli_references_usage(FILE *f) {
+  fputs("usage: packmesh references [--json]\n"
+        "The papers that help texts and reports cite as papers/NNN (or NNN in a parameter's\n"
+        "[SOURCE]), with their full citations and what packmesh takes from each.\n"
+        "  --json  the same as a JSON array of objects (key, citation, used_for)\n"
+        "  --help  this text\n",
+        f);
 }
 
 int pm_cli_references(int argc, char **argv) {
-  int json = 0, done = pm_cli_listing_args(argc, argv, "references", usage_text, &json);
+  int json = 0, done = pm_cli_listing_args(argc, argv, "references", pm_cli_references_usage, &json);
   if (done >= 0) return done;
   if (!json) {
     for (int i = 0; i < pm_cmp_reference_count(); ++i) {

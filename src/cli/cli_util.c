@@ -114,10 +114,13 @@ double pm_cli_now(void) {
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-int pm_cli_listing_args(int argc, char **argv, const char *cmd, int (*usage)(void), int *json) {
+int pm_cli_listing_args(int argc, char **argv, const char *cmd, void (*usage)(FILE *f), int *json) {
   *json = 0;
   for (int i = 1; i < argc; ++i) {
-    if (pm_cli_flag(argv[i], "help") || strcmp(argv[i], "-h") == 0) return usage();
+    if (pm_cli_flag(argv[i], "help") || strcmp(argv[i], "-h") == 0) {
+      usage(stdout);
+      return PM_EXIT_OK;
+    }
     if (pm_cli_flag(argv[i], "json")) {
       *json = 1;
       continue;

@@ -6,6 +6,7 @@
 #include <packmesh/packmesh.h>
 
 #include <stddef.h>
+#include <stdio.h>
 
 enum { PM_EXIT_OK = 0, PM_EXIT_FAIL = 1, PM_EXIT_USAGE = 2 };
 
@@ -40,8 +41,8 @@ int pm_cli_flag(const char *arg, const char *name);
 
 /* The arguments of a listing command that takes --json and --help only (`cases`,
  * `references`): *json is set for --json; returns -1 to go on, or the exit code (--help
- * printed by usage(), or a usage error naming cmd). */
-int pm_cli_listing_args(int argc, char **argv, const char *cmd, int (*usage)(void), int *json);
+ * printed by usage() on stdout, or a usage error naming cmd). */
+int pm_cli_listing_args(int argc, char **argv, const char *cmd, void (*usage)(FILE *f), int *json);
 
 /* When argv[*i] is the option --name, written "--name VALUE" or "--name=VALUE": set *value,
  * advance *i past it and return 1; return 0 when it is another argument; return -1 when the

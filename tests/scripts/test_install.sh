@@ -1,7 +1,9 @@
 #!/bin/bash
 # The installed library as a program that embeds packmesh sees it (issue: "install like a library"):
 #   1. `cmake --install` into a fresh prefix: libpackmesh.so, packmesh.h, packmesh.pc, the CMake
-#      package and the command;
+#      package, the command, its man pages (packmesh(1) and one per command of `packmesh
+#      --help`, under share/man/man1, where `man` finds them) and its bash completion (under
+#      share/bash-completion/completions, completing `packmesh me` to mesh);
 #   2. libpackmesh.so exports the public API only: every dynamic symbol is pm_*;
 #   3. the four examples compile with nothing but `pkg-config --cflags --libs packmesh`, and run;
 #      mesh_cad meshes case:qi3 with bubble to the node count `packmesh mesh case:qi3 --method
@@ -25,6 +27,24 @@ pc=$(find "$prefix" -name packmesh.pc | head -1)
 [ -n "$(find "$prefix" -name packmesh-config.cmake)" ] || fail "no CMake package installed"
 [ -x "$prefix/bin/packmesh" ] || fail "no packmesh command installed"
 echo "installed: $lib/libpackmesh.so, $pc"
+
+# The man pages and the completion, beside the command.
+man1=$prefix/share/man/man1
+commands=$("$prefix/bin/packmesh" --help | awk '/^commands:/ { on = 1; next } on && NF == 0 { exit } on { print $1 }')
+[ "$(echo "$commands" | wc -w)" -ge 6 ] || fail "packmesh --help lists too few commands: $commands"
+for page in packmesh $(for c in $commands; do echo "packmesh-$c"; done); do
+  [ -s "$man1/$page.1" ] || fail "no man page $page.1 installed in $man1"
+done
+if command -v man >/dev/null; then
+  found=$(MANPATH=$prefix/share/man man -w packmesh-mesh) || fail "man -w packmesh-mesh finds no page under $prefix"
+  [ "$found" = "$man1/packmesh-mesh.1" ] || fail "man -w packmesh-mesh gives $found"
+fi
+completion=$prefix/share/bash-completion/completions/packmesh
+[ -s "$completion" ] || fail "no bash completion installed at $completion"
+got=$(bash --norc -c 'source "$1" && COMP_WORDS=(packmesh me) COMP_CWORD=1 && _packmesh && echo "${COMPREPLY[*]}"' \
+      bash "$completion") || fail "the installed completion does not load"
+[ "$got" = mesh ] || fail "the installed completion completes 'packmesh me' to '$got'"
+echo "installed: $(echo $commands | wc -w) commands' man pages and packmesh(1) in $man1, the completion $completion"
 
 # 2. Only pm_* symbols leave the library.
 others=$(nm -D --defined-only "$lib/libpackmesh.so" | awk '$3 != "" {print $3}' | sed 's/@.*//' \
