@@ -221,7 +221,10 @@ static int build_command(const runner *R, const pm_cmp_row *r, long target, argv
     if (i) strcat(cmd, " ");
     strcat(cmd, q);
   }
-  return 0;
+  /* The run's phase into its log.txt every 2 s, which the updating line shows for the run in
+   * flight. Left out of the recorded command: it changes no output, and a resumed study compares
+   * the commands to decide what to run again. */
+  return arg_add(a, "--progress") ? -1 : 0;
 }
 
 /* ---- status.json --------------------------------------------------------------------------- */
@@ -340,16 +343,60 @@ static pid_t spawn(const char *exe, char *const argv[], const char *cwd, const c
 
 /* ---- progress ------------------------------------------------------------------------------ */
 
-static void draw(runner *R, int running, int force) {
+/* The last progress line of a running mesh run's log.txt ("packmesh: METHOD: TEXT, m:ss.s"), as
+ * TEXT with its time, into buf; "" when it has printed none yet. Reads the file's last 512 bytes
+ * only: the log grows by a line every 2 s. */
+static void run_phase(const pm_cmp_study *st, const pm_cmp_row *r, char *buf, size_t len) {
+  buf[0] = '\0';
+  char p[4096], tail[513];
+  row_path(st, r, "log.txt", p, sizeof p);
+  FILE *f = fopen(p, "rb");
+  if (!f) return;
+  size_t n = 0;
+  if (fseek(f, 0, SEEK_END) == 0) {
+    long size = ftell(f);
+    if (size > 0 && fseek(f, size > 512 ? size - 512 : 0, SEEK_SET) == 0)
+      n = fread(tail, 1, sizeof tail - 1, f);
+  }
+  fclose(f);
+  tail[n] = '\0';
+  /* The last complete line that the progress wrote. */
+  char *line = NULL;
+  for (char *q = tail; (q = strstr(q, "packmesh: ")) != NULL; q += 10)
+    if (strchr(q, '\n')) line = q;
+  if (!line) return;
+  *strchr(line, '\n') = '\0';
+  const char *text = strchr(line + 10, ':'); /* past "packmesh: METHOD" */
+  snprintf(buf, len, "%s", text && text[1] == ' ' ? text + 2 : line + 10);
+}
+
+static void draw(runner *R, const job *slots, int jobs, int running, int force) {
   const pm_cmp_run_opts *o = R->o;
   if (o->progress != 2) return;
   double now = pm_seconds();
   if (!force && now - R->last_draw < 0.5) return;
   R->last_draw = now;
   int el = (int)(now - R->t_start);
+  /* The run in flight longest, with its phase; else the last run finished. */
+  const job *oldest = NULL;
+  for (int k = 0; k < jobs; ++k)
+    if (slots[k].row >= 0 && slots[k].stage == 0 && (!oldest || slots[k].t0 < oldest->t0))
+      oldest = &slots[k];
+  char flight[700] = "";
+  if (oldest) {
+    char title[320], phase[200];
+    pm_cmp_row_title(R->st, &R->st->rows[oldest->row], title, sizeof title);
+    run_phase(R->st, &R->st->rows[oldest->row], phase, sizeof phase);
+    int t = (int)(now - oldest->t0);
+    if (phase[0])
+      snprintf(flight, sizeof flight, "%s: %s", title, phase);
+    else
+      snprintf(flight, sizeof flight, "%s: started %d:%02d ago", title, t / 60, t % 60);
+  }
+  const char *tail = oldest ? flight : R->last;
   char line[1200];
   snprintf(line, sizeof line, "[%d/%d] %d:%02d %d running%s%s", R->ndone, R->st->nrow, el / 60,
-           el % 60, running, R->last[0] ? " | " : "", R->last);
+           el % 60, running, tail[0] ? " | " : "", tail);
   /* One screen line: a wrapped line could not be rewritten by the carriage return. */
   struct winsize ws;
   int width = ioctl(fileno(o->log), TIOCGWINSZ, &ws) == 0 && ws.ws_col > 10 ? ws.ws_col : 80;
@@ -637,7 +684,7 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
       }
       while (next < st->nrow && R.state[next] != R_WAIT) next++;
     }
-    draw(&R, running, progress);
+    draw(&R, slots, jobs, running, progress);
     if (!progress) {
       struct timespec ts = {0, 20 * 1000 * 1000};
       nanosleep(&ts, NULL);
@@ -670,7 +717,7 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
     }
   }
   if (o->progress == 2) {
-    draw(&R, 0, 1);
+    draw(&R, slots, 0, 0, 1);
     fputc('\n', o->log);
     fflush(o->log);
   }

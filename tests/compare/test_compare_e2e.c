@@ -686,12 +686,51 @@ static void test_bad_suites(void **state) {
   assert_int_equal(sh("'%s' compare '%s/none.json' -o '%s/none' 2> /dev/null", PM_CLI, root, root), 1);
 }
 
+/* On a terminal the updating line names the run in flight and its phase, read from the run's
+ * log.txt, where the run writes it (--progress, left out of the recorded command). */
+static void test_progress_in_flight(void **state) {
+  (void)state;
+  if (mesh_cli_broken) skip();
+  if (sh("command -v script > /dev/null 2>&1") != 0) {
+    print_message("script(1) is missing (util-linux): the terminal line is not checked\n");
+    skip();
+  }
+  char suite[1024], dir[1024];
+  snprintf(suite, sizeof suite, "%s/flight.json", root);
+  write_file(suite, "{\"cases\": [{\"input\": \"case:boxhole\", \"volume\": true}], "
+                    "\"methods\": [\"bubble\"], \"seeds\": [1]}");
+  snprintf(dir, sizeof dir, "%s/flight", root);
+  assert_int_equal(sh("script -qec \"'%s' compare '%s' -o '%s' --jobs 1\" /dev/null > '%s.tty' "
+                      "2>&1 < /dev/null",
+                      PM_CLI, suite, dir, dir),
+                   0);
+  char p[1200];
+  snprintf(p, sizeof p, "%s.tty", dir);
+  char *tty = slurp(p);
+  assert_non_null(tty);
+  if (!strstr(tty, "1 running | boxhole bubble seed 1: meshing") &&
+      !strstr(tty, "1 running | boxhole bubble seed 1: placing nodes"))
+    fail_msg("no line naming the run in flight and its phase:\n%s", tty);
+  free(tty);
+  snprintf(p, sizeof p, "%s/runs/boxhole__bubble__s1/log.txt", dir);
+  char *log = slurp(p);
+  assert_non_null(log);
+  assert_non_null(strstr(log, "packmesh: bubble: meshing, 0:"));
+  free(log);
+  snprintf(p, sizeof p, "%s/results.csv", dir);
+  char *csv = slurp(p);
+  assert_non_null(strstr(csv, " --volume "));
+  assert_null(strstr(csv, "--progress"));
+  free(csv);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_two_by_two), cmocka_unit_test(test_bad_entries),
       cmocka_unit_test(test_resume),     cmocka_unit_test(test_time_limit),
       cmocka_unit_test(test_crash),      cmocka_unit_test(test_no_gnuplot),
       cmocka_unit_test(test_size_sweep), cmocka_unit_test(test_bad_suites),
+      cmocka_unit_test(test_progress_in_flight),
   };
   return cmocka_run_group_tests(tests, setup, teardown);
 }
