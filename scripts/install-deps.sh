@@ -9,6 +9,8 @@
 # (fuzz/README.md); strace lets test_cli_outputs deliver a signal at each rename of a run (the
 # test is skipped without it); python3-meshio reads packmesh's files back in test_mesh_meshio;
 # groff-base renders the man pages in test_cli_man (groff -ww: no warning).
+# python3-vtk9 and xvfb (xvfb-run, with xauth) draw scripts/quality_picture.py's off-screen
+# pictures in test_quality_picture.
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 
@@ -31,6 +33,7 @@ packages=(
   clang libclang-rt-14-dev strace
   python3-meshio python3-numpy
   groff-base
+  python3-vtk9 xvfb xauth
 )
 
 elevate=()
