@@ -40,6 +40,15 @@ static inline double pm_v3_dist2(const double a[3], const double b[3]) {
   return pm_v3_dot(d, d);
 }
 static inline double pm_v3_dist(const double a[3], const double b[3]) { return sqrt(pm_v3_dist2(a, b)); }
+/* Distance from p to the axis-aligned box (xmin, ymin, zmin, xmax, ymax, zmax); 0 inside. */
+static inline double pm_v3_box_dist(const double p[3], const double box[6]) {
+  double s = 0;
+  for (int k = 0; k < 3; ++k) {
+    double e = p[k] < box[k] ? box[k] - p[k] : (p[k] > box[k + 3] ? p[k] - box[k + 3] : 0);
+    s += e * e;
+  }
+  return sqrt(s);
+}
 /* Normalize in place; returns the former length (0 leaves a zero vector). */
 static inline double pm_v3_normalize(double a[3]) {
   double n = pm_v3_norm(a);

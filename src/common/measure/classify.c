@@ -20,16 +20,6 @@
  * segment (so on a curve or vertex), in tets. USE_NONE: in no element. */
 enum { USE_NONE = 0, USE_SURFACE = 1, USE_TETS = 2, USE_SEGMENT = 4 };
 
-/* Distance from x to an axis-aligned box (0 inside). */
-static double box_gap(const double b[6], const double x[3]) {
-  double s = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    double d = x[k] < b[k] ? b[k] - x[k] : (x[k] > b[k + 3] ? x[k] - b[k + 3] : 0.0);
-    s += d * d;
-  }
-  return sqrt(s);
-}
-
 /* The nearest cell of dimension dim within `reach` of x (index, or -1), its parameters and
  * distance. Cells whose box is farther than the best distance so far are not projected. */
 static int32_t nearest_cell(const pm_model *md, int dim, const double x[3], double reach,
@@ -39,7 +29,7 @@ static int32_t nearest_cell(const pm_model *md, int dim, const double x[3], doub
   for (int32_t i = 0; i < md->count[dim]; ++i) {
     const pm_cell *c = &md->cells[dim][i];
     if (dim == PM_CURVE && c->degenerate) continue;
-    if (box_gap(c->box, x) > bd) continue;
+    if (pm_v3_box_dist(x, c->box) > bd) continue;
     double p[2] = {0, 0}, d;
     pm_error e;
     if (pm_cell_project(c, x, NULL, p, NULL, &d, &e) != PM_OK || !(d <= bd)) continue;

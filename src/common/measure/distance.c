@@ -1151,16 +1151,6 @@ static void tri_nbhd_near(const dctx *c, int32_t t, tri_nbhd *nb) {
   }
 }
 
-/* Distance from p to an axis-aligned box (lo[3], hi[3]); 0 inside. */
-static double box_distance(const double p[3], const double *box) {
-  double s = 0;
-  for (int k = 0; k < 3; ++k) {
-    double e = fmax(fmax(box[k] - p[k], p[k] - box[3 + k]), 0);
-    s += e * e;
-  }
-  return sqrt(s);
-}
-
 /* The other-face bound of a triangle classified on face f (f < 0: unclassified). The
  * boxes of the faces near f's box are looked at first: when none comes within reach, no
  * reference triangle does, and the search of the reference (which visits the triangle's own
@@ -1178,7 +1168,8 @@ static void tri_nbhd_other(const dctx *c, int32_t f, const int32_t *near_off, co
   const double cap = NBHD_REACH * nb->r;
   int any = 0;
   for (int32_t k = near_off[f]; k < near_off[f + 1] && !any; ++k)
-    any = box_distance(nb->g, &c->face_box[6 * (size_t)near[k]]) - c->face_reach[near[k]] <= cap;
+    any = pm_v3_box_dist(nb->g, &c->face_box[6 * (size_t)near[k]]) - c->face_reach[near[k]] <=
+          cap;
   if (!any) {
     nb->other = cap;
     return;

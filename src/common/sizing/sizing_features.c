@@ -62,15 +62,6 @@ static double seg_dist(const double p[3], const double a[3], const double b[3]) 
   return pm_v3_dist(p, q);
 }
 
-static double box_dist(const double p[3], const double box[6]) {
-  double s = 0;
-  for (int k = 0; k < 3; ++k) {
-    double e = p[k] < box[k] ? box[k] - p[k] : (p[k] > box[k + 3] ? p[k] - box[k + 3] : 0);
-    s += e * e;
-  }
-  return sqrt(s);
-}
-
 /* ---- the hierarchy ---------------------------------------------------------------------------- */
 
 static double fcenter(const feat *f, int k) { return 0.5 * (f->a[k] + f->b[k]); }
@@ -129,7 +120,7 @@ double pm_feature_size_eval(const pm_feature_size *r, const double xyz[3]) {
   stack[sp++] = 0;
   while (sp) {
     const bvh_node *nd = &r->node[stack[--sp]];
-    if (nd->hmin + r->g * box_dist(xyz, nd->box) >= best) continue;
+    if (nd->hmin + r->g * pm_v3_box_dist(xyz, nd->box) >= best) continue;
     /* A leaf, or (never below depth 64) a full stack: scan the node's features. */
     if (nd->left < 0 || sp + 2 > 128) {
       for (int32_t i = nd->first; i < nd->first + nd->count; ++i) {
@@ -139,7 +130,8 @@ double pm_feature_size_eval(const pm_feature_size *r, const double xyz[3]) {
       continue;
     }
     const bvh_node *L = &r->node[nd->left], *R = &r->node[nd->right];
-    double bl = L->hmin + r->g * box_dist(xyz, L->box), br = R->hmin + r->g * box_dist(xyz, R->box);
+    double bl = L->hmin + r->g * pm_v3_box_dist(xyz, L->box);
+    double br = R->hmin + r->g * pm_v3_box_dist(xyz, R->box);
     /* The nearer child is popped first. */
     if (bl < br) {
       stack[sp++] = nd->right, stack[sp++] = nd->left;
