@@ -272,6 +272,19 @@ static void msh_written_by_gmsh(void **state) {
   pm_mesh_destroy(m);
 }
 
+/* The unit square in two triangles as a BINARY legacy VTK grid (big-endian floats and ints),
+ * up to and including its CELL_TYPES. */
+static void square_binary_vtk(buf *b) {
+  puts_(b, "# vtk DataFile Version 3.0\nbin\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n");
+  const float xy[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  for (int i = 0; i < 4; ++i) put_f32(b, xy[i][0], 1), put_f32(b, xy[i][1], 1), put_f32(b, 0, 1);
+  puts_(b, "\nCELLS 2 8\n");
+  const int32_t cells[8] = {3, 0, 1, 2, 3, 0, 2, 3};
+  for (int i = 0; i < 8; ++i) put_i32(b, cells[i], 1);
+  puts_(b, "\nCELL_TYPES 2\n");
+  put_i32(b, 5, 1), put_i32(b, 5, 1);
+}
+
 static const char square_vtk[] =
     "# vtk DataFile Version 3.0\nsquare\nASCII\nDATASET UNSTRUCTURED_GRID\n"
     "POINTS 4 double\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n"
@@ -305,14 +318,7 @@ static void vtk_variants(void **state) {
   pm_mesh_destroy(m);
   /* BINARY: big-endian floats and ints. */
   buf b = {0};
-  puts_(&b, "# vtk DataFile Version 3.0\nbin\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n");
-  const float xy[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-  for (int i = 0; i < 4; ++i) put_f32(&b, xy[i][0], 1), put_f32(&b, xy[i][1], 1), put_f32(&b, 0, 1);
-  puts_(&b, "\nCELLS 2 8\n");
-  const int32_t cells[8] = {3, 0, 1, 2, 3, 0, 2, 3};
-  for (int i = 0; i < 8; ++i) put_i32(&b, cells[i], 1);
-  puts_(&b, "\nCELL_TYPES 2\n");
-  put_i32(&b, 5, 1), put_i32(&b, 5, 1);
+  square_binary_vtk(&b);
   puts_(&b, "\n");
   PM_ASSERT_OK(read_mem("d.vtk", b.s, b.n, &m, &e), e);
   check_square(m, 0);
@@ -360,14 +366,7 @@ static void vtk_data_arrays(void **state) {
 
   /* BINARY: a 4-byte cell array and an 8-byte one passed over. */
   buf b = {0};
-  puts_(&b, "# vtk DataFile Version 3.0\nbin\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n");
-  const float xy[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-  for (int i = 0; i < 4; ++i) put_f32(&b, xy[i][0], 1), put_f32(&b, xy[i][1], 1), put_f32(&b, 0, 1);
-  puts_(&b, "\nCELLS 2 8\n");
-  const int32_t conn[8] = {3, 0, 1, 2, 3, 0, 2, 3};
-  for (int i = 0; i < 8; ++i) put_i32(&b, conn[i], 1);
-  puts_(&b, "\nCELL_TYPES 2\n");
-  put_i32(&b, 5, 1), put_i32(&b, 5, 1);
+  square_binary_vtk(&b);
   puts_(&b, "\nCELL_DATA 2\nSCALARS q double 1\nLOOKUP_TABLE default\n");
   put_f64(&b, 0.5, 1), put_f64(&b, 0.75, 1);
   puts_(&b, "\nSCALARS cell int 1\nLOOKUP_TABLE default\n");
