@@ -8,6 +8,8 @@
 # the README runs it without sudo. clang and libclang-rt-14-dev (libFuzzer) build the fuzz targets
 # (fuzz/README.md); strace lets test_cli_outputs deliver a signal at each rename of a run (the
 # test is skipped without it); python3-meshio reads packmesh's files back in test_mesh_meshio.
+# python3-dev and python3-numpy build the Python module (python/), python3-pytest runs its tests
+# and python3-matplotlib draws the box plot of its example.
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 
@@ -29,6 +31,7 @@ packages=(
   gnuplot-nox
   clang libclang-rt-14-dev strace
   python3-meshio python3-numpy
+  python3-dev python3-pytest python3-matplotlib
 )
 
 elevate=()
