@@ -2,6 +2,7 @@
 the same seed gives the same arrays whatever the threads; the library's errors arrive as Python
 exceptions carrying its message."""
 import json
+import threading
 
 import numpy
 import pytest
@@ -78,6 +79,36 @@ def test_size_forms_and_params(cli, tmp_path):
     e = packmesh.mesh("case:qi3", size="0.3*abs(r-2)+0.2")
     assert e.stats["size"] == "0.3*abs(r-2)+0.2"
     assert len(e.nodes) < 651
+
+
+@pytest.mark.parametrize("method", ["gmsh-frontal", "bubble"])
+def test_inferred_size_is_the_commands(cli, tmp_path, method):
+    line = cli("mesh", "case:qi1", "--method", method, "--size", "inferred", "--threads", "1",
+               "-o", tmp_path / "m.msh").stdout
+    assert len(packmesh.mesh("case:qi1", method=method, size="inferred").nodes) == \
+        cli_counts(line)[0]
+
+
+def test_the_gil_is_released_during_the_run():
+    """Another Python thread runs while the library meshes (it would stand still were the GIL
+    held)."""
+    ticks, stop = [0], threading.Event()
+
+    def ticker():
+        while not stop.is_set():
+            ticks[0] += 1
+
+    t = threading.Thread(target=ticker)
+    t.start()
+    try:
+        before = ticks[0]
+        m = packmesh.mesh("case:qi1", size=0.04)
+        during = ticks[0] - before
+    finally:
+        stop.set()
+        t.join()
+    assert m.result["seconds"] > 0.2, "the run was too short to tell"
+    assert during > 10000, during
 
 
 def test_target_nodes():
