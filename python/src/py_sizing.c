@@ -11,7 +11,6 @@
  */
 #include "pm_py.h"
 
-#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
