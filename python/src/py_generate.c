@@ -4,10 +4,10 @@
  * The arguments are read into a job with the GIL held; the run itself (open the model, make the
  * size field, pm_generate_report, pm_report_measure, the stats JSON) holds no GIL, so that other
  * Python threads go on and a size callable can be called from pm_generate's OpenMP threads.
- * The record is made as examples/run_stats.c and the command make it (pm_report, packmesh_extended.h):
- * the stats JSON is the one `packmesh mesh --stats` writes for the same run. The progress
- * callback cancels the run at the next iteration or stage once a Python exception is kept (from
- * the size callable, or a KeyboardInterrupt).
+ * The record is made as examples/run_stats.c and the command make it (pm_report,
+ * packmesh_extended.h): the stats JSON is the one `packmesh mesh --stats` writes for the same
+ * run. The progress callback cancels the run at the next iteration or stage once a Python
+ * exception is kept (from the size callable, or a KeyboardInterrupt).
  */
 #include "pm_py.h"
 
