@@ -11,6 +11,8 @@
 # groff-base renders the man pages in test_cli_man (groff -ww: no warning).
 # python3-vtk9 and xvfb (xvfb-run, with xauth) draw scripts/quality_picture.py's off-screen
 # pictures in test_quality_picture.
+# python3-dev and python3-numpy build the Python module (python/), python3-pytest runs its tests
+# and python3-matplotlib draws the box plot of its example.
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 
@@ -34,6 +36,7 @@ packages=(
   python3-meshio python3-numpy
   groff-base
   python3-vtk9 xvfb xauth
+  python3-dev python3-pytest python3-matplotlib
 )
 
 elevate=()

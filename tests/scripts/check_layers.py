@@ -16,6 +16,8 @@ is checked edge by edge, so that no reordering of the list can let it slip:
     ("compare/src/compare.h"; study.h is the engine's own).
 The command (src/cli) includes its own files and the engine's public header only: it uses the
 library through <packmesh/packmesh.h> and <packmesh/packmesh_extended.h>.
+The Python module's C extension (python/src) stands beside the command and includes its own
+files only: it too uses the library through those two public headers.
 A header named without a folder must lie beside the file that includes it.
 
 Exit status 1 lists every offending line as FILE:LINE: FROM includes TO (above / beside), or
@@ -42,7 +44,7 @@ LAYERS = [
     "report",    # stats, trace, frames: above the methods, which report through observers
     "api",       # the public C API (include/packmesh) and what only it does
     "compare",   # the comparison engine
-    "cli",       # the packmesh command
+    ("cli", "python"),  # the packmesh command; the Python module's C extension (python/src)
 ]
 
 # The one header of the comparison engine that files outside compare/src may include.
@@ -65,6 +67,8 @@ def folder_of_file(rel):
         return parts[1]
     if parts[0] == "compare" and len(parts) >= 3 and parts[1] == "src":
         return "compare"
+    if parts[0] == "python" and len(parts) >= 3 and parts[1] == "src":
+        return "python"
     return None
 
 
@@ -89,6 +93,9 @@ def rule_broken(own, to, inc):
     if own == "cli" and to not in ("cli", "compare"):
         return ("the command includes the library's internals (it is built on "
                 "<packmesh/packmesh.h> and <packmesh/packmesh_extended.h> only)")
+    if own == "python" and to != "python":
+        return ("the Python module includes the library's internals (it is built on "
+                "<packmesh/packmesh.h> and <packmesh/packmesh_extended.h> only)")
     if own != "compare" and to == "compare" and inc != COMPARE_PUBLIC:
         return f"the comparison engine is included through {COMPARE_PUBLIC} only"
     return None
@@ -100,7 +107,7 @@ def main():
         return 2
     root = sys.argv[1]
     bad, checked = [], 0
-    for top in ("src", os.path.join("compare", "src")):
+    for top in ("src", os.path.join("compare", "src"), os.path.join("python", "src")):
         for dirpath, _, files in os.walk(os.path.join(root, top)):
             for fn in sorted(files):
                 if not fn.endswith((".c", ".h", ".cpp")):

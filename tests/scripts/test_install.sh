@@ -8,10 +8,15 @@
 #   3. the four examples compile with nothing but `pkg-config --cflags --libs packmesh`, and run;
 #      mesh_cad meshes case:qi3 with bubble to the node count `packmesh mesh case:qi3 --method
 #      bubble` prints;
-#   4. the examples build again through find_package(packmesh) in CMake.
-# Usage: test_install.sh SOURCE_DIR BUILD_DIR [EXTRA_C_FLAGS]   (the sanitizer flags of the build)
+#   4. the examples build again through find_package(packmesh) in CMake;
+#   5. when the build has the Python module: the installed package imports (PYTHONPATH = its site
+#      folder under the prefix), loads the installed libpackmesh.so, meshes case:qi3 to the same
+#      node count, and compare() runs the installed command.
+# Usage: test_install.sh SOURCE_DIR BUILD_DIR [EXTRA_C_FLAGS [PYTHON]]
+#   EXTRA_C_FLAGS: the sanitizer flags of the build; PYTHON: the python3 the module is built for
+#   (empty: the build has no Python module).
 set -euo pipefail
-src=$1 build=$2 extra=${3:-}
+src=$1 build=$2 extra=${3:-} python=${4:-}
 work=$(mktemp -d "${TMPDIR:-/tmp}/pm_install.XXXXXX")
 trap 'rm -rf "$work"' EXIT
 prefix=$work/prefix
@@ -94,3 +99,34 @@ cmake --build "$work/build-examples" >"$work/build.log" 2>&1 || { cat "$work/bui
 out=$(LD_LIBRARY_PATH="$lib" "$work/build-examples/mesh_cad" case:qi3) || fail "mesh_cad (CMake) failed"
 [ "$(echo "$out" | sed -n 's/.*: \([0-9]*\) nodes.*/\1/p')" = "$n_cli" ] || fail "mesh_cad (CMake): $out"
 echo "find_package(packmesh): the examples build and mesh_cad gives $n_cli nodes"
+
+# 5. The Python module, from the installed tree only.
+if [ -z "$python" ]; then
+  echo "note: the build has no Python module (PM_BUILD_PYTHON off); step 5 not run"
+  exit 0
+fi
+init=$(find "$prefix" -path '*-packages/packmesh/__init__.py' | head -1)
+[ -n "$init" ] || fail "no Python package packmesh installed under $prefix"
+site=$(dirname "$(dirname "$init")")
+out=$(cd "$work" && env -u LD_LIBRARY_PATH -u PACKMESH_CLI PYTHONPATH="$site" PYTHONDONTWRITEBYTECODE=1 \
+      "$python" - "$prefix" "$n_cli" "$work/py-study" <<'PY'
+import os, sys
+prefix, n_cli, study_dir = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+import packmesh
+assert packmesh.__file__.startswith(prefix), packmesh.__file__
+m = packmesh.mesh("case:qi3", method="bubble")
+assert len(m.nodes) == n_cli == m.stats["nodes"], (len(m.nodes), n_cli)
+# The installed extension runs on the installed library (its RPATH), not the build tree's.
+with open("/proc/self/maps") as f:
+    libs = {line.split()[-1] for line in f if "libpackmesh.so" in line}
+assert libs and all(l.startswith(prefix) for l in libs), libs
+# compare() finds the installed command from the installed module's folder.
+assert packmesh.cli_path() == os.path.join(prefix, "bin", "packmesh"), packmesh.cli_path()
+study = packmesh.compare({"cases": ["case:qi1"], "methods": ["bubble"],
+                          "options": {"trace": False}}, study_dir)
+assert [r["status"] for r in study.rows] == ["ok"], study.rows
+print(f"python: packmesh {packmesh.__version__} from {os.path.dirname(packmesh.__file__)}: "
+      f"{len(m.nodes)} nodes; compare through {packmesh.cli_path()}")
+PY
+) || fail "the installed Python module: $out"
+echo "$out"

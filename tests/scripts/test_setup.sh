@@ -51,7 +51,8 @@ check_print() {
     fi
   done <<< "$out"
   [ "$n" -eq 2 ] || fail "install-deps.sh --print as $who gave $n apt-get commands, not 2: $out"
-  case "$out" in *"install -y"*libcgal-dev*libtet1.5-dev*libgmsh-dev*python3-meshio*) ;;
+  case "$out" in
+    *"install -y"*libcgal-dev*libtet1.5-dev*libgmsh-dev*python3-meshio*python3-numpy*python3-dev*python3-pytest*) ;;
     *) fail "install-deps.sh --print as $who does not install the libraries: $out" ;; esac
 }
 
