@@ -2,7 +2,7 @@
  * verdict, through the public quality functions of packmesh.h (pm_py.h). The same measures as
  * `packmesh quality` (one implementation in the library); the model, when given, is what
  * --geometry gives the command: the checker's model checks, and its own size field for the size
- * conformity when no size is given. */
+ * conformity when no size is given, and the classification of a file's untagged nodes. */
 #include "pm_py.h"
 
 #include <string.h>
@@ -39,6 +39,9 @@ static pm_status run(qjob *j) {
     s = pm_model_open(j->geometry, &model, &input_size, e);
     if (s) pm_error_prefix(e, "geometry");
   }
+  /* A file without entity tags is put on the model's cells first, as `packmesh quality
+   * --geometry` does (pm_mesh_classify); a Mesh object given is left as it is. */
+  if (!s && model && j->read) s = pm_mesh_classify(j->read, model, NULL, NULL, e);
   if (!s) s = pm_py_size_make(&j->size, model, NULL, 1, 1, &size, e);
   const pm_sizing *field = size ? size : input_size;
   if (!s) s = pm_quality_measure(j->mesh, field, &j->q, e);

@@ -80,6 +80,22 @@ def test_geometry_gives_its_size_field_and_the_model_checks(cli, tmp_path):
     assert other.problems == stats["problems"] and len(other.problems) >= 2
 
 
+def test_untagged_file_is_classified_like_the_command(cli, tmp_path):
+    """A .stl names no cells: with geometry= its nodes are put on the model first, so eps_t is
+    the tagged .msh's, as `packmesh quality --geometry` gives it."""
+    m = packmesh.mesh("case:boxhole", method="gmsh-frontal")
+    m.write(tmp_path / "m.msh")
+    m.write(tmp_path / "m.stl")
+    tagged = packmesh.quality(tmp_path / "m.msh", geometry="case:boxhole")
+    untagged = packmesh.quality(tmp_path / "m.stl", geometry="case:boxhole")
+    bare = packmesh.quality(tmp_path / "m.stl")
+    stats = json.loads(cli("quality", tmp_path / "m.stl", "--geometry", "case:boxhole",
+                           "--json").stdout)
+    assert untagged.summary["tri"]["eps_t"] == tagged.summary["tri"]["eps_t"]
+    assert untagged.summary["tri"]["eps_t"] == stats["tri"]["eps_t"]
+    assert bare.summary["tri"]["eps_t"] != tagged.summary["tri"]["eps_t"]
+
+
 def test_bad_geometry_and_size():
     m = packmesh.mesh("case:qi1", size=0.5)
     with pytest.raises(ValueError, match="geometry: unknown case 'nosuch'"):
