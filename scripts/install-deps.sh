@@ -13,6 +13,8 @@
 # pictures in test_quality_picture.
 # python3-dev and python3-numpy build the Python module (python/), python3-pytest runs its tests
 # and python3-matplotlib draws the box plot of its example.
+# slurmctld, slurmd, slurm-client and munge run a single-node Slurm for test_slurm_local
+# (scripts/slurm-local.sh).
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 
@@ -37,6 +39,7 @@ packages=(
   groff-base
   python3-vtk9 xvfb xauth
   python3-dev python3-pytest python3-matplotlib
+  slurmctld slurmd slurm-client munge
 )
 
 elevate=()
