@@ -38,6 +38,8 @@ cleanup() {
   rm -rf "$tmp"
 }
 trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
 
 started=$(bash "$script" start 2>"$tmp/start.err")
 rc=$?
