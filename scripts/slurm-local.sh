@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Starts and stops a single-node Slurm cluster on this machine, for tests that submit jobs
-# through Slurm (the test test_slurm_local; later packmesh compare's Slurm engine).
+# through Slurm (the test test_slurm_local).
 #
 #   scripts/slurm-local.sh start     starts munged, slurmctld and slurmd; prints
 #                                    "export SLURM_CONF=..." (eval "$(scripts/slurm-local.sh start)")
