@@ -95,8 +95,8 @@ void pm_cli_mesh_usage(FILE *f) {
           "                      indexed by DIR/frames.pvd, and SVG pictures of planar ones\n"
           "  --quiet             print nothing but errors\n"
           "  --progress          show the progress line (method, phase, iteration, particles,\n"
-          "                      elapsed time) into a file or pipe too, a line every 2 s; on a\n"
-          "                      terminal it is shown anyway\n"
+          "                      the run of a --target-nodes search, elapsed time) into a file\n"
+          "                      or pipe too, a line every 2 s; on a terminal it is shown anyway\n"
           "  --help              this text; with --method M, M's parameters\n"
           "--trace and --frames record the iterations of the particle methods (%s); the\n"
           "others record none, and asking them is a usage error.\n"
@@ -341,6 +341,7 @@ int pm_cli_mesh(int argc, char **argv) {
   go.target_tolerance = TARGET_TOL;
   go.target_runs = TARGET_RUNS;
   if (progress.active) go.progress = pm_cli_progress_report, go.progress_user = &progress;
+  if (go.target_nodes > 0) progress.runs = go.target_runs;
   /* An option that does not fit the input is a usage error, named by its option. */
   pm_generate_misfit misfit;
   if ((s = pm_generate_check(model, size, method, &go, &misfit, &e))) {

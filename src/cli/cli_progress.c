@@ -48,8 +48,13 @@ static int column(const pm_progress *r, const char *const *names) {
 int pm_cli_progress_report(void *user, const pm_progress *r) {
   pm_cli_progress *p = user;
   if (!p->active) return 0;
+  char run[64] = "";
+  if (p->runs > 1 && r->run >= 1)
+    snprintf(run, sizeof run, " (run %d of at most %d)", r->run, p->runs);
   if (strcmp(r->stage, "meshing") == 0) {
-    pm_cli_progress_stage(p, "meshing");
+    char text[96];
+    snprintf(text, sizeof text, "meshing%s", run);
+    pm_cli_progress_stage(p, text);
     return 0;
   }
   if (strcmp(r->stage, "iteration") != 0) return 0;
@@ -65,7 +70,8 @@ int pm_cli_progress_report(void *user, const pm_progress *r) {
   if (cp >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", phase %.0f", r->values[cp]);
   if (cs >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", iteration %.0f", r->values[cs]);
   if (cn >= 0)
-    snprintf(text + n, sizeof text - (size_t)n, ", %.0f %s", r->values[cn], r->columns[cn]);
+    n += snprintf(text + n, sizeof text - (size_t)n, ", %.0f %s", r->values[cn], r->columns[cn]);
+  snprintf(text + n, sizeof text - (size_t)n, "%s", run);
   put(p, text);
   return 0;
 }

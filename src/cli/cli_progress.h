@@ -21,6 +21,10 @@ typedef struct pm_cli_progress {
   const char *method;
   double t0, last;   /* start and last line, pm_cli_now() seconds */
   int shown;         /* a line is on the terminal (to be cleared before other output) */
+  int runs;          /* a node-target search's most runs (0: one run): each line then says
+                        which run it is, the one measure of what is left that can be given --
+                        the relaxations stop on convergence, after a number of iterations
+                        nobody knows in advance */
 } pm_cli_progress;
 
 void pm_cli_progress_init(pm_cli_progress *p, pm_cli_progress_mode mode, const char *method);

@@ -66,6 +66,14 @@ static void progress_on_a_terminal_only(void **state) {
   assert_null(strchr(err, '\r'));
   free(out), free(err);
 
+  /* A node-target search: each line says which run it is of the most it may take. */
+  snprintf(args, sizeof args,
+           "mesh case:qi3 --method gmsh-frontal --target-nodes 300 --progress -o '%s/t.msh'", dir);
+  assert_int_equal(pm_test_cli(dir, args, &out, &err), 0);
+  assert_non_null(strstr(err, "packmesh: gmsh-frontal: meshing (run 1 of at most 8), 0:"));
+  assert_non_null(strstr(err, "packmesh: gmsh-frontal: meshing (run 2 of at most 8), 0:"));
+  free(out), free(err);
+
   /* --quiet: nothing at all on success, even on a terminal and with a warning to give. */
   snprintf(args, sizeof args, "mesh case:qi3 --method bubble --target-nodes 5 --quiet -o '%s/q.stl'", dir);
   tty = run_on_tty(args);
