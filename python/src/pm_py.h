@@ -50,8 +50,10 @@ typedef struct pm_py_pending {
 void pm_py_pending_keep(pm_py_pending *p);
 /* 1 when an exception is kept (any thread, no GIL needed). */
 int pm_py_pending_is_set(const pm_py_pending *p);
-/* With the GIL: raise the kept exception (returns 1), or return 0 when none is kept. */
-int pm_py_pending_raise(pm_py_pending *p);
+/* With the GIL, after a run that held no GIL: raise the kept exception (it says more than the
+ * library's "cancelled" or its complaint about the values that followed it), else err when the
+ * run's status s failed. Returns 1 when an exception is set. */
+int pm_py_run_failed(pm_py_pending *p, pm_status s, const pm_error *err);
 /* With the GIL: drop the kept exception, if any. */
 void pm_py_pending_clear(pm_py_pending *p);
 

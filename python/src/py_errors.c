@@ -53,13 +53,21 @@ int pm_py_pending_is_set(const pm_py_pending *p) {
   return atomic_load(&((pm_py_pending *)p)->set);
 }
 
-int pm_py_pending_raise(pm_py_pending *p) {
+/* With the GIL: raise the kept exception (returns 1), or return 0 when none is kept. */
+static int pm_py_pending_raise(pm_py_pending *p) {
   if (!atomic_load(&p->set)) return 0;
   PyObject *exc = p->exc;
   p->exc = NULL;
   atomic_store(&p->set, 0);
   PyErr_SetObject((PyObject *)Py_TYPE(exc), exc);
   Py_DECREF(exc);
+  return 1;
+}
+
+int pm_py_run_failed(pm_py_pending *p, pm_status s, const pm_error *err) {
+  if (pm_py_pending_raise(p)) return 1;
+  if (s == PM_OK) return 0;
+  pm_py_raise(err);
   return 1;
 }
 

@@ -183,13 +183,7 @@ PyObject *pm_py_generate(PyObject *self, PyObject *args, PyObject *kwargs) {
   Py_BEGIN_ALLOW_THREADS
   s = run(&j);
   Py_END_ALLOW_THREADS
-  /* An exception from Python (the size callable, Ctrl-C) says more than the library's "cancelled"
-   * or its complaint about the fallback values that followed it. */
-  if (pm_py_pending_raise(&j.pending)) goto done;
-  if (s) {
-    pm_py_raise(&j.err);
-    goto done;
-  }
+  if (pm_py_run_failed(&j.pending, s, &j.err)) goto done;
   PyObject *arrays = pm_py_mesh_arrays(j.mesh);
   if (!arrays) goto done;
   PyObject *handle = pm_py_mesh_capsule(j.mesh);

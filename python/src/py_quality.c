@@ -134,11 +134,7 @@ PyObject *pm_py_quality(PyObject *self, PyObject *args, PyObject *kwargs) {
   Py_BEGIN_ALLOW_THREADS
   s = run(&j);
   Py_END_ALLOW_THREADS
-  if (pm_py_pending_raise(&j.pending)) goto done;
-  if (s) {
-    pm_py_raise(&j.err);
-    goto done;
-  }
+  if (pm_py_run_failed(&j.pending, s, &j.err)) goto done;
   PyObject *tri = kind_dict(j.q, 2), *tet = tri ? kind_dict(j.q, 3) : NULL;
   if (!tri || !tet) {
     Py_XDECREF(tri);
