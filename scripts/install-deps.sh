@@ -15,6 +15,8 @@
 # and python3-matplotlib draws the box plot of its example.
 # slurmctld, slurmd, slurm-client and munge run a single-node Slurm for test_slurm_local
 # (scripts/slurm-local.sh).
+# chromium loads report pages and players headless in their tests (tests/scripts/page_check.py);
+# libjs-three is the three.js that a study's report copies beside itself for its 3D viewer.
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 
@@ -40,6 +42,7 @@ packages=(
   python3-vtk9 xvfb xauth
   python3-dev python3-pytest python3-matplotlib
   slurmctld slurmd slurm-client munge
+  chromium libjs-three
 )
 
 elevate=()
