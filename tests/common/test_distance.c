@@ -2,7 +2,7 @@
  * meshed in its plane, a lifted node, the sagitta of an inscribed polygon, the chordal error of an
  * inscribed sphere polyhedron, a dangling wire), classified against unclassified meshes, thread-
  * count independence, parameters and bad input. */
-#include "test_support.h"
+#include "test_rect_model.h"
 
 #include <omp.h>
 #include <stdlib.h>
@@ -18,17 +18,7 @@
 
 /* ---- models and meshes ----------------------------------------------------------------------- */
 
-static pm_model *square_model(void) {
-  const pm_planar_piece sq[4] = {{PM_PIECE_LINE, {0, 0}, {0, 0}, 0},
-                                 {PM_PIECE_LINE, {1, 0}, {0, 0}, 0},
-                                 {PM_PIECE_LINE, {1, 1}, {0, 0}, 0},
-                                 {PM_PIECE_LINE, {0, 1}, {0, 0}, 0}};
-  pm_planar_loop l = {4, sq};
-  pm_model *m = NULL;
-  pm_error e = {0};
-  PM_ASSERT_OK(pm_planar_model("square", 1, &l, &m, &e), e);
-  return m;
-}
+static pm_model *square_model(void) { return pm_test_rect_model("square", 1); }
 
 static pm_model *disk_model(double R) {
   const pm_planar_piece arc[1] = {{PM_PIECE_ARC, {R, 0}, {0, 0}, 1}};

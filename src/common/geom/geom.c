@@ -612,9 +612,8 @@ static double curve_project(const pm_cell *c, const double x[3], const double *g
   return best;
 }
 
-/* Face: minimize |S(u, v) - x|^2 on the untrimmed surface within the parameter box. */
-static double face_newton(const pm_cell *f, const double x[3], const double start[2],
-                          double uv_out[2]) {
+double pm_face_project_from(const pm_cell *f, const double x[3], const double start[2],
+                            double uv_out[2]) {
   double uv[2] = {start[0], start[1]};
   for (int it = 0; it < PROJ_MAX_IT; ++it) {
     pm_face_point fp;
@@ -650,7 +649,7 @@ static double face_project_untrimmed(const pm_cell *f, const double x[3], const 
   if (f->cls->project) {
     double uv[2];
     if (f->cls->project(f, x, guess, uv) == 0) {
-      best = face_newton(f, x, uv, uv_best);
+      best = pm_face_project_from(f, x, uv, uv_best);
       return best;
     }
   }
@@ -675,7 +674,7 @@ static double face_project_untrimmed(const pm_cell *f, const double x[3], const 
   for (int q = 0; q < 3; ++q)
     if (d_s[q] < DBL_MAX) starts[ns][0] = uv_s[q][0], starts[ns][1] = uv_s[q][1], ++ns;
   for (int k = 0; k < ns; ++k) {
-    double uv[2], d2 = face_newton(f, x, starts[k], uv);
+    double uv[2], d2 = pm_face_project_from(f, x, starts[k], uv);
     if (d2 < best) best = d2, uv_best[0] = uv[0], uv_best[1] = uv[1];
   }
   return best;

@@ -295,6 +295,13 @@ int pm_cell_displace(const pm_cell *c, const double *par, const double dx[3], do
 pm_status pm_cell_project(const pm_cell *c, const double xyz[3], const double *guess, double *par,
                           double closest[3], double *dist, pm_error *err);
 
+/* The closest point of the untrimmed surface of face f to xyz by Newton iteration from `start`
+ * (a local search: the minimum nearest to start, within the parameter box where a parameter is
+ * not periodic). Writes uv (periodic parameters wrapped into the base range) and returns the
+ * squared distance. */
+double pm_face_project_from(const pm_cell *f, const double xyz[3], const double start[2],
+                            double uv[2]);
+
 #ifdef __cplusplus
 }
 #endif

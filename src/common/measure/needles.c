@@ -171,6 +171,91 @@ static int below_floor_across_cells(const pm_mesh *mesh, const pm_model *m, cons
   return 0;
 }
 
+/* The distance from vertex `vert` to curve `curve`, -1 when the projection fails. */
+static double vertex_gap(const pm_model *m, int32_t curve, int32_t vert) {
+  double at[3], t, g;
+  pm_cell_point(&m->cells[PM_VERTEX][vert], NULL, at);
+  if (pm_cell_project(&m->cells[PM_CURVE][curve], at, NULL, &t, NULL, &g, NULL) != PM_OK)
+    return -1;
+  return g;
+}
+
+/* Part of the gap rule: the base's curve misses one of its end vertices by g wider than the
+ * floor, the corner lies on a cell of that vertex's (another curve ending there), and the whole
+ * triangle lies within 2 g of the vertex. The face's boundary is not defined at a finer scale
+ * than the gap there: it runs along one curve to the vertex, jumps g, and goes on along the
+ * other, and a triangle that spans the jump cannot be judged by its angles
+ * (robust/step__SampleCrankshaft4A.stp: two curves end 0.056 from their vertex 11, where a third
+ * ends, and the triangle between the two sides has 9.9 degrees). */
+static int within_vertex_gap(const pm_mesh *mesh, const pm_model *m, int32_t curve,
+                             const int32_t *v, const double *const P[3], double floor) {
+  const pm_cell *cc = &m->cells[PM_CURVE][curve];
+  for (int32_t u = 0; u < cc->nbound; ++u) {
+    const int32_t vert = cc->bound[u].cell;
+    int corner_at_vertex = 0;
+    for (int k = 0; k < 3 && !corner_at_vertex; ++k)
+      corner_at_vertex = mesh->node_dim[v[k]] == PM_CURVE && mesh->node_cell[v[k]] != curve &&
+                         in_curve_closure(m, PM_VERTEX, vert, mesh->node_cell[v[k]]);
+    if (!corner_at_vertex) continue;
+    const double g = vertex_gap(m, curve, vert);
+    if (!(g > floor)) continue;
+    double at[3];
+    pm_cell_point(&m->cells[PM_VERTEX][vert], NULL, at);
+    int near = 1;
+    for (int k = 0; k < 3; ++k) near = near && pm_v3_dist(P[k], at) < 2 * g;
+    if (near) return 1;
+  }
+  return 0;
+}
+
+/* The gap rule: the triangle stands on an edge of curve-closure nodes (a curve's nodes and its
+ * end vertices), and a CAD gap wider than the floor keeps its third corner at least g from the
+ * curve: face f's surface stays g away from the curve there (the face does not reach its
+ * boundary curve: the edge's tolerance is that wide), or the corner is an end vertex of the
+ * curve that the curve misses by g. A base shorter than 2 g tan(limit / 2) then gives an angle
+ * below the limit wherever the face's nodes are: forced at the curve's spacing, which the
+ * curve's other faces and features set (robust/step__SampleCrankshaft4A.stp: a cylinder 0.13
+ * from a B-spline curve whose other face asks for nodes 0.016 apart, and the curve's end 0.146
+ * from its vertex).
+ * g is measured at the base's midpoint, by Newton from the corner's (u, v) on f (the surface
+ * near the corner, untrimmed: the trimmed face ends at the pcurve's image, the point sought). */
+static int below_gap_to_curve(const pm_mesh *mesh, const pm_model *m, const pm_cell *f,
+                              const int32_t *v, const double *const P[3], int base, double rad,
+                              double floor) {
+  const int32_t a = v[base], b = v[(base + 1) % 3], c = v[(base + 2) % 3];
+  if (mesh->node_dim[c] < 0) return 0;
+  int32_t curve = -1;
+  if (mesh->node_dim[a] == PM_CURVE) curve = mesh->node_cell[a];
+  else if (mesh->node_dim[b] == PM_CURVE) curve = mesh->node_cell[b];
+  if (curve < 0 || curve >= m->count[PM_CURVE] ||
+      !in_curve_closure(m, mesh->node_dim[a], mesh->node_cell[a], curve) ||
+      !in_curve_closure(m, mesh->node_dim[b], mesh->node_cell[b], curve))
+    return 0;
+  double g;
+  if (in_curve_closure(m, mesh->node_dim[c], mesh->node_cell[c], curve)) {
+    /* The corner is an end vertex of the curve: the gap is the vertex's distance from the
+     * curve (the curve's end misses its vertex). */
+    if (mesh->node_dim[c] != PM_VERTEX) return 0;
+    double t;
+    if (pm_cell_project(&m->cells[PM_CURVE][curve], P[(base + 2) % 3], NULL, &t, NULL, &g,
+                        NULL) != PM_OK)
+      return 0;
+  } else {
+    if (within_vertex_gap(mesh, m, curve, v, P, floor)) return 1;
+    /* The corner's (u, v): its own when it is a node of f, else its projection onto f. */
+    double start[2], uv[2];
+    if (mesh->node_par && mesh->node_dim[c] == PM_FACE && mesh->node_cell[c] == f->index)
+      start[0] = mesh->node_par[2 * (size_t)c], start[1] = mesh->node_par[2 * (size_t)c + 1];
+    else if (pm_cell_project(f, P[(base + 2) % 3], NULL, start, NULL, NULL, NULL) != PM_OK)
+      return 0;
+    double mid[3];
+    pm_v3_add(mid, P[base], P[(base + 1) % 3]);
+    pm_v3_scale(mid, mid, 0.5);
+    g = sqrt(pm_face_project_from(f, mid, start, uv));
+  }
+  return g > floor && pm_v3_dist(P[base], P[(base + 1) % 3]) < 2 * g * tan(0.5 * rad);
+}
+
 pm_status pm_needles_classify(const pm_mesh *mesh, const pm_model *model, double limit,
                               pm_needles *out, uint8_t *kind, pm_error *err) {
   memset(out, 0, sizeof *out);
@@ -217,6 +302,8 @@ pm_status pm_needles_classify(const pm_mesh *mesh, const pm_model *model, double
               (mesh->node_dim[a] != mesh->node_dim[b] || mesh->node_cell[a] != mesh->node_cell[b]))
             k = PM_NEEDLE_FEATURE;
           else if (below_floor_across_cells(mesh, model, v, P, floor))
+            k = PM_NEEDLE_FEATURE;
+          else if (below_gap_to_curve(mesh, model, fc, v, P, j, rad, floor))
             k = PM_NEEDLE_FEATURE;
         }
       }

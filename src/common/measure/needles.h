@@ -17,7 +17,14 @@
  *     curves and vertices, not all on one curve and its ends, and one node is nearer than the
  *     floor to the line through the other two, on other cells: two model cells come closer than
  *     the floor there (a strip face that tapers below it), whatever the staggering of the nodes
- *     along them.
+ *     along them. Likewise when it stands on an edge between nodes of one curve (or its ends)
+ *     and its third corner is held off the curve by a CAD gap g wider than the floor (the face's
+ *     surface passes g from its own boundary curve, or the curve's end misses its vertex by g),
+ *     and the edge is shorter than 2 g tan(limit / 2): every corner there has an angle below the
+ *     limit, at the spacing the curve's other faces ask for; or when the curve misses one of its
+ *     end vertices by g wider than the floor, the third corner is on another curve ending at
+ *     that vertex, and the whole triangle lies within 2 g of the vertex (the face's boundary
+ *     jumps g there, and a triangle spanning the jump cannot be judged by its angles).
  * Every other needle is unforced: a finer node spacing at the feature would have avoided it (a
  * face narrower than the local size, an edge shorter than it, a corner sharper than the size's
  * angular resolution but not below the limit). A mesh with unforced needles is a defect of the

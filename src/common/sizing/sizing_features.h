@@ -17,9 +17,11 @@
  *     wedge is, down to its tip;
  *   - PM_FEATURE_CURVATURE, curved faces: h = (pi/4) / |kmax| (8 edges per turn of the largest
  *     principal curvature), at least a tenth of the face's smaller extent.
- * A feature that would ask for less than PM_FEATURE_FLOOR (geom.h) times the model's
+ * A feature that would ask for less than half of PM_FEATURE_FLOOR (geom.h) times the model's
  * diagonal is left out: the mesh does not resolve the model below that floor, and a needle there
- * is counted as forced.
+ * is counted as forced. One between half the floor and the floor asks for the floor (its width is
+ * sampled: a strip that tapers through the floor must not lose its features where a sample reads
+ * just below it).
  *
  * Evaluation is a branch-and-bound search in a bounding-volume hierarchy of the features (a node
  * is skipped when h_min + g dist(x, box) cannot beat the best value found): exact,
