@@ -13,6 +13,7 @@
 #include "common/geom/geom_analytic.h"
 #include "common/geom/geom_cad.h"
 #include "common/input/cases.h"
+#include "common/input/input.h"
 #include "common/mesh/mesh.h"
 #include "common/sizing/sizing.h"
 
@@ -375,6 +376,39 @@ static void test_sphere_chordal_error(void **state) {
   }
   /* The classification hints (with the seam unwrapped) only speed things up: same answer. */
   PM_ASSERT_NEAR(dmax[0], dmax[1], 1e-9);
+  pm_model_destroy(m);
+}
+
+/* Nodes whose parameters do not put them on their cell (a .msh read back without parameters
+ * has zeros there) do not start projections: the figures are those of the same mesh with its
+ * parameters. On an OpenCASCADE sphere, projections started at (0, 0) stop at local minima up to
+ * 1.4 from the foot, and the maximum read 1.41 instead of 0.0028. */
+static void test_wrong_parameters_are_not_trusted(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  char path[512];
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_input_open(pm_test_cad("synth_sphere.brep", path, sizeof path), &m, NULL, &e), e);
+  /* The octasphere's (u, v) are the analytic sphere's; the OpenCASCADE sphere's own come from
+   * projecting each node onto it. */
+  pm_mesh *me = octasphere(6, 1);
+  for (int32_t v = 0; v < me->nnode; ++v) {
+    if (me->node_dim[v] < 0) continue;
+    double *par = &me->node_par[2 * (size_t)v];
+    PM_ASSERT_OK(pm_cell_project(&m->cells[PM_FACE][0], &me->xyz[3 * (size_t)v], NULL, par, NULL,
+                                 NULL, &e), e);
+  }
+  pm_distance good, zeroed;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &good, &e), e);
+  memset(me->node_par, 0, 2 * sizeof(double) * (size_t)me->nnode);
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &zeroed, &e), e);
+  PM_ASSERT_NEAR(zeroed.mesh_to_model_max, good.mesh_to_model_max, 1e-9);
+  PM_ASSERT_NEAR(zeroed.mean, good.mean, 1e-9);
+  int acute;
+  const double expect = sphere_chord_max(me, &acute);
+  PM_ASSERT_NEAR(good.mesh_to_model_max, expect, 1e-3 * expect);
+  pm_mesh_destroy(me);
   pm_model_destroy(m);
 }
 
@@ -860,6 +894,7 @@ int main(void) {
       cmocka_unit_test(test_disk_means_and_size),
       cmocka_unit_test(test_sphere_chordal_error),
       cmocka_unit_test(test_sphere_pushed_vertex),
+      cmocka_unit_test(test_wrong_parameters_are_not_trusted),
       cmocka_unit_test(test_cylinder_prism),
       cmocka_unit_test(test_torus_doubly_periodic),
       cmocka_unit_test(test_prune_changes_no_figure),

@@ -515,6 +515,7 @@ typedef struct dctx {
   ref_curves rc_wire;        /* dangling curves */
   int level;                 /* lattice level */
   int npt_tri, npt_seg;      /* lattice points per triangle / segment */
+  uint8_t *par_ok;           /* [mesh->nnode] 1 where a node's parameters put it on its cell */
 } dctx;
 
 /* A mesh point's classification hint: a cell and a starting parameter, or cell = -1. */
@@ -689,7 +690,7 @@ static int tri_hint_nodes(const dctx *c, int32_t t, double par[3][2]) {
   const int32_t *v = &me->tri[3 * (size_t)t];
   int on[3], first = -1;
   for (int k = 0; k < 3; ++k) {
-    on[k] = me->node_dim[v[k]] == PM_FACE && me->node_cell[v[k]] == f;
+    on[k] = me->node_dim[v[k]] == PM_FACE && me->node_cell[v[k]] == f && c->par_ok[v[k]];
     if (!on[k]) continue;
     par[k][0] = me->node_par[2 * (size_t)v[k]], par[k][1] = me->node_par[2 * (size_t)v[k] + 1];
     if (first < 0) {
@@ -723,7 +724,7 @@ static int seg_hint_nodes(const dctx *c, int32_t s, double par[2]) {
   const pm_cell *cc = &c->m->cells[PM_CURVE][cu];
   for (int k = 0; k < 2; ++k) {
     int32_t v = me->seg[2 * (size_t)s + k];
-    if (me->node_dim[v] != PM_CURVE || me->node_cell[v] != cu) return -1;
+    if (me->node_dim[v] != PM_CURVE || me->node_cell[v] != cu || !c->par_ok[v]) return -1;
     par[k] = me->node_par[2 * (size_t)v];
     if (k == 1 && cc->periodic[0] && cc->period[0] > 0)
       par[1] += cc->period[0] * round((par[0] - par[1]) / cc->period[0]);
@@ -1298,6 +1299,32 @@ static pm_status dist_check(dist_state *r, const pm_mesh *mesh, const pm_model *
  * has no face). A mesh without anything to compare with those parts is an argument error. Also
  * counts the mesh segments on each curve (they cap a boundary curve's samples) and allocates the
  * per-face tables that dist_edge_lengths fills. */
+/* Which nodes' parameters can start a projection: those whose cell's point at them is the node
+ * (within PAR_OK_REL of the diagonal). A mesh read from a file without parameters (a .msh
+ * written without --parametric, another tool's file) has zeros there: on a sphere they start
+ * Gauss-Newton at a pole, and the foot it finds is a local minimum up to 1.4 radii from the
+ * node's true foot. Such nodes take the reference tessellation's pick instead, as untagged
+ * ones do, and the figures are those of the mesh as the mesher holds it. */
+#define PAR_OK_REL 1e-6
+static pm_status dist_check_params(dctx *c, pm_error *err) {
+  const pm_mesh *me = c->mesh;
+  const pm_model *m = c->m;
+  c->par_ok = calloc((size_t)(me->nnode > 0 ? me->nnode : 1), 1);
+  if (!c->par_ok) return dist_nomem(err);
+  if (!me->node_dim || !me->node_cell || !me->node_par) return PM_OK;
+  const double tol = PAR_OK_REL * m->diagonal;
+#pragma omp parallel for schedule(static)
+  for (int32_t v = 0; v < me->nnode; ++v) {
+    const int d = me->node_dim[v];
+    const int32_t cell = me->node_cell[v];
+    if ((d != PM_CURVE && d != PM_FACE) || cell < 0 || cell >= m->count[d]) continue;
+    double at[3];
+    pm_cell_point(&m->cells[d][cell], &me->node_par[2 * (size_t)v], at);
+    c->par_ok[v] = pm_v3_dist(at, &me->xyz[3 * (size_t)v]) <= tol;
+  }
+  return PM_OK;
+}
+
 static pm_status dist_setup(dist_state *r, const pm_mesh *mesh, const pm_model *m,
                             const pm_sizing *size, pm_error *err) {
   dctx *c = &r->c;
@@ -1334,7 +1361,7 @@ static pm_status dist_setup(dist_state *r, const pm_mesh *mesh, const pm_model *
   if (!c->surf && c->nwire == 0)
     return pm_error_setf(err, PM_ERR_ARG, "distance: the mesh has no segments to compare with the curves of %s",
                          m->name);
-  return PM_OK;
+  return dist_check_params(c, err);
 }
 
 /* BVHs of the mesh, which the model side's samples search: its triangles, and the wire part's
@@ -1952,7 +1979,7 @@ static void dist_free(dist_state *r) {
   lattice_free(&r->lat);
   free(r->blocks), free(r->finfo), free(r->nbhd), free(r->curve_segs);
   free(r->face_tris_off), free(r->face_tris), free(r->Lface);
-  free(c->dangling), free(c->wire_seg), free(c->face_reach), free(c->face_box);
+  free(c->dangling), free(c->wire_seg), free(c->face_reach), free(c->face_box), free(c->par_ok);
   pm_bvh_destroy(c->mesh_tri), pm_bvh_destroy(c->mesh_wire);
   ref_faces_free(&c->rf);
   ref_curves_free(&c->rc_surf), ref_curves_free(&c->rc_wire);

@@ -26,7 +26,10 @@
  *       - when the element is classified on a face (or a dangling curve) and its nodes carry
  *         parameters on it: Gauss-Newton projection onto that cell started from the element's
  *         interpolated parameters (unwrapped across the seam of a periodic face), kept when the
- *         foot lies in the trimmed region;
+ *         foot lies in the trimmed region. A node's parameters count only when the cell's point
+ *         at them is the node (within 1e-6 of the diagonal): a file read without parameters
+ *         has zeros there, and a projection started from them can stop at a local minimum far
+ *         from the foot;
  *       - a reference tessellation of the faces (per face, a grid of inside (u, v) points and the
  *         trimming polylines, triangulated by the constrained Delaunay triangulation of
  *         cdt_cgal.h in (u, v) and lifted; its chordal error is at most ref_tol x diagonal and
