@@ -387,6 +387,44 @@ static void nonmanifold_embedding(void **state) {
   pm_model_destroy(m);
 }
 
+/* synth_bspline_patch.brep keeps the patch's 25 control points as free points. Those on the
+ * patch's corners or on its straight boundary edges are strays (no mesh node: one would
+ * duplicate a vertex's or a curve node that lands on it); those off the patch are kept. */
+static void construction_points_on_curves_are_stray(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  pm_model *m = cad_load_file("synth_bspline_patch.brep");
+  int isolated = 0, stray = 0, stray_on_curve = 0, kept_on_curve = 0;
+  for (int32_t v = 0; v < m->count[PM_VERTEX]; ++v) {
+    const pm_cell *a = pm_model_cell(m, PM_VERTEX, v);
+    if (a->nup || a->nhost) {
+      assert_false(a->stray);
+      continue;
+    }
+    ++isolated;
+    stray += a->stray;
+    double nearest = INFINITY;
+    for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+      double t, d;
+      pm_error e = {0};
+      PM_ASSERT_OK(pm_cell_project(pm_model_cell(m, PM_CURVE, c), a->xyz, NULL, &t, NULL, &d, &e),
+                   e);
+      nearest = fmin(nearest, d);
+    }
+    if (nearest <= 1e-9) {
+      stray_on_curve += a->stray;
+      kept_on_curve += !a->stray;
+    } else {
+      assert_false(a->stray);
+    }
+  }
+  assert_int_equal(isolated, 25);
+  assert_true(stray_on_curve > 0);
+  assert_int_equal(kept_on_curve, 0);
+  assert_int_equal(stray, stray_on_curve);
+  pm_model_destroy(m);
+}
+
 /* crack.brep: the crack face lies inside the volume (embedded, bounding nothing), its straight
  * edge is embedded in the cube face it touches, its elliptical front bounds only the crack. */
 static void crack_embedding(void **state) {
@@ -456,6 +494,7 @@ int main(void) {
       cmocka_unit_test(nonmanifold_embedding),
       cmocka_unit_test(cases_curvatures),
       cmocka_unit_test(crack_embedding),
+      cmocka_unit_test(construction_points_on_curves_are_stray),
       cmocka_unit_test(load_errors),
       cmocka_unit_test(every_model_loads_with_gmsh_counts),
       cmocka_unit_test(volume_orientation_matches_gmsh_mass),

@@ -1,7 +1,7 @@
 /* The node count a size field needs (node_budget.h): the surface estimate against the area of a
  * rectangle, the volume estimate against the volume of a ball, the early stop, and the checks
  * that refuse a field beyond a cap with one line naming the cap and the count. */
-#include "test_support.h"
+#include "test_rect_model.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -45,6 +45,23 @@ static void surface_estimate(void **state) {
   assert_non_null(strstr(e.msg, "not > 0"));
   assert_null(strchr(e.msg, '\n'));
   pm_sizing_destroy(bad);
+  pm_sizing_destroy(d);
+  pm_model_destroy(m);
+}
+
+/* A sliver face, 1 long and 1e-6 wide, at d = 1e-4: cells are split along the sides longer
+ * than d only, 2^10 pieces per top cell along the face; splitting both sides would make 4^10
+ * (a quarter of a billion evaluations: minutes, as slender_face.brep took). The estimate is
+ * the area over the lattice's area per node. */
+static void sliver_estimate(void **state) {
+  (void)state;
+  pm_model *m = pm_test_rect_model("sliver", 1e-6);
+  pm_sizing *d = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_sizing_constant(1e-4, &d, &e), e);
+  double est = 0;
+  PM_ASSERT_OK(pm_node_estimate_surface(m, d, INFINITY, &est, &e), e);
+  PM_ASSERT_NEAR(est, 1e-6 / (sqrt(3.0) / 2 * 1e-8), 1e-6 * est);
   pm_sizing_destroy(d);
   pm_model_destroy(m);
 }
@@ -107,6 +124,7 @@ static void volume_estimate(void **state) {
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(surface_estimate),
+      cmocka_unit_test(sliver_estimate),
       cmocka_unit_test(volume_estimate),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -156,8 +156,24 @@ static pm_status face_bound_from_loops(pm_cell *f, pm_error *err) {
   return PM_OK;
 }
 
-/* Stray vertices (geom.h): isolated points on another vertex. Quadratic in the isolated vertices
- * only, of which a model has few. */
+/* Whether point x lies on a curve of m (within tol): the curves whose sampled box, widened by a
+ * hundredth of its diagonal for what the samples miss, holds x are projected on. */
+static int on_some_curve(const pm_model *m, const double x[3], double tol) {
+  for (int32_t i = 0; i < m->count[PM_CURVE]; ++i) {
+    const pm_cell *c = &m->cells[PM_CURVE][i];
+    if (c->degenerate) continue;
+    const double margin = tol + 1e-2 * pm_v3_dist(c->box, c->box + 3);
+    int inside = 1;
+    for (int k = 0; k < 3 && inside; ++k)
+      inside = x[k] >= c->box[k] - margin && x[k] <= c->box[k + 3] + margin;
+    double t, d;
+    if (inside && pm_cell_project(c, x, NULL, &t, NULL, &d, NULL) == PM_OK && d <= tol) return 1;
+  }
+  return 0;
+}
+
+/* Stray vertices (geom.h): isolated points on another vertex or on a curve. Quadratic in the
+ * isolated vertices only, of which a model has few. */
 static void mark_stray_vertices(pm_model *m) {
   int32_t nv = m->count[PM_VERTEX];
   for (int32_t v = 0; v < nv; ++v) {
@@ -170,6 +186,7 @@ static void mark_stray_vertices(pm_model *m) {
       if (u != v && (b->nup || b->nhost || u < v) && pm_v3_dist(a->xyz, b->xyz) <= 1e3 * m->tol)
         a->stray = 1;
     }
+    if (!a->stray) a->stray = on_some_curve(m, a->xyz, 1e3 * m->tol);
   }
 }
 

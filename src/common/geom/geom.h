@@ -153,9 +153,11 @@ struct pm_cell {
 
   double xyz[3];      /* vertices: the point */
   int stray;          /* vertices: a leftover point of the file (a construction point) that
-                         bounds nothing, lies in nothing, and sits on another vertex (within
-                         1000 x the model tolerance): it gets no mesh node, which would duplicate
-                         the other vertex's (set by pm_model_finish) */
+                         bounds nothing, lies in nothing, and sits on another vertex or on a curve
+                         (within 1000 x the model tolerance): it gets no mesh node, which would
+                         duplicate the other vertex's or a curve node that lands on it (the
+                         control points on a straight edge of synth_bspline_patch.brep) (set by
+                         pm_model_finish) */
   int degenerate;     /* curves: zero length (a sphere pole, a cone apex) */
 
   int32_t nloop;

@@ -47,15 +47,18 @@ pm_status pm_node_estimate_surface(const pm_model *m, const pm_sizing *s, double
                            fp.p[0], fp.p[1], fp.p[2], c->tag);
         break;
       }
-      double h = fmax(pm_v3_norm(fp.su) * e.du, pm_v3_norm(fp.sv) * e.dv);
-      if (d < h && e.depth < EST_DEPTH && n + 4 <= cap) {
-        /* The field varies on a scale finer than the cell: split it (a stack of depth-first
-         * splits holds at most 3 siblings per level above the top grid). */
-        double hu = 0.5 * e.du, hv = 0.5 * e.dv;
+      const int split_u = pm_v3_norm(fp.su) * e.du > d, split_v = pm_v3_norm(fp.sv) * e.dv > d;
+      if ((split_u || split_v) && e.depth < EST_DEPTH && n + 4 <= cap) {
+        /* The field varies on a scale finer than the cell: split it along the sides longer than
+         * d only (a stack of depth-first splits holds at most 3 siblings per level above the
+         * top grid). Splitting both sides of a sliver face's cells (slender_face.brep: 10 long,
+         * 4e-4 wide) would make 4^k cells where 2^k cover its length, and the estimate took
+         * minutes. */
+        const double hu = split_u ? 0.5 * e.du : e.du, hv = split_v ? 0.5 * e.dv : e.dv;
         stack[n++] = (est_cell){e.u, e.v, hu, hv, e.depth + 1};
-        stack[n++] = (est_cell){e.u + hu, e.v, hu, hv, e.depth + 1};
-        stack[n++] = (est_cell){e.u, e.v + hv, hu, hv, e.depth + 1};
-        stack[n++] = (est_cell){e.u + hu, e.v + hv, hu, hv, e.depth + 1};
+        if (split_u) stack[n++] = (est_cell){e.u + hu, e.v, hu, hv, e.depth + 1};
+        if (split_v) stack[n++] = (est_cell){e.u, e.v + hv, hu, hv, e.depth + 1};
+        if (split_u && split_v) stack[n++] = (est_cell){e.u + hu, e.v + hv, hu, hv, e.depth + 1};
         continue;
       }
       double nrm[3];
