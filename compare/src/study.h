@@ -7,6 +7,7 @@
  *   plot_convergence.c  the convergence figures from the traces
  *   plot_gnuplot.c      what the figures share (plot_gnuplot.h)
  *   report.c      report.md and report.html
+ *   animate.c     a run's frames as a GIF and an HTML player (packmesh animate)
  *   sysinfo.c     library versions and the machine, for the report
  *   references.c  the papers cited as papers/NNN
  *   children.c    the helper process groups a signal handler must end

@@ -120,9 +120,8 @@ static pm_status w_row(void *ctx, const double *row, pm_error *err) {
   return PM_OK;
 }
 
-static pm_status w_frame(void *ctx, int64_t step, int32_t n, const double *xyz,
-                         const double *radius, const int8_t *dim, pm_error *err) {
-  return pm_observe_frame(((watch *)ctx)->report, step, n, xyz, radius, dim, err);
+static pm_status w_frame(void *ctx, const pm_run_frame *frame, pm_error *err) {
+  return pm_observe_frame(((watch *)ctx)->report, frame, err);
 }
 
 static pm_status w_time(void *ctx, const char *phase, double seconds, pm_error *err) {

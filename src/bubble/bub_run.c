@@ -125,7 +125,10 @@ static pm_status snapshot(bub_state *s, const pm_run_observer *obs, pm_error *er
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
   for (int32_t i = 0; i < s->n; ++i) r[i] = 0.5 * s->d[i], dim[i] = s->kind[i];
-  pm_status st = pm_observe_frame(obs, s->step, s->n, s->x, r, dim, err);
+  /* Bubbles are drawn at their radius: neighbours at the stable distance touch. */
+  const pm_run_frame f = {s->step, s->volume_phase ? 3 : 2, s->volume_phase ? "volume" : "surface",
+                          s->n, s->x, r, 1.0, dim, s->cell, s->par, NULL};
+  pm_status st = pm_observe_frame(obs, &f, err);
   free(r), free(dim);
   return st;
 }

@@ -238,7 +238,15 @@ static pm_status observe(psys_sys *s, const psys_observer *obs, const psys_move_
                           ms,              a,            mi->mean_rel, s->n, 0};
     if ((st = pm_observe_trace_row(obs->run, row, err))) return st;
   }
-  if (frame) return pm_observe_frame(obs->run, s->iter, s->n, s->xyz, s->sigma, s->dim, err);
+  if (frame) {
+    /* Drawn at edge_per_sigma sigma / 2, half the ideal edge length: neighbours at the spacing
+     * the calibration gives touch, as bubbles do (at sigma itself the circles overlap about three
+     * deep and hide each other). Coloured by E_i, the particle's energy (eq. 3). */
+    static const char *const names[4] = {"", "curves", "gap sizes", "faces"};
+    const pm_run_frame f = {s->iter, s->phase, names[s->phase & 3], s->n, s->xyz, s->sigma,
+                            0.5 * s->p.edge_per_sigma, s->dim, s->cell, s->par, s->energy};
+    return pm_observe_frame(obs->run, &f, err);
+  }
   return PM_OK;
 }
 
