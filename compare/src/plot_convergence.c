@@ -5,9 +5,9 @@
  * the mean displacement per step, eps_t and eps_g (papers/003 eq. 8-9, Table 1) -- in one column
  * per method, since bubble's steps and psys's iterations are different units and must not share
  * an axis. Every seed of the method is a thin line; the mean over the seeds that reached a step
- * is bold. Phase boundaries (the trace's `phase` column: bubble 2 surface, 3 volume; psys 1
- * curves, 2 gap sizes, 3 faces) are dashed vertical lines labelled with the phase that starts
- * there, taken from the first seed. Legends sit above each column's first panel, outside the
+ * is bold. Phases (the trace's `phase` column: bubble 2 surface, 3 volume; psys 1
+ * curves, 2 gap sizes, 3 faces) are named where they start, after the first with a dashed
+ * vertical line, taken from the first seed. Legends sit above each column's first panel, outside the
  * data.
  *
  * The node count: rows whose `event` is not 0 are the population changes between steps
@@ -166,7 +166,7 @@ typedef struct column {
   int have[NMEASURE];        /* a value in some row */
   int positive[NMEASURE];    /* every value > 0 */
   int old_nodes;             /* a trace without `nodes` */
-  double phase_x[8];         /* the first seed's phase starts (after its first phase) */
+  double phase_x[8];         /* the first seed's phase starts, its first phase's included */
   int phase_of[8], nphase;
   unsigned long long mesh_rows; /* seeds (the first 64) whose trace has the mesh's row */
   long mesh_gap;             /* largest |mesh nodes - last step's nodes| over the seeds */
@@ -216,7 +216,8 @@ static pm_status method_blocks(const pm_cmp_study *st, int c, int m, sbuf *d, in
       double x = cs >= 0 ? row[cs] : (double)k;
       double ev = ce >= 0 ? row[ce] : 0;
       if (ev == 0 && cp >= 0 && isfinite(row[cp])) {
-        if (col->seeds == 0 && isfinite(last_phase) && row[cp] != last_phase && col->nphase < 8) {
+        /* the first seed's phases: where each starts, the first one included */
+        if (col->seeds == 0 && row[cp] != last_phase && col->nphase < 8) {
           col->phase_x[col->nphase] = x;
           col->phase_of[col->nphase++] = (int)row[cp];
         }
@@ -293,6 +294,17 @@ static pm_status method_blocks(const pm_cmp_study *st, int c, int m, sbuf *d, in
 
 /* ---- the figure ---------------------------------------------------------------------------- */
 
+/* What a phase does, for its label: the trace's step column tells the two methods apart (bubble
+ * counts steps, psys iterations); "" for another trace. */
+static const char *phase_name(const char *xlabel, int phase) {
+  static const char *const bubble[4] = {"", "", "surface", "volume"};
+  static const char *const psys[4] = {"", "curves", "gap sizes", "faces"};
+  if (phase < 0 || phase > 3) return "";
+  if (strcmp(xlabel, "step") == 0) return bubble[phase];
+  if (strcmp(xlabel, "iteration") == 0) return psys[phase];
+  return "";
+}
+
 pm_status pm_cmp_plot_convergence(pm_cmp_plotctx *P, int c, pm_error *err) {
   const pm_cmp_study *st = P->st;
   const pm_cmp_suite *su = &st->suite;
@@ -339,13 +351,17 @@ pm_status pm_cmp_plot_convergence(pm_cmp_plotctx *P, int c, pm_error *err) {
       if (!have[p]) continue;
       SB(&g, "  unset logscale y\n  set format y \"%%g\"\n  unset arrow\n  unset label\n");
       if (measure[p].log && k->positive[p] && k->have[p]) SB(&g, "  set logscale y\n");
-      /* Phase boundaries: a dashed line at the first step of each phase after the first. */
-      for (int b = 0; b < k->nphase; ++b) {
-        SB(&g, "  set arrow from %.9g, graph 0 to %.9g, graph 1 nohead dt 2 lc rgb \"#777777\"\n",
-           k->phase_x[b], k->phase_x[b]);
-        SB(&g, "  set label \"phase %d\" at %.9g, graph 0.93 offset 0.4,0 font \",10\" tc rgb "
-               "\"#555555\"\n",
-           k->phase_of[b], k->phase_x[b]);
+      /* Phases: each named where it starts, a dashed line at the first step of each after the
+       * first. */
+      for (int b = 0; b < k->nphase && k->have[p]; ++b) {
+        if (b > 0)
+          SB(&g, "  set arrow from %.9g, graph 0 to %.9g, graph 1 nohead dt 2 lc rgb "
+                 "\"#777777\"\n",
+             k->phase_x[b], k->phase_x[b]);
+        const char *what = phase_name(k->xlabel, k->phase_of[b]);
+        SB(&g, "  set label \"phase %d%s%s\" at %.9g, graph 0.93 offset 0.4,0 font \",10\" tc "
+               "rgb \"#555555\"\n",
+           k->phase_of[b], what[0] ? ": " : "", what, k->phase_x[b]);
       }
       SB(&g, "  set ylabel \"%s\"\n", measure[p].ylabel);
       if (row == 0) {

@@ -115,8 +115,11 @@ def main():
         for lab in ("energy", "nodes", "mean displacement per step", "eps_t (topological"):
             if f'set ylabel "{lab}' not in gp:
                 fail(f"convergence_qi3.gp: no panel {lab}")
-        if 'set label "phase 3"' not in gp:
-            fail("convergence_qi3.gp: psys's phase 3 is not labelled")
+        for lab in ("phase 1: curves", "phase 3: faces", "phase 2: surface"):
+            if f'set label "{lab}"' not in gp:
+                fail(f"convergence_qi3.gp: no label {lab}")
+        if gp.count("set arrow from") != 3:  # psys's phase 3 on its three panels
+            fail("convergence_qi3.gp: not one phase boundary on each of psys's panels")
         if "not traced by psys" not in gp:
             fail("convergence_qi3.gp: psys's eps_t panel is not marked as untraced")
         if gp.count('title "mean of 2 seeds"') != 7:
@@ -129,12 +132,12 @@ def main():
             fail("convergence_qi3.dat: no mean block per method")
         with open(os.path.join(plots, "convergence_qi3.svg")) as f:
             svg = f.read()
-        for text in ("bubble", "psys", "each seed", "the mesh (node count)", "phase 3", "step", "iteration"):
+        for text in ("bubble", "psys", "each seed", "the mesh (node count)", "phase 3: faces", "step", "iteration"):
             if text not in svg:
                 fail(f"convergence_qi3.svg does not show '{text}'")
         with open(os.path.join(plots, "convergence_boxhole.gp")) as f:
             gp = f.read()
-        if 'set label "phase 3"' not in gp:
+        if 'set label "phase 3: volume"' not in gp:
             fail("convergence_boxhole.gp: bubble's volume phase is not labelled")
         with open(os.path.join(out, "report.md")) as f:
             md = f.read()
