@@ -486,7 +486,7 @@ static double throughput_one(const char *input, const char *label, const pm_sizi
   int64_t its = 0;
   for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) {
     const double *row = pm_trace_row(tr, r);
-    if (row[1] != 3) continue;
+    if (row[1] != 3 || row[12] != 0) continue; /* phase 3's iterations, not the mesh row */
     pit += row[2], last_n = row[2], ++its;
   }
   double t3 = stat_time(&st, "phase3");

@@ -206,6 +206,16 @@ const pm_cmp_reference *pm_cmp_reference_at(int i);
  * of pm_cmp_run are not among them: pm_cmp_run ends those itself (see above). */
 void pm_cmp_children_kill_all(void);
 
+/* ---- animations ---------------------------------------------------------------------------- */
+
+/* The frames of a run (`packmesh mesh --frames DIR` on a planar input: frame_NNNNNN.svg and
+ * .dat) as OUT.gif, drawn by gnuplot's gif terminal with delay_ms per frame, and OUT.html, a
+ * player of the SVG pictures that needs no other file (animate.c). Both are written together or
+ * not at all. *nframes (may be NULL) receives the frame count. PM_ERR_ARG when dir holds no
+ * frames, PM_ERR_IO when a frame cannot be read, an output cannot be written or gnuplot fails. */
+pm_status pm_cmp_animate(const char *frames_dir, const char *out, int delay_ms, int *nframes,
+                         pm_error *err);
+
 #ifdef __cplusplus
 }
 #endif

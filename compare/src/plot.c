@@ -13,8 +13,7 @@
  *   min_angle_tri            minimum angle of each triangle; min_dihedral_tet for tets.
  *   time                     wall time of packmesh's run (time_s.total), mean over seeds with
  *                            min-max bars, log scale.
- *   convergence_CASE         from the runs' traces: eps_t, eps_g (papers/003 Table 1), mean
- *                            radius ratio (papers/004 Fig. 7) and node count against the step.
+ *   convergence_CASE         from the runs' traces (plot_convergence.c).
  *   sweep_CASE               with a sweep: metrics against the swept value, mean over seeds with
  *                            the min-max spread.
  * With a sweep, the box plots get one figure per case with the swept values along x.
@@ -30,165 +29,18 @@
 
 #include "common/base/atomic_file.h"
 #include "common/measure/quality.h"
+#include "compare/src/plot_gnuplot.h"
 #include "compare/src/study.h"
 
-#define GNUPLOT_TIMEOUT_S 60
-#define MAX_TRACE_POINTS 2000 /* a curve keeps at most this many points (every k-th row) */
 /* Degenerate elements have aspect ratio PM_QUALITY_HUGE (quality.h); a log axis up to 1e100
  * would flatten every real box, so the axis stops here and the caption says so. */
 #define ASPECT_AXIS_MAX 1e6
 
-static const char *const palette[] = {"#1b9e77", "#d95f02", "#7570b3", "#e7298a",
-                                      "#66a61e", "#e6ab02", "#a6761d", "#666666"};
-#define NPALETTE 8
-
-typedef struct plotctx {
-  const pm_cmp_study *st;
-  pm_cmp_figures *figs;
-  char dir[4096]; /* plots/ */
-  int have_gnuplot;
-} plotctx;
-
-/* ---- text buffers and files ---------------------------------------------------------------- */
-
-typedef struct sbuf {
-  char *s;
-  size_t n, cap;
-  int bad;
-} sbuf;
-
-#define SB(b, ...) ((b)->bad |= pm_cmp_appendf(&(b)->s, &(b)->n, &(b)->cap, __VA_ARGS__) != 0)
-
-static pm_status write_text(const plotctx *P, const char *file, const sbuf *b, pm_error *err) {
-  if (b->bad) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  char path[4400];
-  snprintf(path, sizeof path, "%s/%s", P->dir, file);
-  return pm_atomic_write(path, b->s ? b->s : "", b->s ? b->n : 0, err);
-}
-
-/* A label for gnuplot inside double quotes (the terminals are noenhanced: _ and ^ print as
- * they are). */
-static void gp_quote(const char *in, char *out, size_t len) {
-  size_t k = 0;
-  for (; *in && k + 3 < len; ++in) {
-    if (*in == '"' || *in == '\\') out[k++] = '\\';
-    out[k++] = *in;
-  }
-  out[k] = '\0';
-}
-
-/* The script's head: the output stem, overridable (gnuplot -e "out='x'") so the harness can draw
- * under a temporary name and rename (no half-written figure), and the loop over formats. */
-static void script_head(sbuf *g, const char *name, const char *title, const char *data_doc,
-                        int width, int height) {
-  SB(g, "# packmesh compare: %s\n", title);
-  SB(g, "# Data: %s.dat -- %s\n", name, data_doc);
-  SB(g, "# Redraw (in this folder): gnuplot %s.gp   -> %s.svg, %s.png, %s.pdf\n", name, name, name,
-     name);
-  SB(g, "if (!exists(\"out\")) out = \"%s\"\n", name);
-  SB(g, "data = \"%s.dat\"\n", name);
-  SB(g, "do for [fmt in \"svg png pdf\"] {\n");
-  SB(g, "  if (fmt eq \"svg\") { set terminal svg size %d,%d dynamic noenhanced font \"Helvetica,13\" "
-        "background rgb \"white\" }\n",
-     width, height);
-  SB(g, "  if (fmt eq \"png\") { set terminal pngcairo size %d,%d noenhanced font \"Helvetica,13\" "
-        "background rgb \"white\" }\n",
-     width * 4 / 3, height * 4 / 3);
-  SB(g, "  if (fmt eq \"pdf\") { set terminal pdfcairo size %.2fin,%.2fin noenhanced font "
-        "\"Helvetica,10\" }\n",
-     width / 100.0, height / 100.0);
-  SB(g, "  set output out.\".\".fmt\n");
-  SB(g, "  reset\n");
-  SB(g, "  set datafile missing \"?\"\n");
-  SB(g, "  set grid ytics lc rgb \"#dddddd\"\n");
-  SB(g, "  set border 3\n  set tics nomirror\n");
-}
-
-static void script_tail(sbuf *g) { SB(g, "  set output\n}\n"); }
-
-static pm_cmp_figure *add_figure(plotctx *P, const char *name, const char *title,
-                                 const char *caption) {
-  pm_cmp_figures *F = P->figs;
-  pm_cmp_figure *f = realloc(F->fig, (size_t)(F->n + 1) * sizeof *f);
-  if (!f) return NULL;
-  F->fig = f;
-  f = &F->fig[F->n++];
-  memset(f, 0, sizeof *f);
-  snprintf(f->name, sizeof f->name, "%s", name);
-  snprintf(f->title, sizeof f->title, "%s", title);
-  snprintf(f->caption, sizeof f->caption, "%s", caption);
-  return f;
-}
-
-/* Run gnuplot on NAME.gp with out='.tmp-NAME' and rename the three drawings into place. */
-static void draw(plotctx *P, pm_cmp_figure *f) {
-  if (!P->have_gnuplot) {
-    snprintf(f->error, sizeof f->error, "gnuplot is not installed");
-    return;
-  }
-  char gp[256], expr[300], logp[4400];
-  snprintf(gp, sizeof gp, "%s.gp", f->name);
-  snprintf(expr, sizeof expr, "out='.tmp-%s'", f->name);
-  snprintf(logp, sizeof logp, "%s/.%s.log", P->dir, f->name);
-  char *argv[] = {"gnuplot", "-e", expr, gp, NULL};
-  int ws = 0, to = 0;
-  static const char *const ext[] = {"svg", "png", "pdf"};
-  /* gnuplot's drawings and log are temporaries until renamed (or kept, the log of a failure):
-   * a signal removes them. */
-  int track[4];
-  for (int k = 0; k < 3; ++k) {
-    char tmp[4400];
-    snprintf(tmp, sizeof tmp, "%s/.tmp-%s.%s", P->dir, f->name, ext[k]);
-    track[k] = pm_tmp_track(tmp, 0);
-  }
-  track[3] = pm_tmp_track(logp, 0);
-  int rc = pm_cmp_run_program(argv, P->dir, NULL, logp, GNUPLOT_TIMEOUT_S, &ws, &to);
-  int ok = rc == 0 && !to && WIFEXITED(ws) && WEXITSTATUS(ws) == 0;
-  if (!ok) {
-    char *log = pm_cmp_read_file(logp, NULL);
-    /* gnuplot's message is its last non-empty line. */
-    char msg[400] = "";
-    if (log) {
-      char *line = strtok(log, "\n");
-      while (line) {
-        if (line[strspn(line, " ^")]) snprintf(msg, sizeof msg, "%s", line);
-        line = strtok(NULL, "\n");
-      }
-      free(log);
-    }
-    snprintf(f->error, sizeof f->error, "gnuplot %s%s%s",
-             to ? "timed out" : (rc ? "could not run" : "failed"), msg[0] ? ": " : "", msg);
-  }
-  for (int k = 0; k < 3; ++k) {
-    char tmp[4400], fin[4400];
-    snprintf(tmp, sizeof tmp, "%s/.tmp-%s.%s", P->dir, f->name, ext[k]);
-    snprintf(fin, sizeof fin, "%s/%s.%s", P->dir, f->name, ext[k]);
-    struct stat sb;
-    if (ok && stat(tmp, &sb) == 0 && sb.st_size > 0) {
-      if (rename(tmp, fin) != 0) ok = 0;
-    } else {
-      unlink(tmp);
-      if (ok) {
-        ok = 0;
-        snprintf(f->error, sizeof f->error, "gnuplot wrote no %s file", ext[k]);
-      }
-    }
-  }
-  if (ok) unlink(logp);
-  for (int k = 0; k < 4; ++k) pm_tmp_untrack(track[k]);
-  f->drawn = ok;
-}
-
 /* ---- groups -------------------------------------------------------------------------------- */
-
-/* Does row r belong to (case c, method m, sweep value w)? w < 0: any sweep value. */
-static int row_in(const pm_cmp_row *r, int c, int m, int w) {
-  return r->icase == c && r->imethod == m && (w < 0 || r->isweep == w);
-}
 
 static int has_elements(const pm_cmp_study *st, int c, int m, int w) {
   for (int i = 0; i < st->nrow; ++i)
-    if (row_in(&st->rows[i], c, m, w) && st->rows[i].status == PM_CMP_OK &&
+    if (pm_cmp_row_in(&st->rows[i], c, m, w) && st->rows[i].status == PM_CMP_OK &&
         st->rows[i].elements_ok)
       return 1;
   return 0;
@@ -200,7 +52,7 @@ static int group_summary(const pm_cmp_study *st, int c, int m, int w, const char
   double *v = NULL;
   size_t n = 0, cap = 0;
   for (int i = 0; i < st->nrow && !*s; ++i)
-    if (row_in(&st->rows[i], c, m, w))
+    if (pm_cmp_row_in(&st->rows[i], c, m, w))
       *s = pm_cmp_row_elements(st, &st->rows[i], kind, column, &v, &n, &cap, err);
   int got = 0;
   if (!*s && n > 0 && !(*s = pm_sort_doubles(v, n, err))) {
@@ -227,7 +79,7 @@ typedef struct boxspec {
 
 /* One box plot: clusters along x (cases, or the sweep values of case `only_case`), one box per
  * method in each cluster. Returns 0 when there is nothing to draw. */
-static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *err) {
+static pm_status boxplot(pm_cmp_plotctx *P, const boxspec *b, int only_case, pm_error *err) {
   const pm_cmp_study *st = P->st;
   const pm_cmp_suite *su = &st->suite;
   int sweep = only_case >= 0;
@@ -302,16 +154,16 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
   int width = 300 + 26 * nshown * (nm + 1);
   if (width < 800) width = 800;
   if (width > 1800) width = 1800;
-  script_head(&g, name, title,
+  pm_cmp_gp_head(&g, name, title,
               "x, min, p25, median, p75, max, element count, cluster; one block per method", width,
               520);
   char q[512];
-  gp_quote(title, q, sizeof q);
+  pm_cmp_gp_quote(title, q, sizeof q);
   SB(&g, "  set title \"%s\"\n", q);
-  gp_quote(b->ylabel, q, sizeof q);
+  pm_cmp_gp_quote(b->ylabel, q, sizeof q);
   SB(&g, "  set ylabel \"%s\"\n", q);
   if (sweep) {
-    gp_quote(su->sweep_key, q, sizeof q);
+    pm_cmp_gp_quote(su->sweep_key, q, sizeof q);
     SB(&g, "  set xlabel \"%s\"\n", q);
   }
   SB(&g, "  set key outside right top\n");
@@ -334,7 +186,7 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
   SB(&g, "  set xtics (");
   for (int k = 0, first = 1; k < ncl; ++k) {
     if (xpos[k] < 0) continue;
-    gp_quote(sweep ? su->sweep_values[k] : su->cases[k].name, q, sizeof q);
+    pm_cmp_gp_quote(sweep ? su->sweep_values[k] : su->cases[k].name, q, sizeof q);
     SB(&g, "%s\"%s\" %g", first ? "" : ", ", q, xpos[k] * (nm + 1) + (nm + 1) / 2.0);
     first = 0;
   }
@@ -343,26 +195,26 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
   int first = 1;
   for (int m = 0; m < nm; ++m) {
     if (!blocks[m]) continue;
-    gp_quote(su->methods[m].label, q, sizeof q);
+    pm_cmp_gp_quote(su->methods[m].label, q, sizeof q);
     SB(&g, "%s    data index %d using 1:3:2:6:5 with candlesticks whiskerbars 0.5 lc rgb \"%s\" "
            "lw 1.5 title \"%s\", \\\n"
            "    data index %d using 1:4:4:4:4 with candlesticks lc rgb \"black\" lw 2.5 notitle",
-       first ? "" : ", \\\n", blocks[m] - 1, palette[m % NPALETTE], q, blocks[m] - 1);
+       first ? "" : ", \\\n", blocks[m] - 1, pm_cmp_palette[m % PM_CMP_NPALETTE], q, blocks[m] - 1);
     first = 0;
   }
   /* The ideal value as a dashed line named in the key (a label on the plot would sit on the
    * boxes). */
   if (b->ref > 0) {
-    gp_quote(b->ref_label, q, sizeof q);
+    pm_cmp_gp_quote(b->ref_label, q, sizeof q);
     SB(&g, ", \\\n    %.9g with lines dt 2 lc rgb \"#888888\" title \"%s\"", b->ref, q);
   }
   SB(&g, "\n");
-  script_tail(&g);
+  pm_cmp_gp_tail(&g);
   char file[200];
   snprintf(file, sizeof file, "%s.dat", name);
-  if (!(s = write_text(P, file, &d, err))) {
+  if (!(s = pm_cmp_plot_write(P, file, &d, err))) {
     snprintf(file, sizeof file, "%s.gp", name);
-    s = write_text(P, file, &g, err);
+    s = pm_cmp_plot_write(P, file, &g, err);
   }
   free(d.s);
   free(g.s);
@@ -377,15 +229,15 @@ static pm_status boxplot(plotctx *P, const boxspec *b, int only_case, pm_error *
            b->logscale && top > ASPECT_AXIS_MAX
                ? "; degenerate elements (aspect ratio 1e100) lie beyond the top of the axis"
                : "");
-  pm_cmp_figure *f = add_figure(P, name, title, cap);
+  pm_cmp_figure *f = pm_cmp_plot_figure(P, name, title, cap);
   if (!f) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  draw(P, f);
+  pm_cmp_plot_draw(P, f);
   return PM_OK;
 }
 
 /* ---- time bars ----------------------------------------------------------------------------- */
 
-static pm_status time_bars(plotctx *P, pm_error *err) {
+static pm_status time_bars(pm_cmp_plotctx *P, pm_error *err) {
   const pm_cmp_study *st = P->st;
   const pm_cmp_suite *su = &st->suite;
   int nm = su->nmethod, ncl = su->ncase;
@@ -402,7 +254,7 @@ static pm_status time_bars(plotctx *P, pm_error *err) {
       int n = 0;
       for (int i = 0; i < st->nrow; ++i) {
         const pm_cmp_row *r = &st->rows[i];
-        if (!row_in(r, c, m, -1)) continue;
+        if (!pm_cmp_row_in(r, c, m, -1)) continue;
         double t = pm_cmp_row_value(r, "time_s.total");
         if (!isfinite(t)) continue;
         /* A log axis cannot show 0: a run timed at 0 s is drawn at 1 ms. */
@@ -428,7 +280,7 @@ static pm_status time_bars(plotctx *P, pm_error *err) {
   int width = 300 + 26 * ncl * (nm + 1);
   if (width < 800) width = 800;
   if (width > 1800) width = 1800;
-  script_head(&g, "time", "time per run", "x, mean, min, max, runs, case; one block per method",
+  pm_cmp_gp_head(&g, "time", "time per run", "x, mean, min, max, runs, case; one block per method",
               width, 480);
   SB(&g, "  set title \"time of packmesh mesh per run (mean over seeds, bars: min to max)\"\n");
   SB(&g, "  set ylabel \"seconds\"\n  set logscale y\n  set format y \"%%g\"\n");
@@ -437,23 +289,23 @@ static pm_status time_bars(plotctx *P, pm_error *err) {
   SB(&g, "  set xtics (");
   char q[512];
   for (int c = 0; c < ncl; ++c) {
-    gp_quote(su->cases[c].name, q, sizeof q);
+    pm_cmp_gp_quote(su->cases[c].name, q, sizeof q);
     SB(&g, "%s\"%s\" %g", c ? ", " : "", q, c * (nm + 1) + (nm + 1) / 2.0);
   }
   SB(&g, ") scale 0\n  plot \\\n");
   int first = 1;
   for (int m = 0; m < nm; ++m) {
     if (!blocks[m]) continue;
-    gp_quote(su->methods[m].label, q, sizeof q);
+    pm_cmp_gp_quote(su->methods[m].label, q, sizeof q);
     SB(&g, "%s    data index %d using 1:2 with boxes lc rgb \"%s\" title \"%s\", \\\n"
            "    data index %d using 1:2:3:4 with yerrorbars lc rgb \"black\" pt 7 ps 0 notitle",
-       first ? "" : ", \\\n", blocks[m] - 1, palette[m % NPALETTE], q, blocks[m] - 1);
+       first ? "" : ", \\\n", blocks[m] - 1, pm_cmp_palette[m % PM_CMP_NPALETTE], q, blocks[m] - 1);
     first = 0;
   }
   SB(&g, "\n");
-  script_tail(&g);
-  if ((s = write_text(P, "time.dat", &d, err)) || (s = write_text(P, "time.gp", &g, err))) goto done;
-  pm_cmp_figure *f = add_figure(P, "time", "time per run",
+  pm_cmp_gp_tail(&g);
+  if ((s = pm_cmp_plot_write(P, "time.dat", &d, err)) || (s = pm_cmp_plot_write(P, "time.gp", &g, err))) goto done;
+  pm_cmp_figure *f = pm_cmp_plot_figure(P, "time", "time per run",
                                 "time_s.total of each run's stats (reading the input, placing "
                                 "nodes, connecting, measuring), mean over the seeds; the bars "
                                 "span the fastest and the slowest run.");
@@ -461,209 +313,7 @@ static pm_status time_bars(plotctx *P, pm_error *err) {
     s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto done;
   }
-  draw(P, f);
-done:
-  free(blocks);
-  free(d.s);
-  free(g.s);
-  return s;
-}
-
-/* ---- convergence curves from traces -------------------------------------------------------- */
-
-typedef struct trace {
-  int ncol;
-  char **name;
-  double *v; /* [nrow * ncol] */
-  long nrow;
-} trace;
-
-static void trace_free(trace *t) {
-  for (int i = 0; i < t->ncol; ++i) free(t->name[i]);
-  free(t->name);
-  free(t->v);
-  memset(t, 0, sizeof *t);
-}
-
-static int trace_read(const char *path, trace *t) {
-  memset(t, 0, sizeof *t);
-  char *text = pm_cmp_read_file(path, NULL);
-  if (!text) return 0;
-  char *save = NULL;
-  char *line = strtok_r(text, "\n", &save);
-  if (!line) {
-    free(text);
-    return 0;
-  }
-  for (char *c = line; *c; ++c) t->ncol += *c == ',';
-  t->ncol += line[strspn(line, " \r")] != '\0';
-  if (t->ncol <= 0) {
-    free(text);
-    return 0;
-  }
-  t->name = calloc((size_t)t->ncol, sizeof *t->name);
-  if (!t->name) {
-    free(text);
-    return 0;
-  }
-  char *f = line;
-  for (int c = 0; c < t->ncol; ++c) {
-    char *comma = strchr(f, ',');
-    if (comma) *comma = '\0';
-    f[strcspn(f, "\r")] = '\0';
-    if (*f == '"') { /* a quoted name: drop the quotes */
-      ++f;
-      f[strcspn(f, "\"")] = '\0';
-    }
-    t->name[c] = malloc(strlen(f) + 1);
-    if (t->name[c]) strcpy(t->name[c], f);
-    f = comma ? comma + 1 : f + strlen(f);
-  }
-  long cap = 0;
-  while ((line = strtok_r(NULL, "\n", &save))) {
-    if (t->nrow == cap) {
-      cap = cap ? 2 * cap : 1024;
-      double *v = realloc(t->v, (size_t)cap * t->ncol * sizeof *v);
-      if (!v) break;
-      t->v = v;
-    }
-    char *p = line;
-    for (int c = 0; c < t->ncol; ++c) {
-      char *end;
-      double x = strtod(p, &end);
-      t->v[t->nrow * t->ncol + c] = end == p ? NAN : x;
-      p = strchr(end, ',');
-      if (!p) {
-        for (int k = c + 1; k < t->ncol; ++k) t->v[t->nrow * t->ncol + k] = NAN;
-        break;
-      }
-      ++p;
-    }
-    t->nrow++;
-  }
-  free(text);
-  return t->nrow > 0;
-}
-
-/* The trace column of a quantity. Methods name their columns (trace.h); these are the names
- * they use for the four curves, matched loosely: the first column whose name contains one of
- * the patterns, in order. */
-static int trace_col(const trace *t, const char *const *patterns) {
-  for (int p = 0; patterns[p]; ++p)
-    for (int c = 0; c < t->ncol; ++c)
-      if (t->name[c] && strstr(t->name[c], patterns[p])) return c;
-  return -1;
-}
-
-static const char *const pat_step[] = {"iteration", "step", "iter", "round", NULL};
-static const char *const pat_eps_t[] = {"eps_t", NULL};
-static const char *const pat_eps_g[] = {"eps_g", NULL};
-static const char *const pat_rr[] = {"radius_ratio_mean", "mean_radius_ratio", "radius_ratio",
-                                     "rr_mean", NULL};
-static const char *const pat_nodes[] = {"nodes", "particles", "bubbles", NULL};
-
-static pm_status convergence(plotctx *P, int c, pm_error *err) {
-  const pm_cmp_study *st = P->st;
-  const pm_cmp_suite *su = &st->suite;
-  sbuf d = {0}, g = {0};
-  int block = 0;
-  int have[4] = {0, 0, 0, 0};
-  int *blocks = calloc((size_t)su->nmethod, sizeof *blocks);
-  if (!blocks) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  SB(&d, "# convergence of the runs on %s: one block per method (its first successful run with "
-         "a trace)\n# step  eps_t  eps_g  mean_radius_ratio  nodes   (? = not traced)\n",
-     su->cases[c].name);
-  for (int m = 0; m < su->nmethod; ++m) {
-    for (int i = 0; i < st->nrow; ++i) {
-      const pm_cmp_row *r = &st->rows[i];
-      if (!row_in(r, c, m, -1) || r->status != PM_CMP_OK) continue;
-      char path[4400];
-      snprintf(path, sizeof path, "%s/runs/%s/trace.csv", st->dir, r->id);
-      trace t;
-      if (!trace_read(path, &t)) {
-        trace_free(&t);
-        continue;
-      }
-      int cs = trace_col(&t, pat_step);
-      int cols[4] = {trace_col(&t, pat_eps_t), trace_col(&t, pat_eps_g), trace_col(&t, pat_rr),
-                     trace_col(&t, pat_nodes)};
-      if (cols[0] < 0 && cols[1] < 0 && cols[2] < 0 && cols[3] < 0) {
-        trace_free(&t);
-        continue;
-      }
-      SB(&d, "# method %s, run %s\n", su->methods[m].label, r->id);
-      long stride = t.nrow > MAX_TRACE_POINTS ? (t.nrow + MAX_TRACE_POINTS - 1) / MAX_TRACE_POINTS : 1;
-      for (long k = 0; k < t.nrow; ++k) {
-        if (k % stride && k != t.nrow - 1) continue;
-        const double *row = t.v + k * t.ncol;
-        double x = cs >= 0 ? row[cs] : (double)k;
-        SB(&d, "%.9g", x);
-        for (int q = 0; q < 4; ++q) {
-          double y = cols[q] >= 0 ? row[cols[q]] : NAN;
-          if (isfinite(y)) {
-            SB(&d, " %.9g", y);
-            have[q] = 1;
-          } else {
-            SB(&d, " ?");
-          }
-        }
-        SB(&d, "\n");
-      }
-      SB(&d, "\n\n");
-      blocks[m] = ++block;
-      trace_free(&t);
-      break;
-    }
-  }
-  pm_status s = PM_OK;
-  if (!block) goto done;
-  char name[160], title[300], q[512];
-  snprintf(name, sizeof name, "convergence_%s", su->cases[c].name);
-  for (char *p = name; *p; ++p)
-    if (!((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') || (*p >= '0' && *p <= '9') || *p == '_' || *p == '-'))
-      *p = '_';
-  snprintf(title, sizeof title, "convergence on %s", su->cases[c].name);
-  script_head(&g, name, title, "step, eps_t, eps_g, mean radius ratio, nodes; one block per method",
-              1000, 700);
-  static const char *const ylab[4] = {"eps_t (topological irregularity)",
-                                      "eps_g (geometric irregularity)", "mean radius ratio",
-                                      "nodes"};
-  int npanel = have[0] + have[1] + have[2] + have[3];
-  gp_quote(title, q, sizeof q);
-  SB(&g, "  set multiplot layout %d,%d title \"%s\"\n", npanel > 2 ? 2 : 1, npanel > 1 ? 2 : 1, q);
-  SB(&g, "  set xlabel \"step\"\n");
-  for (int p = 0; p < 4; ++p) {
-    if (!have[p]) continue;
-    /* The radius ratio rises: its key goes where its curves are not. */
-    SB(&g, "  set key %s right\n", p == 2 ? "bottom" : "top");
-    SB(&g, "  set ylabel \"%s\"\n  plot \\\n", ylab[p]);
-    int first = 1;
-    for (int m = 0; m < su->nmethod; ++m) {
-      if (!blocks[m]) continue;
-      gp_quote(su->methods[m].label, q, sizeof q);
-      SB(&g, "%s    data index %d using 1:%d with lines lw 2 lc rgb \"%s\" title \"%s\"",
-         first ? "" : ", \\\n", blocks[m] - 1, p + 2, palette[m % NPALETTE], q);
-      first = 0;
-    }
-    SB(&g, "\n");
-  }
-  SB(&g, "  unset multiplot\n");
-  script_tail(&g);
-  char file[200];
-  snprintf(file, sizeof file, "%s.dat", name);
-  if ((s = write_text(P, file, &d, err))) goto done;
-  snprintf(file, sizeof file, "%s.gp", name);
-  if ((s = write_text(P, file, &g, err))) goto done;
-  pm_cmp_figure *f = add_figure(P, name, title,
-                                "Per step of each method's first successful run (its --trace): "
-                                "topological and geometric irregularity (papers/003 eq. 8-9, "
-                                "Table 1), the mean radius ratio (papers/004 Fig. 7) and the node "
-                                "count. Methods without a trace (direct meshers) have no curve.");
-  if (!f) {
-    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-    goto done;
-  }
-  draw(P, f);
+  pm_cmp_plot_draw(P, f);
 done:
   free(blocks);
   free(d.s);
@@ -673,7 +323,7 @@ done:
 
 /* ---- sweeps -------------------------------------------------------------------------------- */
 
-static pm_status sweep_plot(plotctx *P, int c, pm_error *err) {
+static pm_status sweep_plot(pm_cmp_plotctx *P, int c, pm_error *err) {
   const pm_cmp_study *st = P->st;
   const pm_cmp_suite *su = &st->suite;
   /* Numeric sweep values give a numeric axis (log when they span more than 50x). */
@@ -714,7 +364,7 @@ static pm_status sweep_plot(plotctx *P, int c, pm_error *err) {
       for (int k = 0; k < 6; ++k) mean[k] = 0, mn[k] = INFINITY, mx[k] = -INFINITY, cnt[k] = 0;
       for (int i = 0; i < st->nrow; ++i) {
         const pm_cmp_row *r = &st->rows[i];
-        if (!row_in(r, c, m, w) || r->status != PM_CMP_OK) continue;
+        if (!pm_cmp_row_in(r, c, m, w) || r->status != PM_CMP_OK) continue;
         for (int k = 0; k < 6; ++k) {
           double v = pm_cmp_row_value(r, metrics[k].key);
           if (!isfinite(v)) continue;
@@ -757,52 +407,52 @@ static pm_status sweep_plot(plotctx *P, int c, pm_error *err) {
     if (!((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') || (*p >= '0' && *p <= '9') || *p == '_' || *p == '-'))
       *p = '_';
   snprintf(title, sizeof title, "%s on %s", su->sweep_key, su->cases[c].name);
-  script_head(&g, name, title,
+  pm_cmp_gp_head(&g, name, title,
               "swept value, then mean, min and max over the seeds of six metrics; one block "
               "per method",
               1200, 760);
-  gp_quote(title, q, sizeof q);
+  pm_cmp_gp_quote(title, q, sizeof q);
   SB(&g, "  set multiplot layout 2,3 title \"%s (mean over seeds; bars: min to max)\"\n", q);
-  gp_quote(su->sweep_key, q, sizeof q);
+  pm_cmp_gp_quote(su->sweep_key, q, sizeof q);
   SB(&g, "  set xlabel \"%s\"\n  set key top right font \",10\"\n", q);
   if (logx) SB(&g, "  set logscale x\n  set format x \"%%g\"\n");
   if (!numeric) SB(&g, "  set xrange [-0.5:%d]\n", su->nsweep - 1 + 1);
   for (int k = 0; k < 6; ++k) {
-    gp_quote(metrics[k].label, q, sizeof q);
+    pm_cmp_gp_quote(metrics[k].label, q, sizeof q);
     SB(&g, "  set ylabel \"%s\"\n  plot \\\n", q);
     int first = 1;
     for (int m = 0; m < su->nmethod; ++m) {
       if (!blocks[m]) continue;
       char lq[256];
-      gp_quote(su->methods[m].label, lq, sizeof lq);
+      pm_cmp_gp_quote(su->methods[m].label, lq, sizeof lq);
       int col = 2 + 3 * k;
       SB(&g, "%s    data index %d using 1:%d:%d:%d%s with yerrorlines lw 1.5 pt 7 ps 0.6 lc rgb "
              "\"%s\" title \"%s\"",
          first ? "" : ", \\\n", blocks[m] - 1, col, col + 1, col + 2,
-         numeric ? "" : ":xticlabels(20)", palette[m % NPALETTE], lq);
+         numeric ? "" : ":xticlabels(20)", pm_cmp_palette[m % PM_CMP_NPALETTE], lq);
       first = 0;
     }
     SB(&g, "\n");
   }
   SB(&g, "  unset multiplot\n");
-  script_tail(&g);
+  pm_cmp_gp_tail(&g);
   char file[200];
   snprintf(file, sizeof file, "%s.dat", name);
-  if ((s = write_text(P, file, &d, err))) goto done;
+  if ((s = pm_cmp_plot_write(P, file, &d, err))) goto done;
   snprintf(file, sizeof file, "%s.gp", name);
-  if ((s = write_text(P, file, &g, err))) goto done;
+  if ((s = pm_cmp_plot_write(P, file, &g, err))) goto done;
   char cap[600];
   snprintf(cap, sizeof cap,
            "Each point is the mean over the seeds of the successful runs at that value of %s; "
            "the bars span the smallest and the largest run. Radius ratio and eps_t are of the "
            "%s.",
            su->sweep_key, su->cases[c].volume ? "tetrahedra" : "triangles");
-  pm_cmp_figure *f = add_figure(P, name, title, cap);
+  pm_cmp_figure *f = pm_cmp_plot_figure(P, name, title, cap);
   if (!f) {
     s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto done;
   }
-  draw(P, f);
+  pm_cmp_plot_draw(P, f);
 done:
   free(blocks);
   free(d.s);
@@ -814,7 +464,7 @@ done:
 
 pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *err) {
   memset(figs, 0, sizeof *figs);
-  plotctx P;
+  pm_cmp_plotctx P;
   memset(&P, 0, sizeof P);
   P.st = st;
   P.figs = figs;
@@ -864,7 +514,7 @@ pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *e
     }
   }
   if (!s) s = time_bars(&P, err);
-  for (int c = 0; c < su->ncase && !s; ++c) s = convergence(&P, c, err);
+  for (int c = 0; c < su->ncase && !s; ++c) s = pm_cmp_plot_convergence(&P, c, err);
   for (int c = 0; c < su->ncase && !s && su->nsweep; ++c) s = sweep_plot(&P, c, err);
   return s;
 }

@@ -17,14 +17,6 @@
 
 #define CELL 1100 /* bytes of a table cell (an error message is up to 1024) */
 
-typedef struct sbuf {
-  char *s;
-  size_t n, cap;
-  int bad;
-} sbuf;
-
-#define SB(b, ...) ((b)->bad |= pm_cmp_appendf(&(b)->s, &(b)->n, &(b)->cap, __VA_ARGS__) != 0)
-
 typedef struct doc {
   sbuf md, html;
 } doc;

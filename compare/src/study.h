@@ -4,7 +4,10 @@
  *   run.c         run the rows as child processes (parallel, time-limited, resumable)
  *   results.c     results.csv, elements.csv, per-row values for tables and plots
  *   plot.c        gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
+ *   plot_convergence.c  the convergence figures from the traces
+ *   plot_gnuplot.c      what the figures share (plot_gnuplot.h)
  *   report.c      report.md and report.html
+ *   animate.c     a run's frames as a GIF and an HTML player (packmesh animate)
  *   sysinfo.c     library versions and the machine, for the report
  *   references.c  the papers cited as papers/NNN
  *   children.c    the helper process groups a signal handler must end
@@ -75,6 +78,16 @@ int pm_cmp_appendf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)))
 #endif
     ;
+
+/* A growing text for SB; `bad` records a failed append (out of memory), checked once when the
+ * text is used. */
+typedef struct sbuf {
+  char *s;
+  size_t n, cap;
+  int bad;
+} sbuf;
+
+#define SB(b, ...) ((b)->bad |= pm_cmp_appendf(&(b)->s, &(b)->n, &(b)->cap, __VA_ARGS__) != 0)
 
 /* Read a whole file (NUL-terminated, malloc'ed); NULL when it cannot be read. */
 char *pm_cmp_read_file(const char *path, size_t *len);

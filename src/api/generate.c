@@ -81,6 +81,7 @@ typedef struct watch {
   int run;
   int ncol;
   const char *const *columns;
+  int event; /* the trace's `event` column (0: an iteration; else a row between them), or -1 */
 } watch;
 
 static pm_status cancelled(const watch *w, const char *where, pm_error *err) {
@@ -97,14 +98,18 @@ static pm_status stage(const watch *w, const char *name, pm_error *err) {
 
 static pm_status w_columns(void *ctx, int ncol, const char *const *names, pm_error *err) {
   watch *w = ctx;
-  w->ncol = ncol, w->columns = names;
+  w->ncol = ncol, w->columns = names, w->event = -1;
+  for (int c = 0; c < ncol; ++c)
+    if (strcmp(names[c], "event") == 0) w->event = c;
   return pm_observe_trace_columns(w->report, ncol, names, err);
 }
 
 static pm_status w_row(void *ctx, const double *row, pm_error *err) {
   watch *w = ctx;
   pm_status s = pm_observe_trace_row(w->report, row, err);
-  if (s || !w->o->progress) return s;
+  /* Progress is per iteration: the population changes between them and the mesh's row are not
+   * (DESIGN.md, "Traces"). */
+  if (s || !w->o->progress || (w->event >= 0 && row[w->event] != 0)) return s;
   pm_progress p = {w->method->name, "iteration", w->run, w->ncol ? (int64_t)row[0] : -1, w->ncol,
                    w->columns, row};
   if (w->o->progress(w->o->progress_user, &p)) {
@@ -115,9 +120,8 @@ static pm_status w_row(void *ctx, const double *row, pm_error *err) {
   return PM_OK;
 }
 
-static pm_status w_frame(void *ctx, int64_t step, int32_t n, const double *xyz,
-                         const double *radius, const int8_t *dim, pm_error *err) {
-  return pm_observe_frame(((watch *)ctx)->report, step, n, xyz, radius, dim, err);
+static pm_status w_frame(void *ctx, const pm_run_frame *frame, pm_error *err) {
+  return pm_observe_frame(((watch *)ctx)->report, frame, err);
 }
 
 static pm_status w_time(void *ctx, const char *phase, double seconds, pm_error *err) {
@@ -189,7 +193,7 @@ pm_status pm_generate_report(const pm_model *model, const pm_sizing *size,
   }
   pm_run_observer report;
   if (r) pm_report_observer(r, &report);
-  watch w = {r ? &report : NULL, o, method, 0, 0, NULL};
+  watch w = {r ? &report : NULL, o, method, 0, 0, NULL, -1};
   pm_run_observer obs;
   watch_observer(&w, &obs);
   pm_run_output ro;

@@ -84,11 +84,37 @@
 /* Re-tetrahedralizations of the sliver step at most (header). */
 #define SLIVER_ROUNDS 10
 
+/* The trace (header of trace.h). `bubbles` counts the bubbles the relaxation moves (curve and
+ * face bubbles; volume bubbles in the volume phase); `nodes` counts the bubbles that become mesh
+ * nodes (vertex, curve, face and volume bubbles alike), so that the last row's `nodes` is the
+ * mesh's node count. `event` says what a row records: a relaxation step (BUB_EV_STEP), or an
+ * event between steps that changes the population -- a population control (its insertions and
+ * deletions), the border cleanup after the relaxation, the connection (`nodes` is then the
+ * mesh's, with the nodes the connection step or the sliver step added) -- whose rows carry the
+ * step they follow and leave the step's measures empty. */
 static const char *const trace_cols[] = {"step",     "bubbles",  "kinetic",   "potential",
                                          "mean_disp", "max_disp", "insertions", "deletions",
                                          "eps_t",    "zeta",     "max_rel_disp", "round",
-                                         "phase",    "q_rel_disp"};
+                                         "phase",    "q_rel_disp", "nodes",   "event"};
 #define NCOL ((int)(sizeof trace_cols / sizeof trace_cols[0]))
+enum { BUB_EV_STEP = 0, BUB_EV_CONTROL = 1, BUB_EV_CLEANUP = 2, BUB_EV_MESH = 3 };
+
+/* The bubbles that become mesh nodes now (compacted: no dead bubble between steps). */
+static int32_t node_bubbles(const bub_state *s) { return s->volume_phase ? s->nw : s->nf; }
+
+/* An event row: the step it follows, the counts, and no step measures (empty in the CSV). */
+static pm_status trace_event(const bub_state *s, const pm_run_input *in, int event,
+                             int32_t inserted, int32_t removed, int32_t nodes, pm_error *err) {
+  if (!pm_observe_wants_trace(in->observer)) return PM_OK;
+  double row[NCOL];
+  for (int k = 0; k < NCOL; ++k) row[k] = NAN;
+  row[0] = (double)s->step;
+  row[1] = (double)(s->volume_phase ? s->nw - s->nf : s->nf - s->nv);
+  row[6] = inserted, row[7] = removed;
+  row[11] = (double)s->round, row[12] = s->volume_phase ? 3 : 2;
+  row[14] = nodes, row[15] = event;
+  return pm_observe_trace_row(in->observer, row, err);
+}
 
 static pm_status snapshot(bub_state *s, const pm_run_observer *obs, pm_error *err) {
   if (!pm_observe_wants_frames(obs) || s->n == 0) return PM_OK;
@@ -99,7 +125,10 @@ static pm_status snapshot(bub_state *s, const pm_run_observer *obs, pm_error *er
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
   for (int32_t i = 0; i < s->n; ++i) r[i] = 0.5 * s->d[i], dim[i] = s->kind[i];
-  pm_status st = pm_observe_frame(obs, s->step, s->n, s->x, r, dim, err);
+  /* Bubbles are drawn at their radius: neighbours at the stable distance touch. */
+  const pm_run_frame f = {s->step, s->volume_phase ? 3 : 2, s->volume_phase ? "volume" : "surface",
+                          s->n, s->x, r, 1.0, dim, s->cell, s->par, NULL};
+  pm_status st = pm_observe_frame(obs, &f, err);
   free(r), free(dim);
   return st;
 }
@@ -150,6 +179,15 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
     bub_step_info info;
     st = bub_dynamics_step(s, &info, err);
     if (st) break;
+    if (pm_observe_wants_trace(in->observer)) {
+      double row[NCOL] = {(double)s->step, (double)(s->volume_phase ? s->nw - s->nf : s->nf - s->nv),
+                          info.kinetic, info.potential, info.mean_disp, info.max_disp, 0,
+                          0, info.eps_t, bub_zeta_now(s), info.max_rel_disp,
+                          (double)s->round, s->volume_phase ? 3 : 2, info.q_rel_disp,
+                          node_bubbles(s), BUB_EV_STEP};
+      st = pm_observe_trace_row(in->observer, row, err);
+      if (st) break;
+    }
     bub_control_info ci = {0};
     int controlled = 0;
     if (p->population && !final_phase && s->steps_in_round >= p->control_steps &&
@@ -158,6 +196,8 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
       if (st) break;
       controlled = 1;
       s->round++;
+      st = trace_event(s, in, BUB_EV_CONTROL, ci.inserted, ci.removed, node_bubbles(s), err);
+      if (st) break;
       s->steps_in_round = 0;
       last_change = ci.inserted + ci.removed;
       int32_t delta = ci.after > ci.before ? ci.after - ci.before : ci.before - ci.after;
@@ -179,16 +219,6 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
         final_phase = s->final_phase = 1, final_left = p->final_steps;
         snprintf(reason, 128, "bubble cap (%lld) reached", (long long)cap);
       }
-    }
-    if (pm_observe_wants_trace(in->observer)) {
-      int32_t a, b;
-      bub_moving(s, &a, &b);
-      double row[NCOL] = {(double)s->step, (double)(s->volume_phase ? s->nw - s->nf : s->nf - s->nv),
-                          info.kinetic, info.potential, info.mean_disp, info.max_disp, ci.inserted,
-                          ci.removed, info.eps_t, bub_zeta_now(s), info.max_rel_disp,
-                          (double)s->round, s->volume_phase ? 3 : 2, info.q_rel_disp};
-      st = pm_observe_trace_row(in->observer, row, err);
-      if (st) break;
     }
     if (s->step % p->frame_every == 0 && (st = snapshot(s, in->observer, err))) break;
     if (final_phase) {
@@ -455,6 +485,8 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   double t_relax = pm_seconds();
   int32_t border_dropped = 0;
   if (!st) st = bub_border_cleanup(s, &border_dropped, err);
+  if (!st && border_dropped)
+    st = trace_event(s, in, BUB_EV_CLEANUP, 0, border_dropped, node_bubbles(s), err);
   int volumes = !st && in->volume && p->tets == BUB_TETS_BUBBLES && m->count[PM_VOLUME] > 0;
   pm_mesh *mesh = NULL;
   int32_t recovery = 0, sliver_dropped = 0, sliver_added = 0;
@@ -469,6 +501,7 @@ pm_status bub_run(const pm_run_input *in, const void *params, pm_run_output *out
   }
   if (s && volumes) volume_final = (int32_t)(s->nw - s->nf);
   double t_end = pm_seconds();
+  if (!st) st = trace_event(s, in, BUB_EV_MESH, 0, 0, mesh->nnode, err);
   if (!st && s->step % p->frame_every != 0) st = snapshot(s, in->observer, err);
   if (!st) {
     out->mesh = mesh;

@@ -29,6 +29,7 @@ int pm_cli_cases(int argc, char **argv);
 int pm_cli_compare(int argc, char **argv);
 int pm_cli_demo(int argc, char **argv);
 int pm_cli_references(int argc, char **argv);
+int pm_cli_animate(int argc, char **argv);
 int pm_cli_help(int argc, char **argv);
 
 void pm_cli_quality_usage(FILE *f);
@@ -37,6 +38,7 @@ void pm_cli_cases_usage(FILE *f);
 void pm_cli_compare_usage(FILE *f);
 void pm_cli_demo_usage(FILE *f);
 void pm_cli_references_usage(FILE *f);
+void pm_cli_animate_usage(FILE *f);
 void pm_cli_help_usage(FILE *f);
 
 #endif /* PM_CLI_H */

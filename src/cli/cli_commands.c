@@ -18,6 +18,8 @@ static const pm_cli_command commands[] = {
      "run a comparison suite into a folder: CSV, plots, report"},
     {"demo", pm_cli_demo, pm_cli_demo_usage,
      "run the default comparison on built-in cases (-o DIR)"},
+    {"animate", pm_cli_animate, pm_cli_animate_usage,
+     "the frames of a run (mesh --frames) as an animated GIF and an HTML player"},
     {"references", pm_cli_references, pm_cli_references_usage,
      "the full citations of the papers cited as papers/NNN"},
     {"help", pm_cli_help, pm_cli_help_usage,

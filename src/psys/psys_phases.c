@@ -215,9 +215,14 @@ out:
 
 /* ---- observation -------------------------------------------------------------------------- */
 
+/* The trace: one row per iteration (event 0; its population pass is part of the iteration, so
+ * `particles` is the count after it and `nodes` equals it), then one row for the connection
+ * (event 3, as bubble's), whose `nodes` is the mesh's: the particles and the nodes the connection
+ * step added (repairs; with --volume, TetGen's interior nodes). Its step measures are empty. */
 static const char *const trace_cols[] = {"iteration", "phase",      "particles", "energy",
                                          "mean_move", "max_move",   "splits",    "deletes",
-                                         "mean_sigma", "anneal",    "mean_rel_move"};
+                                         "mean_sigma", "anneal",    "mean_rel_move", "nodes",
+                                         "event"};
 #define NTRACE ((int)(sizeof trace_cols / sizeof trace_cols[0]))
 
 static pm_status observe(psys_sys *s, const psys_observer *obs, const psys_move_info *mi,
@@ -230,11 +235,30 @@ static pm_status observe(psys_sys *s, const psys_observer *obs, const psys_move_
     if (s->n) ms /= s->n;
     double row[NTRACE] = {(double)s->iter, s->phase,     s->n,        mi->energy,
                           mi->mean_move,   mi->max_move, sp,          de,
-                          ms,              a,            mi->mean_rel};
+                          ms,              a,            mi->mean_rel, s->n, 0};
     if ((st = pm_observe_trace_row(obs->run, row, err))) return st;
   }
-  if (frame) return pm_observe_frame(obs->run, s->iter, s->n, s->xyz, s->sigma, s->dim, err);
+  if (frame) {
+    /* Drawn at edge_per_sigma sigma / 2, half the ideal edge length: neighbours at the spacing
+     * the calibration gives touch, as bubbles do (at sigma itself the circles overlap about three
+     * deep and hide each other). Coloured by E_i, the particle's energy (eq. 3). */
+    static const char *const names[4] = {"", "curves", "gap sizes", "faces"};
+    const pm_run_frame f = {s->iter, s->phase, names[s->phase & 3], s->n, s->xyz, s->sigma,
+                            0.5 * s->p.edge_per_sigma, s->dim, s->cell, s->par, s->energy};
+    return pm_observe_frame(obs->run, &f, err);
+  }
   return PM_OK;
+}
+
+pm_status psys_trace_mesh(const psys_observer *obs, int64_t iterations, int32_t particles,
+                          int32_t nodes, pm_error *err) {
+  if (!obs || !pm_observe_wants_trace(obs->run)) return PM_OK;
+  double row[NTRACE];
+  for (int k = 0; k < NTRACE; ++k) row[k] = NAN;
+  row[0] = (double)(iterations > 0 ? iterations - 1 : 0), row[1] = 3, row[2] = particles;
+  row[6] = row[7] = 0;
+  row[11] = nodes, row[12] = 3;
+  return pm_observe_trace_row(obs->run, row, err);
 }
 
 /* ---- one phase -------------------------------------------------------------------------------- */

@@ -421,6 +421,11 @@ pm_status psys_seed_front(const psys_sys *s, int32_t f, const psys_hint *hint, d
 
 /* Run one phase (1, 2 or 3: sets the flags, fixes and freezes what the phase holds still) until
  * it converges or reaches the cap. Phase 3 seeds only the faces with faces[f] != 0 (NULL: all). */
+/* The trace's last row (psys_phases.c, trace columns): the mesh of `particles` particles has
+ * `nodes` nodes after the connection; `iterations` of the three phases in all. */
+pm_status psys_trace_mesh(const psys_observer *obs, int64_t iterations, int32_t particles,
+                          int32_t nodes, pm_error *err);
+
 pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psys_observer *obs,
                          psys_phase_report *rep, pm_error *err);
 

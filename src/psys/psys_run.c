@@ -147,6 +147,7 @@ pm_status psys_run_with_field(const pm_run_input *in, const psys_params *p, pm_r
   if ((st = pm_connect(in->model, mesh, &cp, &crep, err))) goto fail;
   if ((st = pm_observe_time(in->observer, "connect", pm_seconds() - t0, err)))
     goto fail;
+  if ((st = psys_trace_mesh(&obs, out->iterations, n, mesh->nnode, err))) goto fail;
   if (field && (st = field_of(in->model, eps, n, fxyz, fsig, mesh, field, err))) goto fail;
   free(fxyz), free(fsig);
   out->mesh = mesh;

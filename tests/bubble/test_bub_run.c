@@ -240,12 +240,36 @@ static void trace_and_frames(void **state) {
   check_valid(out.mesh, m);
   /* The method only adds snapshots; the caller closes the series (method.h). */
   PM_ASSERT_OK(pm_frames_finish(fr, &e), e);
-  assert_int_equal(pm_trace_nrow(tr), out.iterations);
   const char *want[] = {"step", "bubbles", "kinetic", "potential", "mean_disp", "max_disp",
                         "insertions", "deletions", "eps_t"};
   for (int k = 0; k < 9; ++k) assert_string_equal(pm_trace_column(tr, k), want[k]);
-  /* Steps count up; the bubble count is the count of curve and face bubbles. */
-  for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) PM_ASSERT_NEAR(pm_trace_row(tr, r)[0], r + 1, 0);
+  assert_string_equal(pm_trace_column(tr, 14), "nodes");
+  assert_string_equal(pm_trace_column(tr, 15), "event");
+  /* One row per step (event 0), steps counting up; a row per population control (event 1) with
+   * its insertions and deletions, between the step it follows and the next; the border cleanup
+   * (2) when it drops bubbles; last the mesh (3), whose nodes are the mesh's. The node count of
+   * a control row is the step's plus its insertions less its deletions. */
+  int64_t steps = 0, controls = 0;
+  double nodes = 0;
+  const int64_t nrow = pm_trace_nrow(tr);
+  for (int64_t r = 0; r < nrow; ++r) {
+    const double *row = pm_trace_row(tr, r);
+    if (row[15] == 0) {
+      PM_ASSERT_NEAR(row[0], ++steps, 0);
+      PM_ASSERT_NEAR(row[6] + row[7], 0, 0);
+    } else if (row[15] == 1) {
+      ++controls;
+      PM_ASSERT_NEAR(row[0], steps, 0);
+      PM_ASSERT_NEAR(row[14], nodes + row[6] - row[7], 0);
+    } else {
+      assert_true(row[15] == 2 || (row[15] == 3 && r == nrow - 1));
+    }
+    nodes = row[14];
+  }
+  assert_int_equal(steps, out.iterations);
+  assert_true(controls >= 1);
+  PM_ASSERT_NEAR(pm_trace_row(tr, nrow - 1)[15], 3, 0);
+  PM_ASSERT_NEAR(pm_trace_row(tr, nrow - 1)[14], out.mesh->nnode, 0);
   char path[512];
   snprintf(path, sizeof path, "%s/frames.pvd", dir);
   assert_true(file_exists(path));

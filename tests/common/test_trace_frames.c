@@ -62,8 +62,12 @@ static void frames_planar(void **state) {
   PM_ASSERT_OK(pm_frames_create(fdir, m, &f, &e), e);
   double xyz[6] = {0.5, 0.5, 0, -0.5, 0.5, 0}, r[2] = {0.1, 0.05};
   int8_t d[2] = {2, 1};
-  PM_ASSERT_OK(pm_frames_add(f, 0, 2, xyz, r, d, &e), e);
-  PM_ASSERT_OK(pm_frames_add(f, 20, 2, xyz, r, d, &e), e);
+  double energy[2] = {1.0, 3.0};
+  /* No cells: no triangulation; the second frame is coloured by energy, drawn at half size. */
+  pm_run_frame fr = {0, 2, "surface", 2, xyz, r, 1.0, d, NULL, NULL, NULL};
+  PM_ASSERT_OK(pm_frames_add(f, &fr, &e), e);
+  fr.step = 20, fr.energy = energy, fr.draw_scale = 0.5;
+  PM_ASSERT_OK(pm_frames_add(f, &fr, &e), e);
   PM_ASSERT_OK(pm_frames_finish(f, &e), e);
   assert_int_equal(pm_frames_count(f), 2);
   char path[400];
@@ -81,14 +85,30 @@ static void frames_planar(void **state) {
   char *svg = slurp(path);
   assert_non_null(svg);
   assert_non_null(strstr(svg, "<svg"));
-  assert_non_null(strstr(svg, "step 20, 2 particles"));
+  assert_non_null(strstr(svg, "phase 2 (surface): step 20, 2 particles, coloured by energy"));
+  /* The energy scale's ends: the lower energy dark (viridis' first stop), the higher yellow. */
+  assert_non_null(strstr(svg, "fill=\"#440154\""));
+  assert_non_null(strstr(svg, "fill=\"#fde725\""));
+  assert_null(strstr(svg, "<path"));
   /* Two circles, and the five boundary curves (four sides and the hole). */
   int circles = 0, lines = 0;
   for (const char *p = svg; (p = strstr(p, "<circle")); ++p) ++circles;
   for (const char *p = svg; (p = strstr(p, "<polyline")); ++p) ++lines;
   assert_int_equal(circles, 2);
   assert_int_equal(lines, 5);
+  /* The circles at draw_scale x radius: 0.05 and 0.025 of a 2.12-wide box (2 and its padding) drawn 800 px wide. */
+  assert_non_null(strstr(svg, "r=\"18.87\""));
+  assert_non_null(strstr(svg, "r=\"9.43\""));
   free(svg);
+  /* The same picture's numbers for gnuplot: the header, three blocks, a row per particle. */
+  snprintf(path, sizeof path, "%s/frame_000001.dat", fdir);
+  char *dat = slurp(path);
+  assert_non_null(dat);
+  assert_non_null(strstr(dat, "# title: phase 2 (surface): step 20, 2 particles"));
+  assert_non_null(strstr(dat, "# triangles: 0\n"));
+  assert_non_null(strstr(dat, "\n0.5 0.5 0.05 4456788\n")); /* 0x440154 */
+  assert_non_null(strstr(dat, "\n-0.5 0.5 0.025 16639781\n")); /* 0xfde725 */
+  free(dat);
   pm_frames_destroy(f);
   /* A file where the folder should be. */
   snprintf(path, sizeof path, "%s/trace.csv", dir);

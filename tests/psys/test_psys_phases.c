@@ -104,7 +104,7 @@ static void bootstrap_seeding(void **state) {
     double last = 0;
     for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) {
       const double *row = pm_trace_row(tr, r);
-      if (row[1] != 3) continue;
+      if (row[1] != 3 || row[12] != 0) continue; /* phase 3's iterations, not the mesh row */
       /* particles before the first population pass: the count less its splits */
       if (first[seeding] < 0) first[seeding] = row[2] - row[6] + row[7];
       last = row[2], its[seeding]++;
@@ -137,7 +137,7 @@ static double phase3_end(const pm_trace *tr, int64_t *its) {
   *its = 0;
   for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) {
     const double *row = pm_trace_row(tr, r);
-    if (row[1] == 3) last = row[10], ++*its;
+    if (row[1] == 3 && row[12] == 0) last = row[10], ++*its; /* iterations, not the mesh row */
   }
   return last;
 }

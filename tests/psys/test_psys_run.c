@@ -133,16 +133,26 @@ static void trace_and_frames(void **state) {
                         "splits", "deletes", "mean_sigma"};
   assert_true(pm_trace_ncol(tr) >= 9);
   for (int k = 0; k < 9; ++k) assert_string_equal(pm_trace_column(tr, k), cols[k]);
-  /* one row per iteration, phases in order, the last row's count is the particle count */
-  assert_true(pm_trace_nrow(tr) > 10);
+  /* one row per iteration (event 0, nodes = particles), phases in order, then the mesh's row
+   * (event 3) whose nodes are the mesh's */
+  assert_string_equal(pm_trace_column(tr, 11), "nodes");
+  assert_string_equal(pm_trace_column(tr, 12), "event");
+  const int64_t nrow = pm_trace_nrow(tr);
+  assert_true(nrow > 10);
   double ph = 1, splits = 0;
-  for (int64_t r = 0; r < pm_trace_nrow(tr); ++r) {
+  for (int64_t r = 0; r + 1 < nrow; ++r) {
     const double *row = pm_trace_row(tr, r);
     assert_true(row[1] >= ph);
     ph = row[1];
     splits += row[6];
     assert_true(row[2] > 0 && row[8] > 0);
+    PM_ASSERT_NEAR(row[12], 0, 0);
+    PM_ASSERT_NEAR(row[11], row[2], 0);
   }
+  const double *last = pm_trace_row(tr, nrow - 1);
+  PM_ASSERT_NEAR(last[12], 3, 0);
+  PM_ASSERT_NEAR(last[11], mesh->nnode, 0);
+  PM_ASSERT_NEAR(last[2], pm_trace_row(tr, nrow - 2)[2], 0);
   assert_true(ph == 3);
   assert_true(splits > 50);
   /* a snapshot every 5 iterations, and one at the end of each phase */

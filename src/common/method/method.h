@@ -29,6 +29,22 @@
 extern "C" {
 #endif
 
+/* A snapshot of a running method's particles (the observer's frame callback), for --frames: the
+ * arrays are borrowed for the call, [n] each unless said otherwise. */
+typedef struct pm_run_frame {
+  int64_t step;            /* the step or iteration it follows (the trace's step column) */
+  int phase;               /* the method's phase (the trace's phase column) */
+  const char *phase_name;  /* what the phase does ("surface", "faces", ...) */
+  int32_t n;
+  const double *xyz;       /* [3n] */
+  const double *radius;    /* the particle's size: a bubble's radius, a psys particle's sigma */
+  double draw_scale;       /* pictures draw particle i as a circle of draw_scale * radius[i] */
+  const int8_t *dim;       /* the dimension of its cell */
+  const int32_t *cell;     /* its cell's index in its dimension; NULL: no triangulation drawn */
+  const double *par;       /* [2n] its parameters on the cell (t, or (u, v)); with cell */
+  const double *energy;    /* may be NULL: the particle's energy, which pictures colour by */
+} pm_run_frame;
+
 /* Where a running method reports. Every callback may be NULL (the report is not wanted); ctx is
  * passed back to each. A callback that returns a status other than PM_OK stops the run, which
  * returns that status (PM_ERR_CANCELLED when the caller asked to stop). */
@@ -38,10 +54,8 @@ typedef struct pm_run_observer {
   pm_status (*trace_columns)(void *ctx, int ncol, const char *const *names, pm_error *err);
   /* One row per iteration, ncol values in the order of the names. */
   pm_status (*trace_row)(void *ctx, const double *row, pm_error *err);
-  /* A snapshot at `step`: n particles at xyz[3n] with radius[n] (a bubble's radius, a psys
-   * particle's sigma) on cells of dimension dim[n]. The caller closes the series after the run. */
-  pm_status (*frame)(void *ctx, int64_t step, int32_t n, const double *xyz, const double *radius,
-                     const int8_t *dim, pm_error *err);
+  /* A snapshot of the particles. The caller closes the series after the run. */
+  pm_status (*frame)(void *ctx, const pm_run_frame *frame, pm_error *err);
   /* The seconds a phase took ("place", "connect", ...), and the method's own numbers and texts
    * ("bubble.steps", "psys.particles", ...), under the keys of DESIGN.md's stats. */
   pm_status (*time)(void *ctx, const char *phase, double seconds, pm_error *err);
@@ -60,10 +74,9 @@ static inline pm_status pm_observe_trace_row(const pm_run_observer *o, const dou
                                              pm_error *err) {
   return o && o->trace_row ? o->trace_row(o->ctx, row, err) : PM_OK;
 }
-static inline pm_status pm_observe_frame(const pm_run_observer *o, int64_t step, int32_t n,
-                                         const double *xyz, const double *radius,
-                                         const int8_t *dim, pm_error *err) {
-  return o && o->frame ? o->frame(o->ctx, step, n, xyz, radius, dim, err) : PM_OK;
+static inline pm_status pm_observe_frame(const pm_run_observer *o, const pm_run_frame *frame,
+                                         pm_error *err) {
+  return o && o->frame ? o->frame(o->ctx, frame, err) : PM_OK;
 }
 static inline pm_status pm_observe_time(const pm_run_observer *o, const char *phase,
                                         double seconds, pm_error *err) {

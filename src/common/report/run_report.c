@@ -11,9 +11,8 @@ static pm_status row(void *ctx, const double *values, pm_error *err) {
   return pm_trace_add(((pm_run_report *)ctx)->trace, values, err);
 }
 
-static pm_status frame(void *ctx, int64_t step, int32_t n, const double *xyz,
-                       const double *radius, const int8_t *dim, pm_error *err) {
-  return pm_frames_add(((pm_run_report *)ctx)->frames, step, n, xyz, radius, dim, err);
+static pm_status frame(void *ctx, const pm_run_frame *f, pm_error *err) {
+  return pm_frames_add(((pm_run_report *)ctx)->frames, f, err);
 }
 
 static pm_status phase_time(void *ctx, const char *phase, double seconds, pm_error *err) {
