@@ -48,11 +48,40 @@ static void below_half_the_floor_asks_nothing(void **state) {
   assert_true(f <= 0.1);
 }
 
+/* A hole of radius 2.5 whose top passes w = 0.001 below the edge y = 5 of the rectangle
+ * [0, 6] x [0, 5]. The circle's polyline has 48 chords, which stray 0.0053 from it, and none of
+ * its points is at the top (the circle starts 0.3 rad round): read at the chords' midpoints the
+ * gap is about 0.005 wide, and f was 0.0088 there. Read on the curves themselves, f at the gap
+ * is w plus the grade's growth over half of it and over the pieces the width is read at. */
+static void curved_strip_is_read_on_the_curves(void **state) {
+  (void)state;
+  const double R = 2.5, w = 0.001, cy = 5 - w - R, a0 = 0.3;
+  const pm_planar_piece outer[4] = {{PM_PIECE_LINE, {0, 0}, {0, 0}, 0},
+                                    {PM_PIECE_LINE, {6, 0}, {0, 0}, 0},
+                                    {PM_PIECE_LINE, {6, 5}, {0, 0}, 0},
+                                    {PM_PIECE_LINE, {0, 5}, {0, 0}, 0}};
+  const pm_planar_piece hole[1] = {{PM_PIECE_ARC, {3 + R * cos(a0), cy + R * sin(a0)}, {3, cy}, 0}};
+  const pm_planar_loop loops[2] = {{4, outer}, {1, hole}};
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_planar_model("gap", 2, loops, &m, &e), e);
+  assert_true(w > PM_FEATURE_FLOOR * m->diagonal);
+  pm_feature_size *fs = NULL;
+  PM_ASSERT_OK(pm_feature_size_create(m, 1, 0.3, PM_FEATURE_WIDTH, &fs, &e), e);
+  const double gap[3] = {3, 5 - 0.5 * w, 0};
+  const double f = pm_feature_size_eval(fs, gap);
+  assert_true(f >= w * (1 - 1e-6));
+  if (!(f <= 1.25 * w)) fail_msg("f = %g at the gap, w = %g", f, w);
+  pm_feature_size_destroy(fs);
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(wider_than_the_floor_asks_its_width),
       cmocka_unit_test(just_below_the_floor_asks_the_floor),
       cmocka_unit_test(below_half_the_floor_asks_nothing),
+      cmocka_unit_test(curved_strip_is_read_on_the_curves),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -197,14 +197,76 @@ static int curve_params(const pm_cell *c, double turn, double *t, int cap) {
 #define WEDGE_SIN 0.25881904510252074
 #define MAX_CURVE_PTS (CURVE_PTS + 256 + 2 * END_PTS + 2)
 
+/* The narrow-face features read a strip's width at most this many times per polyline segment. */
+#define WIDTH_PIECES 64
+
+/* What the width of face fc at a point of its boundary curve ca is read against. */
+typedef struct width_ctx {
+  const pm_model *m;
+  const pm_cell *fc;
+  int32_t ca;
+  const double *pts;   /* the curves' polylines */
+  const int32_t *poff; /* curve c's points: [poff[c], poff[c + 1]) */
+} width_ctx;
+
+/* The width of the face at x, a point of curve ca: the distance to the face's other boundary
+ * curves, for two curves that share a vertex only where it is below WEDGE_SIN times the
+ * distance to that vertex (a corner narrower than 15 degrees: a wider corner's tip is one
+ * triangle whose angle there is the corner's, no needle, and refining it would only add
+ * nodes). Against the other curves' polylines, or, when `exact`, against the nearest of those
+ * curves itself (projected on where its polyline comes within twice the best width so far).
+ * INFINITY when no other curve counts. */
+static double width_at(const width_ctx *wc, const double x[3], int exact, int32_t *near_curve,
+                       int32_t *near_seg) {
+  const pm_model *m = wc->m;
+  const pm_cell *fc = wc->fc, *cva = pm_model_cell(m, PM_CURVE, wc->ca);
+  double w = INFINITY;
+  *near_curve = *near_seg = -1;
+  for (int32_t b = 0; b < fc->nbound; ++b) {
+    int32_t cb = fc->bound[b].cell;
+    if (cb == wc->ca) continue;
+    const pm_cell *cvb = pm_model_cell(m, PM_CURVE, cb);
+    if (cvb->degenerate || wc->poff[cb + 1] - wc->poff[cb] < 2) continue;
+    double wb = INFINITY;
+    int32_t qb = -1;
+    for (int32_t q = wc->poff[cb]; q + 1 < wc->poff[cb + 1]; ++q) {
+      const double d = seg_dist(x, &wc->pts[3 * q], &wc->pts[3 * (q + 1)]);
+      if (d < wb) wb = d, qb = q;
+    }
+    if (exact && wb < 2 * w) {
+      double t, d;
+      if (pm_cell_project(cvb, x, NULL, &t, NULL, &d, NULL) == PM_OK && isfinite(d)) wb = d;
+    }
+    double s = INFINITY;
+    for (int32_t u = 0; u < cva->nbound; ++u)
+      for (int32_t v = 0; v < cvb->nbound; ++v)
+        if (cva->bound[u].cell == cvb->bound[v].cell)
+          s = fmin(s, pm_v3_dist(x, m->cells[PM_VERTEX][cva->bound[u].cell].xyz));
+    if (s < INFINITY && !(wb < WEDGE_SIN * s)) continue;
+    if (wb < w) w = wb, *near_curve = cb, *near_seg = qb;
+  }
+  return w;
+}
+
+/* How far curve c strays from the chord of its polyline segment q (points q, q + 1 of pts, at
+ * parameters tpar): the distance from the chord's midpoint to the curve's point halfway in t. */
+static double chord_sagitta(const pm_cell *c, const double *pts, const double *tpar, int32_t q) {
+  double t = 0.5 * (tpar[q] + tpar[q + 1]), x[3], mid[3];
+  pm_cell_point(c, &t, x);
+  pm_v3_add(mid, &pts[3 * q], &pts[3 * (q + 1)]);
+  pm_v3_scale(mid, mid, 0.5);
+  return pm_v3_dist(x, mid);
+}
+
 static pm_status build(const pm_model *m, unsigned kinds, pm_feature_size *r, pm_error *err) {
   const int32_t ncur = m->count[PM_CURVE];
   /* Per-curve polylines (shared by the curve and the width features). */
   int32_t *poff = malloc(sizeof(int32_t) * ((size_t)ncur + 1));
   double *turn = malloc(sizeof(double) * ((size_t)ncur + 1));
   double *pts = malloc(sizeof(double) * 3 * ((size_t)ncur * MAX_CURVE_PTS + 1));
-  if (!poff || !turn || !pts) {
-    free(poff), free(turn), free(pts);
+  double *tpar = malloc(sizeof(double) * ((size_t)ncur * MAX_CURVE_PTS + 1));
+  if (!poff || !turn || !pts || !tpar) {
+    free(poff), free(turn), free(pts), free(tpar);
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
   poff[0] = 0;
@@ -217,7 +279,10 @@ static pm_status build(const pm_model *m, unsigned kinds, pm_feature_size *r, pm
       double t[MAX_CURVE_PTS];
       turn[c] = turning_angle(cv);
       npts = curve_params(cv, turn[c], t, MAX_CURVE_PTS);
-      for (int k = 0; k < npts; ++k) pm_cell_point(cv, &t[k], &pts[3 * ((size_t)poff[c] + k)]);
+      for (int k = 0; k < npts; ++k) {
+        pm_cell_point(cv, &t[k], &pts[3 * ((size_t)poff[c] + k)]);
+        tpar[poff[c] + k] = t[k];
+      }
     }
     poff[c + 1] = poff[c] + npts;
     if (!(kinds & PM_FEATURE_CURVES) || npts < 2) continue;
@@ -237,10 +302,7 @@ static pm_status build(const pm_model *m, unsigned kinds, pm_feature_size *r, pm
       pm_v3_copy(a, b);
     }
   }
-  /* Narrow faces: along each boundary curve, the distance to the face's other boundary curves;
-   * for two curves that share a vertex, only where it is below WEDGE_SIN times the distance to
-   * that vertex (a corner narrower than 15 degrees: a wider corner's tip is one triangle whose
-   * angle there is the corner's, no needle, and refining it would only add nodes). */
+  /* Narrow faces: along each boundary curve, the width of the face (width_at). */
   for (int32_t f = 0; f < m->count[PM_FACE] && ok && (kinds & PM_FEATURE_WIDTH); ++f) {
     const pm_cell *fc = pm_model_cell(m, PM_FACE, f);
     for (int32_t a = 0; a < fc->nbound && ok; ++a) {
@@ -251,32 +313,45 @@ static pm_status build(const pm_model *m, unsigned kinds, pm_feature_size *r, pm
       for (int32_t q = 0; q < a; ++q) seen |= fc->bound[q].cell == ca;
       if (seen) continue;
       for (int32_t k = poff[ca]; k + 1 < poff[ca + 1] && ok; ++k) {
+        const width_ctx wc = {m, fc, ca, pts, poff};
+        const double *a0 = &pts[3 * k], *a1 = &pts[3 * (k + 1)];
         double mid[3];
-        pm_v3_add(mid, &pts[3 * k], &pts[3 * (k + 1)]);
+        pm_v3_add(mid, a0, a1);
         pm_v3_scale(mid, mid, 0.5);
-        double w = INFINITY;
-        for (int32_t b = 0; b < fc->nbound; ++b) {
-          int32_t cb = fc->bound[b].cell;
-          if (cb == ca) continue;
-          const pm_cell *cvb = pm_model_cell(m, PM_CURVE, cb);
-          if (cvb->degenerate || poff[cb + 1] - poff[cb] < 2) continue;
-          double wb = INFINITY;
-          for (int32_t q = poff[cb]; q + 1 < poff[cb + 1]; ++q)
-            wb = fmin(wb, seg_dist(mid, &pts[3 * q], &pts[3 * (q + 1)]));
-          /* A shared vertex: the corner counts where it is narrower than 15 degrees. */
-          double s = INFINITY;
-          for (int32_t u = 0; u < cva->nbound; ++u)
-            for (int32_t v = 0; v < cvb->nbound; ++v)
-              if (cva->bound[u].cell == cvb->bound[v].cell)
-                s = fmin(s, pm_v3_dist(mid, m->cells[PM_VERTEX][cva->bound[u].cell].xyz));
-          if (s < INFINITY && !(wb < WEDGE_SIN * s)) continue;
-          w = fmin(w, wb);
+        int32_t cb, qb;
+        const double w = width_at(&wc, mid, 0, &cb, &qb), len = pm_v3_dist(a0, a1);
+        /* The strip is narrower than the polyline's segment here and a chord of either side
+         * strays from its curve by more than a tenth of the width: read at a chord's midpoint
+         * and against the other curves' chords, the width is off by their sagittas, which
+         * can be wider than the strip (solid56.step: a circle of radius 24.5 passes 0.0095 from
+         * an arc of its face, and its 48 chords, 3.2 long, read 0.06 or more). Read it on the
+         * curve itself, at pieces of the segment about as long as the width, against the other
+         * curves themselves. Straight strips (sheet metal's sides) read exactly as they are. */
+        if (!(w < len) || !(chord_sagitta(cva, pts, tpar, k) > 0.1 * w ||
+                            chord_sagitta(pm_model_cell(m, PM_CURVE, cb), pts, tpar, qb) > 0.1 * w)) {
+          if (isfinite(w)) ok = feat_push(r, a0, a1, w);
+          continue;
         }
-        if (isfinite(w)) ok = feat_push(r, &pts[3 * k], &pts[3 * (k + 1)], w);
+        const int n = (int)fmin(WIDTH_PIECES, ceil(len / fmax(w, 1e-300)));
+        double p0[3];
+        pm_v3_copy(p0, a0);
+        for (int q = 0; q < n && ok; ++q) {
+          double t = tpar[k] + (tpar[k + 1] - tpar[k]) * (q + 0.5) / n, x[3], p1[3];
+          pm_cell_point(cva, &t, x);
+          if (q + 1 < n) {
+            double te = tpar[k] + (tpar[k + 1] - tpar[k]) * (q + 1) / n;
+            pm_cell_point(cva, &te, p1);
+          } else {
+            pm_v3_copy(p1, a1);
+          }
+          const double wq = width_at(&wc, x, 1, &cb, &qb);
+          if (isfinite(wq)) ok = feat_push(r, p0, p1, wq);
+          pm_v3_copy(p0, p1);
+        }
       }
     }
   }
-  free(pts), free(poff), free(turn);
+  free(pts), free(poff), free(turn), free(tpar);
   /* Curved faces. */
   for (int32_t f = 0; f < m->count[PM_FACE] && ok && (kinds & PM_FEATURE_CURVATURE); ++f) {
     const pm_cell *fc = pm_model_cell(m, PM_FACE, f);

@@ -14,7 +14,11 @@
  *     needles. Two curves that meet at a vertex form a corner: their distance counts only where
  *     it is below sin(15 deg) times the distance to the vertex (the corner is narrower than 15
  *     degrees there: a wedge or a cusp), so that an ordinary corner is not refined while a sharp
- *     wedge is, down to its tip;
+ *     wedge is, down to its tip. The width is read at the midpoints of the curves' polylines,
+ *     and, where it is below a polyline segment's length and a chord on either side strays from
+ *     its curve by more than a tenth of it (a curved strip, a circle passing close to an edge),
+ *     on the curve itself at pieces as long as the width (at most 64 per segment), against the
+ *     nearest other curve itself;
  *   - PM_FEATURE_CURVATURE, curved faces: h = (pi/4) / |kmax| (8 edges per turn of the largest
  *     principal curvature), at least a tenth of the face's smaller extent.
  * A feature that would ask for less than half of PM_FEATURE_FLOOR (geom.h) times the model's
