@@ -161,18 +161,40 @@ typedef struct pm_cmp_figure {
   char error[512];     /* why not, when !drawn */
 } pm_cmp_figure;
 
+/* A picture of one run's mesh (plot_mesh.c): plots/NAME.png and plots/NAME.svg. */
+typedef struct pm_cmp_picture {
+  char name[160];      /* file stem under plots/: mesh_CASE_LABEL, or ..._worst for the zoom */
+  char caption[512];
+  int icase, imethod, row; /* the case, the method and the row pictured */
+  int worst;           /* 1: the zoom on the mesh's worst element */
+  double worst_value;  /* R/l_min of that element (worst pictures) */
+  int drawn;           /* both files were written */
+  char error[512];     /* why not, when !drawn */
+} pm_cmp_picture;
+
 typedef struct pm_cmp_figures {
   pm_cmp_figure *fig;
   int n;
   int have_gnuplot;
   char gnuplot_version[128];
+  pm_cmp_picture *pic; /* the mesh pictures, per case and method, each followed by its zoom */
+  int npic;
+  double colour_max;   /* the top of the pictures' shared R/l_min colour scale */
+  double picture_s;    /* seconds spent drawing them */
 } pm_cmp_figures;
 
 /* Write the data and the gnuplot script of every figure under plots/ and run gnuplot on each
- * (time-limited). A missing gnuplot or a failed figure is recorded, not an error; PM_ERR_IO when
- * files cannot be written. */
+ * (time-limited), then draw the mesh pictures (pm_cmp_mesh_pictures). A missing gnuplot or a
+ * failed figure is recorded, not an error; PM_ERR_IO when files cannot be written. */
 pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *err);
 void pm_cmp_figures_clear(pm_cmp_figures *figs);
+
+/* The pictures of the meshes into figs->pic: for each case and method the first successful
+ * run's mesh (planar cases flat, surfaces and volumes shaded from one camera per case), its
+ * triangles coloured by R/l_min on one colour scale shared by the whole study, and a zoom on
+ * its worst element (a tet's for volume meshes). A mesh that cannot be read is recorded in its
+ * picture, not an error; PM_ERR_IO when files cannot be written. */
+pm_status pm_cmp_mesh_pictures(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *err);
 
 /* report.md and report.html. `invocation` is the command line that ran the study. */
 pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,

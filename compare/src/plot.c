@@ -18,6 +18,7 @@
  *   sweep_CASE               with a sweep: metrics against the swept value, mean over seeds with
  *                            the min-max spread.
  * With a sweep, the box plots get one figure per case with the swept values along x.
+ * The pictures of the meshes are drawn by plot_mesh.c, without gnuplot.
  */
 #include <errno.h>
 #include <math.h>
@@ -866,11 +867,13 @@ pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *e
   if (!s) s = time_bars(&P, err);
   for (int c = 0; c < su->ncase && !s; ++c) s = convergence(&P, c, err);
   for (int c = 0; c < su->ncase && !s && su->nsweep; ++c) s = sweep_plot(&P, c, err);
+  if (!s) s = pm_cmp_mesh_pictures(st, figs, err);
   return s;
 }
 
 void pm_cmp_figures_clear(pm_cmp_figures *figs) {
   if (!figs) return;
   free(figs->fig);
+  free(figs->pic);
   memset(figs, 0, sizeof *figs);
 }

@@ -352,6 +352,51 @@ static void figure(doc *d, const pm_cmp_figure *f) {
   }
 }
 
+/* The pictures of plot_mesh.c, per case: each method's mesh beside the zoom on its worst
+ * element. */
+static void mesh_pictures(doc *d, const pm_cmp_study *st, const pm_cmp_figures *figs) {
+  if (!figs->npic) return;
+  doc_h(d, 2, "Meshes");
+  double mesh_s = 0;
+  for (int i = 0; i < st->nrow; ++i)
+    if (st->rows[i].status == PM_CMP_OK) mesh_s += st->rows[i].wall_s;
+  char p[1024];
+  snprintf(p, sizeof p,
+           "The first successful run of each method, on one camera per case; triangles (the "
+           "surface's, for volume meshes) coloured by R/l_min on one log scale for the whole "
+           "study, from 0.577 (equilateral, blue) to %.3g (red; larger values are red too). "
+           "Beside each, a zoom on its worst element. The %d pictures took %.2f s to draw "
+           "(the runs: %.1f s).",
+           figs->colour_max, figs->npic, figs->picture_s, mesh_s);
+  doc_p(d, p);
+  for (int c = 0; c < st->suite.ncase; ++c) {
+    int any = 0;
+    for (int k = 0; k < figs->npic; ++k) {
+      const pm_cmp_picture *pic = &figs->pic[k];
+      if (pic->icase != c) continue;
+      if (!any++) {
+        doc_h(d, 3, st->suite.cases[c].name);
+        SB(&d->html, "<div class=\"meshes\">\n");
+      }
+      if (!pic->drawn) {
+        char q[800];
+        snprintf(q, sizeof q, "%s: not drawn (%s).", pic->name, pic->error);
+        doc_p(d, q);
+        continue;
+      }
+      SB(&d->md, "![%s](plots/%s.png)\n\n%s [SVG](plots/%s.svg)\n\n", pic->caption, pic->name,
+         pic->caption, pic->name);
+      SB(&d->html, "<figure class=\"%s\"><a href=\"plots/%s.svg\"><img src=\"plots/%s.png\" alt=\"",
+         pic->worst ? "worst" : "mesh", pic->name, pic->name);
+      html_esc(&d->html, pic->caption);
+      SB(&d->html, "\"></a><figcaption>");
+      html_esc(&d->html, pic->caption);
+      SB(&d->html, "</figcaption></figure>\n");
+    }
+    if (any) SB(&d->html, "</div>\n");
+  }
+}
+
 static void environment(doc *d, const pm_cmp_figures *figs) {
   pm_cmp_sysinfo si;
   pm_cmp_sysinfo_get(&si);
@@ -483,6 +528,9 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
      "pre{background:#f7f7f7;padding:0.8em;overflow-x:auto;font-size:0.85em}\n"
      "figure{margin:1em 0}figure img{max-width:100%%;border:1px solid #eee}\n"
      "figcaption{font-size:0.9em;color:#444}\n"
+     ".meshes{display:flex;flex-wrap:wrap;gap:0.5em 1em;align-items:flex-start}\n"
+     ".meshes figure{margin:0.3em 0}.meshes figure.mesh img{width:520px}"
+     ".meshes figure.worst img{width:260px}\n"
      "</style>\n</head>\n<body>\n");
   char title[512];
   snprintf(title, sizeof title, "packmesh comparison: %s", su->name);
@@ -538,6 +586,8 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
     }
     reference_table(d, st, c);
   }
+
+  mesh_pictures(d, st, figs);
 
   doc_h(d, 2, "Figures");
   if (!figs->have_gnuplot)

@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include "common/base/atomic_file.h"
+#include "common/mesh/mesh_io.h"
 #include "compare/src/study.h"
 
 static const char *const lead[] = {"case",   "method", "seed",  "sweep_key", "sweep_value",
@@ -295,5 +296,28 @@ pm_status pm_cmp_row_elements(const pm_cmp_study *st, const pm_cmp_row *r, const
   }
   free(line);
   fclose(in);
+  return s;
+}
+
+int pm_cmp_first_ok_row(const pm_cmp_study *st, int c, int m) {
+  for (int i = 0; i < st->nrow; ++i) {
+    const pm_cmp_row *r = &st->rows[i];
+    if (r->icase == c && r->imethod == m && r->status == PM_CMP_OK) return i;
+  }
+  return -1;
+}
+
+pm_status pm_cmp_row_mesh(const pm_cmp_study *st, const pm_cmp_row *r, pm_mesh **mesh,
+                          pm_element_values *values, pm_error *err) {
+  *mesh = NULL;
+  memset(values, 0, sizeof *values);
+  char path[4400];
+  snprintf(path, sizeof path, "%s/runs/%s/mesh.msh", st->dir, r->id);
+  pm_status s = pm_mesh_read(path, mesh, err);
+  if (!s) s = pm_element_values_compute(*mesh, values, err);
+  if (s) {
+    pm_mesh_destroy(*mesh);
+    *mesh = NULL;
+  }
   return s;
 }

@@ -4,6 +4,8 @@
  *   run.c         run the rows as child processes (parallel, time-limited, resumable)
  *   results.c     results.csv, elements.csv, per-row values for tables and plots
  *   plot.c        gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
+ *   plot_mesh.c   pictures of the meshes (PNG through raster.c and png.c, SVG)
+ *   raster.c      a small rasterizer for them; png.c its PNG encoder (raster.h)
  *   report.c      report.md and report.html
  *   sysinfo.c     library versions and the machine, for the report
  *   references.c  the papers cited as papers/NNN
@@ -22,6 +24,7 @@
 #include <sys/types.h>
 
 #include "common/backends/versions.h"
+#include "common/mesh/element_measure.h"
 #include "compare/src/compare.h"
 
 #ifdef __cplusplus
@@ -52,6 +55,16 @@ pm_status pm_cmp_row_elements(const pm_cmp_study *st, const pm_cmp_row *r, const
                               const char *column, double **v, size_t *n, size_t *cap,
                               pm_error *err);
 
+/* The first successful row of (case c, method m), in row order (its first seed and sweep
+ * value); -1 when there is none. */
+int pm_cmp_first_ok_row(const pm_cmp_study *st, int c, int m);
+
+/* A row's mesh (runs/ID/mesh.msh) and the measures of its elements (element_measure.h). On
+ * success the caller owns both (pm_mesh_destroy, pm_element_values_clear); on failure both are
+ * left empty. */
+pm_status pm_cmp_row_mesh(const pm_cmp_study *st, const pm_cmp_row *r, pm_mesh **mesh,
+                          pm_element_values *values, pm_error *err);
+
 /* ---- environment --------------------------------------------------------------------------- */
 
 typedef struct pm_cmp_sysinfo {
@@ -75,6 +88,16 @@ int pm_cmp_appendf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)))
 #endif
     ;
+
+/* A growing text whose appends cannot fail one by one: `bad` records that one ran out of memory,
+ * checked once at the end (pm_cmp_text_printf appends with printf's format). */
+typedef struct pm_cmp_text {
+  char *s; /* malloc'ed, NUL-terminated (NULL while empty) */
+  size_t n, cap;
+  int bad;
+} pm_cmp_text;
+#define pm_cmp_text_printf(b, ...) \
+  ((b)->bad |= pm_cmp_appendf(&(b)->s, &(b)->n, &(b)->cap, __VA_ARGS__) != 0)
 
 /* Read a whole file (NUL-terminated, malloc'ed); NULL when it cannot be read. */
 char *pm_cmp_read_file(const char *path, size_t *len);
