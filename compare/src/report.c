@@ -397,6 +397,31 @@ static void mesh_pictures(doc *d, const pm_cmp_study *st, const pm_cmp_figures *
   }
 }
 
+/* The 3D viewer (viewer.c writes its folder): a place for viewer.js, three.js, the cases' data
+ * and viewer.js itself, in that order; or why there is none. */
+static void viewer_section(doc *d, const pm_cmp_study *st, const pm_cmp_viewer *v) {
+  doc_h(d, 2, "3D viewer");
+  if (!v->available) {
+    doc_p(d, v->note);
+    return;
+  }
+  SB(&d->md, "The 3D viewer is in report.html (it needs a browser with WebGL). ");
+  doc_p(d, "Drag to rotate, wheel to zoom, shift-drag to pan; choose the case, the measure the "
+           "triangles are coloured by, and the methods shown side by side; click a triangle to "
+           "see its values. It shows the first successful run of each method, the surface "
+           "triangles of volume meshes. Everything it needs is in viewer/, so the study folder "
+           "works offline.");
+  SB(&d->html, "<div id=\"pm-viewer\"></div>\n<script src=\"viewer/three.min.js\"></script>\n");
+  for (int c = 0; c < st->suite.ncase; ++c) {
+    if (!v->case_written[c]) continue;
+    char rel[400];
+    pm_cmp_viewer_case_file(st, c, rel, sizeof rel);
+    SB(&d->html, "<script src=\"%s\"></script>\n", rel);
+  }
+  SB(&d->html, "<script src=\"viewer/viewer.js\"></script>\n");
+  doc_p(d, v->note);
+}
+
 static void environment(doc *d, const pm_cmp_figures *figs) {
   pm_cmp_sysinfo si;
   pm_cmp_sysinfo_get(&si);
@@ -528,6 +553,8 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
      "pre{background:#f7f7f7;padding:0.8em;overflow-x:auto;font-size:0.85em}\n"
      "figure{margin:1em 0}figure img{max-width:100%%;border:1px solid #eee}\n"
      "figcaption{font-size:0.9em;color:#444}\n"
+     "#pm-viewer select,#pm-viewer label{margin-right:0.6em}#pm-viewer-info{font-size:0.9em;"
+     "min-height:1.4em}#pm-viewer-legend{font-size:0.85em;color:#444}\n"
      ".meshes{display:flex;flex-wrap:wrap;gap:0.5em 1em;align-items:flex-start}\n"
      ".meshes figure{margin:0.3em 0}.meshes figure.mesh img{width:520px}"
      ".meshes figure.worst img{width:260px}\n"
@@ -588,6 +615,15 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
   }
 
   mesh_pictures(d, st, figs);
+  pm_cmp_viewer viewer;
+  pm_status vs = pm_cmp_viewer_write(st, figs->colour_max > 0 ? figs->colour_max : 1.5, &viewer, err);
+  if (vs) {
+    free(d->md.s);
+    free(d->html.s);
+    return vs;
+  }
+  viewer_section(d, st, &viewer);
+  pm_cmp_viewer_clear(&viewer);
 
   doc_h(d, 2, "Figures");
   if (!figs->have_gnuplot)

@@ -6,6 +6,7 @@
  *   plot.c        gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
  *   plot_mesh.c   pictures of the meshes (PNG through raster.c and png.c, SVG)
  *   raster.c      a small rasterizer for them; png.c its PNG encoder (raster.h)
+ *   viewer.c      the 3D viewer's folder: three.js, viewer.js, the meshes as JS data
  *   report.c      report.md and report.html
  *   sysinfo.c     library versions and the machine, for the report
  *   references.c  the papers cited as papers/NNN
@@ -64,6 +65,27 @@ int pm_cmp_first_ok_row(const pm_cmp_study *st, int c, int m);
  * left empty. */
 pm_status pm_cmp_row_mesh(const pm_cmp_study *st, const pm_cmp_row *r, pm_mesh **mesh,
                           pm_element_values *values, pm_error *err);
+
+/* ---- the 3D viewer (viewer.c) -------------------------------------------------------------- */
+
+typedef struct pm_cmp_viewer {
+  int available;      /* three.js was found and copied: report.html shows the viewer */
+  char note[768];     /* where three.js came from, or why the viewer is not available */
+  int *case_written;  /* [ncase] 1: viewer/mesh_CASE.js holds the case's meshes (owned) */
+} pm_cmp_viewer;
+
+/* Write the study's viewer/ folder: three.js and its licence (copied from $PM_THREE_JS, else
+ * Debian's libjs-three), viewer.js (built into packmesh from compare/viewer/viewer.js) and, per
+ * case, viewer/mesh_CASE.js with the first successful run of each method (its surface triangles
+ * and their measures; colour_max tops the R/l_min colour scale). Without three.js nothing is
+ * written and v->note says why: the report then says the viewer is not available. PM_ERR_IO when
+ * files cannot be written. */
+pm_status pm_cmp_viewer_write(const pm_cmp_study *st, double colour_max, pm_cmp_viewer *v,
+                              pm_error *err);
+void pm_cmp_viewer_clear(pm_cmp_viewer *v);
+
+/* The case's data file, relative to the study folder ("viewer/mesh_qi3.js"). */
+void pm_cmp_viewer_case_file(const pm_cmp_study *st, int c, char *buf, size_t len);
 
 /* ---- environment --------------------------------------------------------------------------- */
 

@@ -6,10 +6,18 @@
             white; the SVG has one polygon per triangle of the run's mesh; the zoom's value is
             the run's largest R/l_min (elements.csv); report.html and report.md show them and
             say what drawing them cost.
+  viewer    viewer/ holds three.js with its licence, viewer.js and one data file per case whose
+            meshes are the runs' (triangle counts); in headless Chromium (tests/scripts/
+            page_check.py) report.html loads with no console error, the viewer's canvas is not
+            blank, a click on a triangle shows that triangle's values, unticking a method hides
+            it. With PM_THREE_JS naming a missing file, or a three.js without a licence, the
+            report says the viewer is not available and everything else is still written;
+            PM_THREE_JS with a LICENSE beside it is copied with that licence.
 
     test_compare_report.py PACKMESH WORKDIR
 """
 import csv
+import json
 import os
 import re
 import shutil
@@ -61,7 +69,7 @@ def test_pictures(methods):
                          ' {"input": "case:boxhole", "volume": true, "size": 0.35}],'
                          ' "methods": [%s], "options": {"timeout_s": 120}}' % entries)
     if not folder:
-        return
+        return None, None
     html = open(os.path.join(folder, "report.html")).read()
     md = open(os.path.join(folder, "report.md")).read()
     with open(os.path.join(folder, "elements.csv")) as f:
@@ -104,6 +112,111 @@ def test_pictures(methods):
     cost = re.search(r"The (\d+) pictures took ([0-9.]+) s to draw \(the runs: ([0-9.]+) s\)", md)
     if check(cost, "report.md does not say what the pictures cost"):
         check(int(cost.group(1)) == 4 * len(methods), "pictures counted: %s" % cost.group(1))
+    return folder, rows
+
+
+THREE = "/usr/share/javascript/three/three.min.js"
+PAGE_CHECK = [os.environ.get("PM_PYTHON", "/usr/bin/python3"), os.path.join(SCRIPTS, "page_check.py")]
+
+# Click the middle triangle of the last mesh shown, as a reader would (pointer events at its
+# place on the canvas); the panel must name that triangle and its values.
+CLICK_JS = """(function(){var v=window.pmViewer;var k=v.state.meshes.length-1;
+var t=Math.floor(v.state.meshes[k].userData.method.tri.length/6);
+var c=document.getElementById('pm-viewer-canvas');c.scrollIntoView();var xy=v.screenOf(k,t);
+['pointerdown','pointerup'].forEach(function(n){c.dispatchEvent(new PointerEvent(n,
+ {clientX:xy[0],clientY:xy[1],bubbles:true,pointerId:1}))});
+var info=document.getElementById('pm-viewer-info').textContent;
+return info.indexOf(v.state.meshes[k].userData.method.label+', triangle '+t+' ')===0
+ && /R\\/l_min [0-9.]+, radius ratio [0-9.]+, smallest angle [0-9.]+ degrees/.test(info)})()"""
+# Untick the first method: one mesh fewer, and the legend no longer names it first.
+TOGGLE_JS = """(function(){var v=window.pmViewer;var n=v.state.meshes.length;
+var box=document.querySelector('#pm-viewer-methods input');box.click();
+return v.state.meshes.length===n-1})()"""
+
+
+def viewer_data(folder, case):
+    text = open(os.path.join(folder, "viewer", "mesh_%s.js" % case)).read()
+    body = text[text.index(".push(") + 6:text.rindex(");")]
+    return json.loads(body)
+
+
+def test_viewer(folder, rows, methods):
+    if not folder:
+        return
+    viewer = os.path.join(folder, "viewer")
+    if not os.path.isfile(THREE):
+        print("libjs-three is not installed: the viewer's files are not checked")
+        return
+    check(open(os.path.join(viewer, "three.min.js"), "rb").read() == open(THREE, "rb").read(),
+          "viewer/three.min.js is not the system's three.js")
+    check(open(os.path.join(viewer, "three.LICENSE")).read()
+          == open("/usr/share/doc/libjs-three/copyright").read(), "viewer/three.LICENSE is not its licence")
+    check("window.pmViewer" in open(os.path.join(viewer, "viewer.js")).read(), "viewer/viewer.js is not ours")
+    html = open(os.path.join(folder, "report.html")).read()
+    for case in ("qi1", "boxhole"):
+        data = viewer_data(folder, case)
+        check([m["label"] for m in data["methods"]] == [l for _, l in methods],
+              "%s: the viewer's methods are %s" % (case, [m["label"] for m in data["methods"]]))
+        check(data["flat"] == (case == "qi1"), "%s: flat is %s" % (case, data["flat"]))
+        for m in data["methods"]:
+            row = next(r for r in rows if r["case"] == case and r["label"] == m["label"])
+            check(len(m["tri"]) == 3 * int(row["triangles"]) and len(m["xyz"]) == 3 * int(row["nodes"]),
+                  "%s %s: the viewer has %d triangles, the run %s" % (case, m["label"], len(m["tri"]) // 3,
+                                                                     row["triangles"]))
+            check(len(m["values"]["aspect_ratio"]) == len(m["tri"]) // 3, "%s: one value per triangle" % case)
+        check('<script src="viewer/mesh_%s.js"></script>' % case in html, "report.html does not load %s's data" % case)
+    check(html.index('src="viewer/three.min.js"') < html.index('src="viewer/viewer.js"'),
+          "three.js must load before viewer.js")
+    run = subprocess.run(PAGE_CHECK + [os.path.join(folder, "report.html"), "--canvas", "#pm-viewer-canvas",
+                                       "--eval", CLICK_JS, "--eval", TOGGLE_JS, "--expect-text", "3D viewer",
+                                       "--expect-text", "Meshes"], capture_output=True, text=True)
+    if run.returncode == 77:
+        print("chromium is not installed: report.html is not loaded")
+        return
+    check(run.returncode == 0, "report.html in Chromium: %s%s" % (run.stdout, run.stderr))
+
+
+def test_no_three(folder):
+    """The same study written again (every run kept) without three.js, then with another one."""
+    if not folder:
+        return
+    suite = os.path.join(WORK, "pictures.json")
+
+    def rewrite(three):
+        env = dict(os.environ, PM_THREE_JS=three)
+        return subprocess.run([PACKMESH, "compare", suite, "-o", folder], capture_output=True, text=True, env=env)
+
+    shutil.rmtree(os.path.join(folder, "viewer"))
+    run = rewrite(os.path.join(WORK, "no-such-three.js"))
+    check(run.returncode == 0, "compare without three.js exited %d: %s" % (run.returncode, run.stderr))
+    html = open(os.path.join(folder, "report.html")).read()
+    md = open(os.path.join(folder, "report.md")).read()
+    gone = "The 3D viewer is not available: three.js was not found at %s" % os.path.join(WORK, "no-such-three.js")
+    check(gone in html and gone in md, "the report does not say the viewer is unavailable")
+    check("viewer/" not in html.replace(gone, ""), "report.html refers to viewer/ without three.js")
+    check(not os.path.exists(os.path.join(folder, "viewer")), "viewer/ was written without three.js")
+    check("<h2>Meshes</h2>" in html and '<img src="plots/mesh_qi1_' in html,
+          "the pictures are gone from the report without three.js")
+    if os.path.isfile(THREE):
+        run = subprocess.run(PAGE_CHECK + [os.path.join(folder, "report.html"), "--expect-text", "not available"],
+                             capture_output=True, text=True)
+        check(run.returncode in (0, 77), "report.html without the viewer: %s" % run.stdout)
+        # Another three.js: without a licence it is not copied; with a LICENSE beside it, it is.
+        alt = os.path.join(WORK, "alt")
+        shutil.rmtree(alt, ignore_errors=True)
+        os.makedirs(alt)
+        shutil.copy(THREE, os.path.join(alt, "three.min.js"))
+        rewrite(os.path.join(alt, "three.min.js"))
+        check("no licence file was found for %s" % os.path.join(alt, "three.min.js")
+              in open(os.path.join(folder, "report.md")).read(), "a three.js without a licence was copied")
+        check(not os.path.exists(os.path.join(folder, "viewer")), "viewer/ was written without a licence")
+        with open(os.path.join(alt, "LICENSE"), "w") as f:
+            f.write("The MIT License (test copy)\n")
+        run = rewrite(os.path.join(alt, "three.min.js"))
+        check(run.returncode == 0, "compare with PM_THREE_JS exited %d" % run.returncode)
+        lic = os.path.join(folder, "viewer", "three.LICENSE")
+        check(os.path.isfile(lic) and open(lic).read() == "The MIT License (test copy)\n",
+              "PM_THREE_JS's LICENSE was not copied beside it")
 
 
 def main():
@@ -115,7 +228,9 @@ def main():
     # Two entries (two labels) even when the build has one method.
     methods = [(found[0], found[0]), (found[1] if len(found) > 1 else found[0],
                                       found[1] if len(found) > 1 else found[0] + "-2")]
-    test_pictures(methods)
+    folder, rows = test_pictures(methods)
+    test_viewer(folder, rows, methods)
+    test_no_three(folder)
     if failures:
         print("%d failure(s)" % len(failures))
         return 1
