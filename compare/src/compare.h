@@ -55,6 +55,12 @@ typedef struct pm_cmp_suite {
   int nseed;
   int match_nodes;   /* scale every other method's size until its node count matches the
                         reference's (packmesh mesh --target-nodes: within 3%) */
+  int match_surface; /* 1 ("match": "surface"): match the surface nodes (the nodes of the
+                        triangles; --target-surface-nodes), so that volume meshes are compared
+                        on like surfaces; 0 ("all", the default): all nodes (--target-nodes) */
+  int whiskers_minmax; /* 1 ("whiskers": "minmax"): box-plot whiskers at the min and max, as
+                          papers/001 Fig. 11; 0 ("tukey", the default): Tukey's 1.5 IQR, with
+                          the elements beyond as points */
   int reference;     /* index into methods of the reference method */
   double timeout_s;  /* time limit of one run */
   int threads;       /* --threads of each run; 0: cores / jobs */
@@ -104,6 +110,8 @@ typedef struct pm_cmp_row {
   long nodes;          /* node count (from stats.json), -1 when unknown */
   int elements_ok;     /* runs/ID/elements.csv holds the per-element measures */
   int reused;          /* finished in an earlier invocation and not run again */
+  int same_mesh_as;    /* the earlier row whose mesh.msh this row's repeats byte for byte (one
+                          result, counted once), -1 when none; set once the runs are done */
   pm_stats_flat flat;  /* the flattened stats.json (empty unless status is OK) */
 } pm_cmp_row;
 

@@ -199,6 +199,7 @@ static const col tri_cols[] = {
 };
 static const col tet_cols[] = {
     {"nodes", "nodes", 7},
+    {"surface nodes", "surface_nodes", 7},
     {"tets", "tets", 7},
     {"mean radius ratio", "tet.radius_ratio.mean", 4},
     {"min radius ratio", "tet.radius_ratio.min", 3},
@@ -218,7 +219,7 @@ static const col site_cols[] = {
     {"regular", "tri.by_site.regular.count", 7},
     {"median R/l_min", "tri.by_site.regular.aspect_ratio.median", 4},
 };
-#define NCOL 10 /* the most columns of a table above */
+#define NCOL 11 /* the most columns of a table above */
 #define COLS(a) ((int)(sizeof(a) / sizeof((a)[0])))
 _Static_assert(COLS(tri_cols) <= NCOL && COLS(tet_cols) <= NCOL && COLS(site_cols) <= NCOL,
                "a summary table has more columns than NCOL");
@@ -231,13 +232,14 @@ static int any_value(const pm_cmp_study *st, int c, const char *key) {
 
 static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols, int ncol) {
   const pm_cmp_suite *su = &st->suite;
-  const char *h[NCOL + 4];
+  const char *h[NCOL + 5];
   int nh = 0;
   h[nh++] = "method";
   if (su->nsweep) h[nh++] = su->sweep_key;
   h[nh++] = "ok runs";
+  h[nh++] = "distinct";
   for (int k = 0; k < ncol; ++k) h[nh++] = cols[k].head;
-  if (su->match_nodes) h[nh++] = "nodes vs reference";
+  if (su->match_nodes) h[nh++] = su->match_surface ? "surface nodes vs reference" : "nodes vs reference";
   h[nh++] = "valid";
   doc_table_head(d, nh, h);
   int nw = su->nsweep ? su->nsweep : 1;
@@ -246,14 +248,25 @@ static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols
       int ww = su->nsweep ? w : -1;
       int total = count_rows(st, c, m, ww);
       if (!total) continue;
-      char cells[NCOL + 4][CELL];
+      char cells[NCOL + 5][CELL];
       int k = 0, ok = 0;
       snprintf(cells[k++], CELL, "%s", su->methods[m].label);
       if (su->nsweep) snprintf(cells[k++], CELL, "%s", su->sweep_values[w]);
       mean_of(st, c, m, ww, "nodes", &ok);
+      int distinct = pm_cmp_distinct_count(st, c, m, ww);
       snprintf(cells[k++], CELL, "%d/%d", ok, total);
-      for (int q = 0; q < ncol; ++q)
-        fmt_num(cells[k++], CELL, mean_of(st, c, m, ww, cols[q].key, NULL), cols[q].digits);
+      snprintf(cells[k++], CELL, "%d", distinct);
+      for (int q = 0; q < ncol; ++q) {
+        double mean, sd;
+        int n;
+        pm_cmp_mean_sd(st, c, m, ww, cols[q].key, &mean, &sd, &n);
+        fmt_num(cells[k], CELL, mean, cols[q].digits);
+        if (n > 1) { /* the spread over the seeds, to two digits */
+          size_t at = strlen(cells[k]);
+          snprintf(cells[k] + at, CELL - at, " ± %.2g", sd);
+        }
+        k++;
+      }
       if (su->match_nodes) {
         if (m == su->reference) {
           snprintf(cells[k++], CELL, "reference");
@@ -264,8 +277,11 @@ static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols
             const pm_cmp_row *r = &st->rows[i];
             if (r->icase != c || r->imethod != m || (ww >= 0 && r->isweep != ww)) continue;
             if (r->status != PM_CMP_OK || r->ref_row < 0) continue;
-            double ref = (double)st->rows[r->ref_row].nodes;
-            double rel = ((double)r->nodes - ref) / ref;
+            /* The count the runs were matched on: all nodes, or the surface nodes. */
+            const pm_cmp_row *rr = &st->rows[r->ref_row];
+            double ref = su->match_surface ? pm_cmp_row_value(rr, "surface_nodes") : (double)rr->nodes;
+            double mine = su->match_surface ? pm_cmp_row_value(r, "surface_nodes") : (double)r->nodes;
+            double rel = (mine - ref) / ref;
             if (!isfinite(worst) || fabs(rel) > fabs(worst)) worst = rel;
           }
           if (isfinite(worst))
@@ -317,7 +333,12 @@ static void reference_table(doc *d, const pm_cmp_study *st, int c) {
         snprintf(cells[1], CELL, "%s", v->valuestring);
       else
         snprintf(cells[1], CELL, "-");
-      if (m >= 0) fmt_num(cells[2], CELL, mean_of(st, c, m, -1, v->string, NULL), 6);
+      if (m >= 0) {
+        double mean, sd;
+        int n;
+        pm_cmp_mean_sd(st, c, m, -1, v->string, &mean, &sd, &n);
+        fmt_num(cells[2], CELL, mean, 6);
+      }
       doc_table_row(d, m >= 0 ? 3 : 2, cells);
     }
     doc_table_end(d);
@@ -498,9 +519,13 @@ static void inputs(doc *d, const pm_cmp_study *st) {
     k += snprintf(p + k, sizeof p - (size_t)k, "%s %ld", i ? "," : "", su->seeds[i]);
   k += snprintf(p + k, sizeof p - (size_t)k,
                 ". Node counts %s. Time limit per run: %g s. Threads per run: %s. Traces: %s.",
-                su->match_nodes ? "matched to the reference method (packmesh mesh "
-                                  "--target-nodes: within 3%)"
-                                : "not matched",
+                !su->match_nodes ? "not matched"
+                : su->match_surface
+                    ? "matched on the surface nodes (the nodes of the triangles; a volume mesh's "
+                      "interior nodes are not counted) to the reference method's (packmesh mesh "
+                      "--target-surface-nodes: within 3%)"
+                    : "matched on all nodes to the reference method's (packmesh mesh "
+                      "--target-nodes: within 3%)",
                 su->timeout_s, su->threads ? "as set" : "cores / jobs",
                 su->trace ? "recorded" : "off");
   if (su->match_nodes && k < (int)sizeof p - 128)
@@ -588,11 +613,25 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
            "box plots, runs/ID/ each run's mesh, stats, trace and log.");
 
   doc_h(d, 2, "Summary");
-  doc_p(d, "Means over the successful runs of each method (seeds and repeats pooled). Radius "
+  doc_p(d, "Mean ± standard deviation over the distinct results of each method (seeds and "
+           "repeats; runs whose meshes are byte-identical are one result, counted once here and "
+           "in the box plots' element pools: 'distinct' counts them; times are over every "
+           "successful run). Radius "
            "ratio: 2r/R for triangles, 3r/R for tets (1 is ideal). R/l_min: circumradius over "
            "shortest edge (0.577 for an equilateral triangle, 0.612 for a regular tet). Angles in "
            "degrees. eps_t, eps_g: Shimada's irregularities (papers/003 eq. 8-9). valid: the mesh "
            "checker's verdict.");
+  if (su->match_nodes) {
+    char m[600];
+    snprintf(m, sizeof m,
+             "Node counts are matched to %s's %s (within 3%%).", su->methods[su->reference].label,
+             su->match_surface ? "on the surface nodes, the nodes of the triangles: a volume "
+                                 "mesh's interior nodes are not counted, so that surfaces are "
+                                 "compared like for like"
+                               : "on all nodes: a volume mesh's interior nodes count too, so its "
+                                 "surface may be finer or coarser than the reference's");
+    doc_p(d, m);
+  }
   for (int c = 0; c < su->ncase; ++c) {
     char h[300];
     snprintf(h, sizeof h, "%s (%s)", su->cases[c].name, su->cases[c].input);
@@ -655,11 +694,11 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
            st->dir);
   doc_p(d, p);
   {
-    const char *h[5] = {"run", "status", "nodes", "wall time (s)", "iterations"};
-    doc_table_head(d, 5, h);
+    const char *h[6] = {"run", "status", "nodes", "wall time (s)", "iterations", "same mesh as"};
+    doc_table_head(d, 6, h);
     for (int i = 0; i < st->nrow; ++i) {
       const pm_cmp_row *r = &st->rows[i];
-      char cells[5][CELL];
+      char cells[6][CELL];
       snprintf(cells[0], CELL, "%s", r->id);
       snprintf(cells[1], CELL, "%s", pm_cmp_status_name(r->status));
       if (r->status == PM_CMP_OK)
@@ -668,7 +707,8 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
         snprintf(cells[2], CELL, "-");
       fmt_num(cells[3], CELL, r->status == PM_CMP_SKIPPED ? NAN : r->wall_s, 3);
       fmt_num(cells[4], CELL, pm_cmp_row_value(r, "iterations"), 7);
-      doc_table_row(d, 5, cells);
+      snprintf(cells[5], CELL, "%s", r->same_mesh_as >= 0 ? st->rows[r->same_mesh_as].id : "");
+      doc_table_row(d, 6, cells);
     }
     doc_table_end(d);
     sbuf cmds = {0};

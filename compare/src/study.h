@@ -3,6 +3,7 @@
  *   suite.c       read and check a suite, expand it into rows
  *   run.c         run the rows as child processes (parallel, time-limited, resumable)
  *   results.c     results.csv, elements.csv, per-row values for tables and plots
+ *   spread.c      statistics over repeats: identical meshes, mean and sd, box-plot whiskers
  *   plot.c        gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
  *   plot_mesh.c   pictures of the meshes (PNG through raster.c and png.c, SVG)
  *   raster.c      a small rasterizer for them; png.c its PNG encoder (raster.h)
@@ -65,6 +66,34 @@ int pm_cmp_first_ok_row(const pm_cmp_study *st, int c, int m);
  * left empty. */
 pm_status pm_cmp_row_mesh(const pm_cmp_study *st, const pm_cmp_row *r, pm_mesh **mesh,
                           pm_element_values *values, pm_error *err);
+
+/* ---- statistics over the repeats (spread.c) ------------------------------------------------ */
+
+/* Mark every successful row whose mesh.msh is byte-identical to an earlier row's of the same
+ * case, method and sweep value: row->same_mesh_as = that row (the first to make the mesh), else
+ * -1. Such rows are one result in the tables and the box plots. */
+pm_status pm_cmp_duplicates_mark(pm_cmp_study *st, pm_error *err);
+
+/* The number of distinct results of (case c, method m, sweep value w; w < 0: all): successful
+ * rows that repeat no earlier row's mesh. */
+int pm_cmp_distinct_count(const pm_cmp_study *st, int c, int m, int w);
+
+/* Mean and sample standard deviation of a stats key over the distinct results of the group (over
+ * every successful run for time keys, time_s.*: a repeated mesh is still a timing of its own);
+ * *n values. NaN when there are none (sd: fewer than two). */
+void pm_cmp_mean_sd(const pm_cmp_study *st, int c, int m, int w, const char *key, double *mean,
+                    double *sd, int *n);
+
+/* A box plot's numbers from n >= 1 sorted values: quartiles, and whiskers at Tukey's fences
+ * (the furthest values within 1.5 IQR of the box) or, with minmax, at the min and max. The
+ * values outside the whiskers, drawn as points, are v[0 .. lo_end) and v[hi_begin .. n). */
+typedef struct pm_cmp_box {
+  int64_t n;
+  double min, p25, median, p75, max;
+  double whisker_lo, whisker_hi;
+  size_t lo_end, hi_begin;
+} pm_cmp_box;
+void pm_cmp_box_of_sorted(const double *v, size_t n, int minmax, pm_cmp_box *b);
 
 /* ---- the 3D viewer (viewer.c) -------------------------------------------------------------- */
 

@@ -13,6 +13,13 @@
             it. With PM_THREE_JS naming a missing file, or a three.js without a licence, the
             report says the viewer is not available and everything else is still written;
             PM_THREE_JS with a LICENSE beside it is copied with that licence.
+  spread    over seeds 1 and 2: a method that ignores the seed gives byte-identical meshes, which
+            results.csv marks (same_mesh_as) and the tables count as one distinct result; a
+            method whose meshes differ has two and a spread (mean ± sd); the box plots pool a
+            repeated mesh once, with Tukey's whiskers (the furthest values within 1.5 IQR) and
+            every value beyond them as an outlier point, or min and max with "whiskers":
+            "minmax"; "match": "surface" brings every method's surface nodes within 3% of the
+            reference's (--target-surface-nodes) and the report says the matching was on surfaces.
 
     test_compare_report.py PACKMESH WORKDIR
 """
@@ -219,6 +226,112 @@ def test_no_three(folder):
               "PM_THREE_JS's LICENSE was not copied beside it")
 
 
+def boxes(folder, name):
+    """The box lines of plots/NAME.dat by method, and the outlier values by method."""
+    box, out, method, outliers = {}, {}, None, False
+    for line in open(os.path.join(folder, "plots", name + ".dat")):
+        if line.startswith("# method "):
+            method, outliers = line[9:].strip(), False
+        elif line.startswith("# outliers of method "):
+            method, outliers = line[21:line.index(":")].strip(), True
+        elif line.strip() and not line.startswith("#"):
+            f = line.split()
+            if outliers:
+                out.setdefault(method, []).append((float(f[0]), float(f[1])))
+            else:
+                box.setdefault(method, []).append(f)
+    return box, out
+
+
+def quartiles(v):
+    """p25 and p75 by linear interpolation (summary.h's rule, NumPy's default)."""
+    def q(p):
+        h = (len(v) - 1) * p
+        i = int(h)
+        return v[i] + (h - i) * (v[min(i + 1, len(v) - 1)] - v[i])
+    return q(0.25), q(0.75)
+
+
+def test_spread(methods):
+    names = [m for m, _ in methods]
+    if "gmsh-frontal" not in names or "bubble" not in names:
+        print("the spread checks need bubble and gmsh-frontal: skipped")
+        return
+    psys = subprocess.run([PACKMESH, "mesh", "--method", "psys", "--help"], capture_output=True).returncode == 0
+    folder, rows = study("spread", '{"name": "spread", "cases": [{"input": "case:qi1", "size": 0.3},'
+                         ' {"input": "case:boxhole", "volume": true, "size": 0.3}],'
+                         ' "methods": ["bubble", "gmsh-frontal"%s], "seeds": [1, 2],'
+                         ' "options": {"match_nodes": true, "match": "surface", "timeout_s": 120}}'
+                         % (', {"method": "psys", "cases": ["qi1"]}' if psys else ""))
+    if not folder:
+        return
+    by = {r["row"]: r for r in rows}
+    for r in rows:
+        check(r["status"] == "ok", "%s: %s %s" % (r["row"], r["status"], r["error"]))
+    # gmsh's meshes do not depend on the seed: the second is the first's, byte for byte.
+    for case in ("qi1", "boxhole"):
+        first, second = "%s__gmsh-frontal__s1" % case, "%s__gmsh-frontal__s2" % case
+        check(by[second]["same_mesh_as"] == first, "%s: same_mesh_as is '%s'" % (second, by[second]["same_mesh_as"]))
+        check(by[first]["same_mesh_as"] == "", "%s: same_mesh_as is '%s'" % (first, by[first]["same_mesh_as"]))
+    md = open(os.path.join(folder, "report.md")).read()
+    table = md[md.index("### qi1"):md.index("### boxhole")]
+    gm = re.search(r"^\| gmsh-frontal \| 2/2 \| (\d+) \|", table, re.M)
+    check(gm and gm.group(1) == "1", "qi1: gmsh-frontal's two identical runs are not one distinct result")
+    check("| distinct |" in table, "the summary table has no 'distinct' column")
+    if psys:
+        check(by["qi1__psys__s2"]["same_mesh_as"] == "", "psys's seeds gave identical meshes")
+        ps = re.search(r"^\| psys \| 2/2 \| 2 \| [^|]+ \| [^|]+ \| ([^|]+) \|", table, re.M)
+        check(ps and re.match(r"\s*[0-9.]+ ± [0-9.e-]+\s*$", ps.group(1)),
+              "psys's mean radius ratio over two distinct meshes has no spread: %s" % (ps and ps.group(1)))
+    # A repeated mesh is pooled once: gmsh-frontal's box on qi1 has one run's triangles.
+    box, outliers = boxes(folder, "aspect_tri")
+    qi1_box = next(f for f in box["gmsh-frontal"] if f[7] == "qi1")
+    check(int(qi1_box[6]) == int(by["qi1__gmsh-frontal__s1"]["triangles"]),
+          "gmsh-frontal's qi1 box pools %s triangles, not one run's %s" % (qi1_box[6], by["qi1__gmsh-frontal__s1"]["triangles"]))
+    check(any(outliers.values()), "no box of the study has an outlier to check")
+    # Tukey's whiskers, against the elements themselves.
+    with open(os.path.join(folder, "elements.csv")) as f:
+        elements = list(csv.DictReader(f))
+    for method, lines in box.items():
+        for f in lines:
+            keep = [r["row"] for r in rows if r["case"] == f[7] and r["label"] == method and r["same_mesh_as"] == ""]
+            v = sorted(float(e["aspect_ratio"]) for e in elements if e["row"] in keep and e["kind"] == "tri")
+            p25, p75 = quartiles(v)
+            lo, hi = p25 - 1.5 * (p75 - p25), p75 + 1.5 * (p75 - p25)
+            inside = [x for x in v if lo <= x <= hi]
+            check(abs(float(f[1]) - inside[0]) <= 1e-8 and abs(float(f[5]) - inside[-1]) <= 1e-8,
+                  "%s %s: whiskers %s %s, Tukey's %g %g" % (method, f[7], f[1], f[5], inside[0], inside[-1]))
+            beyond = sorted({float("%.4g" % x) for x in v if x < lo or x > hi})
+            shown = sorted(val for x, val in outliers.get(method, []) if x == float(f[0]))
+            check(shown == beyond, "%s %s: %d outliers beyond the whiskers, %d drawn"
+                  % (method, f[7], len(beyond), len(shown)))
+    # Surface matching: every method within 3% of the reference's surface nodes, and said so.
+    for r in rows:
+        if r["label"] == "bubble":
+            continue
+        ref = by["%s__bubble__s%s" % (r["case"], r["seed"])]
+        rel = float(r["surface_nodes"]) / float(ref["surface_nodes"]) - 1
+        check(abs(rel) <= 0.03, "%s: %s surface nodes, the reference %s (%+.1f%%)"
+              % (r["row"], r["surface_nodes"], ref["surface_nodes"], 100 * rel))
+        check("--target-surface-nodes %s " % ref["surface_nodes"] in r["command"],
+              "%s: the command does not match surface nodes: %s" % (r["row"], r["command"]))
+    check("matched to bubble's on the surface nodes" in md, "the summary does not say the matching was on surfaces")
+    check("matched on the surface nodes" in md, "the inputs do not say the matching was on surfaces")
+
+    # "whiskers": "minmax" keeps the min and the max, with no outlier.
+    folder, rows = study("minmax", '{"name": "minmax", "cases": [{"input": "case:qi1", "size": 0.3}],'
+                         ' "methods": ["bubble"], "options": {"whiskers": "minmax"}}')
+    if folder:
+        box, outliers = boxes(folder, "aspect_tri")
+        with open(os.path.join(folder, "elements.csv")) as f:
+            v = sorted(float(e["aspect_ratio"]) for e in csv.DictReader(f) if e["kind"] == "tri")
+        f = box["bubble"][0]
+        check(float(f[1]) == float("%.9g" % v[0]) and float(f[5]) == float("%.9g" % v[-1]) and not outliers,
+              "minmax whiskers: %s %s, elements %g %g, outliers %s" % (f[1], f[5], v[0], v[-1], outliers))
+        check("the whiskers reach the minimum and the maximum" in open(os.path.join(folder, "report.md")).read(),
+              "the caption does not say the whiskers are min and max")
+
+
 def main():
     os.makedirs(WORK, exist_ok=True)
     found = methods_of_build()
@@ -231,6 +344,7 @@ def main():
     folder, rows = test_pictures(methods)
     test_viewer(folder, rows, methods)
     test_no_three(folder)
+    test_spread(methods)
     if failures:
         print("%d failure(s)" % len(failures))
         return 1
