@@ -188,7 +188,9 @@ typedef struct pm_cmp_figures {
   pm_cmp_picture *pic; /* the mesh pictures, per case and method, each followed by its zoom */
   int npic;
   double colour_max;   /* the top of the pictures' shared R/l_min colour scale */
-  double picture_s;    /* seconds spent drawing them */
+  double picture_s;    /* seconds spent drawing them (wall clock) */
+  double picture_cpu_s; /* and the processor time they took (clock(): a busy machine stretches
+                           the wall time, not this) */
 } pm_cmp_figures;
 
 /* Write the data and the gnuplot script of every figure under plots/ and run gnuplot on each

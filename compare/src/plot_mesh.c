@@ -19,6 +19,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "common/base/atomic_file.h"
 #include "common/base/clock.h"
@@ -185,16 +186,17 @@ static void tick_text(double v, char *out, size_t len) {
 }
 
 /* Both files of a picture, atomically. */
-static pm_status render(const pm_cmp_study *st, const view *v, scene *s, int bar, double top,
-                        const char *title, const char *label, const char *name, pm_error *err) {
+static pm_status render(const pm_cmp_study *st, pm_raster *canvas, const view *v, scene *s,
+                        int bar, double top, const char *title, const char *label,
+                        const char *name, pm_error *err) {
   if (s->bad) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  pm_raster r;
-  pm_status rs = pm_raster_init(&r, v->w, v->h, err);
+  pm_raster *r = canvas;
+  pm_status rs = pm_raster_init(r, v->w, v->h, err);
   if (rs) return rs;
-  for (size_t i = 0; i < s->np; ++i) pm_raster_triangle(&r, s->p[i].x, s->p[i].y, s->p[i].z, s->p[i].rgb);
+  for (size_t i = 0; i < s->np; ++i) pm_raster_triangle(r, s->p[i].x, s->p[i].y, s->p[i].z, s->p[i].rgb);
   for (size_t i = 0; i < s->nl; ++i) {
     const line *l = &s->l[i];
-    pm_raster_line(&r, l->x[0], l->y[0], l->z[0], l->x[1], l->y[1], l->z[1], l->width, l->rgb,
+    pm_raster_line(r, l->x[0], l->y[0], l->z[0], l->x[1], l->y[1], l->z[1], l->width, l->rgb,
                    l->alpha, v->depth_tol);
   }
   const float black[3] = {0.1f, 0.1f, 0.1f};
@@ -204,21 +206,20 @@ static pm_status render(const pm_cmp_study *st, const view *v, scene *s, int bar
     for (int y = by0; y < by1; ++y) {
       float c[3];
       pm_raster_colour((double)(by1 - y) / (by1 - by0), c);
-      pm_raster_rect(&r, bx, y, bx + 16, y + 1, c);
+      pm_raster_rect(r, bx, y, bx + 16, y + 1, c);
     }
     nt = bar_ticks(top, by1 - by0, tick);
     for (int k = 0; k < nt; ++k) {
       double y = by1 - scale_t(tick[k], top) * (by1 - by0);
       char t[32];
       tick_text(tick[k], t, sizeof t);
-      pm_raster_rect(&r, bx + 16, y - 0.5, bx + 21, y + 0.5, black);
-      pm_raster_text(&r, bx + 24, y - 3.5, 1, t, black);
+      pm_raster_rect(r, bx + 16, y - 0.5, bx + 21, y + 0.5, black);
+      pm_raster_text(r, bx + 24, y - 3.5, 1, t, black);
     }
   }
-  if (label) pm_raster_text(&r, MARGIN, 4, 1.4, label, black);
-  unsigned char *rgb = pm_raster_rgb8(&r), *png = NULL;
+  if (label) pm_raster_text(r, MARGIN, 4, 1.4, label, black);
+  unsigned char *rgb = pm_raster_rgb8(r), *png = NULL;
   size_t png_n = 0;
-  pm_raster_clear(&r);
   if (!rgb) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   rs = pm_cmp_png_encode(rgb, v->w, v->h, &png, &png_n, err);
   free(rgb);
@@ -394,9 +395,9 @@ static void add_triangles(scene *s, const view *v, const loaded *L, const unsign
 
 /* The zoom on the worst element: the worst triangle face-on among the triangles near it, or the
  * worst tet with the edges of the tets sharing a node with it. */
-static pm_status worst_picture(const pm_cmp_study *st, const view *whole, const loaded *L,
-                               double top, const char *name, const char *title, double *value,
-                               pm_error *err) {
+static pm_status worst_picture(const pm_cmp_study *st, pm_raster *canvas, const view *whole,
+                               const loaded *L, double top, const char *name, const char *title,
+                               double *value, pm_error *err) {
   const pm_mesh *m = L->m;
   int tets = m->ntet > 0;
   int32_t w = tets ? worst_of(L->v.tet[1], m->ntet) : worst_of(L->v.tri[1], m->ntri);
@@ -468,7 +469,7 @@ static pm_status worst_picture(const pm_cmp_study *st, const view *whole, const 
   v.depth_tol = INFINITY;
   char label[48];
   snprintf(label, sizeof label, "%.4g", *value);
-  pm_status rs = render(st, &v, &s, 0, top, title, label, name, err);
+  pm_status rs = render(st, canvas, &v, &s, 0, top, title, label, name, err);
   free(s.p);
   free(s.l);
   return rs;
@@ -495,6 +496,7 @@ static pm_cmp_picture *add_picture(pm_cmp_figures *F) {
 
 pm_status pm_cmp_mesh_pictures(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *err) {
   const double t0 = pm_seconds();
+  const clock_t c0 = clock();
   const pm_cmp_suite *su = &st->suite;
   pm_status s = PM_OK;
   /* First pass: the colour scale's top, the largest 99th percentile of R/l_min over the meshes
@@ -526,6 +528,7 @@ pm_status pm_cmp_mesh_pictures(const pm_cmp_study *st, pm_cmp_figures *figs, pm_
   double mag = pow(10, floor(log10(top)) - 1);
   top = ceil(top / mag - 1e-9) * mag;
   figs->colour_max = top;
+  pm_raster canvas = {0}; /* one canvas for every picture (raster.h) */
 
   for (int c = 0; c < su->ncase && !s; ++c) {
     /* The case's camera, and the frame around all its meshes. */
@@ -533,6 +536,7 @@ pm_status pm_cmp_mesh_pictures(const pm_cmp_study *st, pm_cmp_figures *figs, pm_
     int *row = malloc((size_t)su->nmethod * sizeof *row);
     if (!L || !row) {
       free(L), free(row);
+      pm_raster_clear(&canvas);
       return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     }
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -594,7 +598,7 @@ pm_status pm_cmp_mesh_pictures(const pm_cmp_study *st, pm_cmp_figures *figs, pm_
       scene sc = {0};
       add_triangles(&sc, &v, &L[m], NULL, top);
       pm_error e = {0};
-      if (render(st, &v, &sc, 1, top, title, NULL, p->name, &e)) {
+      if (render(st, &canvas, &v, &sc, 1, top, title, NULL, p->name, &e)) {
         if (e.code == PM_ERR_IO) s = pm_error_setf(err, e.code, "%s", e.msg);
         snprintf(p->error, sizeof p->error, "%s", e.msg);
       } else {
@@ -618,7 +622,7 @@ pm_status pm_cmp_mesh_pictures(const pm_cmp_study *st, pm_cmp_figures *figs, pm_
       snprintf(title, sizeof title, "%s, %s: the worst %s", su->cases[c].name,
                su->methods[m].label, L[m].m->ntet ? "tet" : "triangle");
       e = (pm_error){0};
-      if (worst_picture(st, &v, &L[m], top, z->name, title, &z->worst_value, &e)) {
+      if (worst_picture(st, &canvas, &v, &L[m], top, z->name, title, &z->worst_value, &e)) {
         if (e.code == PM_ERR_IO) s = pm_error_setf(err, e.code, "%s", e.msg);
         snprintf(z->error, sizeof z->error, "%s", e.msg);
       } else {
@@ -633,6 +637,8 @@ pm_status pm_cmp_mesh_pictures(const pm_cmp_study *st, pm_cmp_figures *figs, pm_
     free(L);
     free(row);
   }
+  pm_raster_clear(&canvas);
   figs->picture_s = pm_seconds() - t0;
+  figs->picture_cpu_s = (double)(clock() - c0) / CLOCKS_PER_SEC;
   return s;
 }

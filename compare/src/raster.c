@@ -8,15 +8,16 @@
 #include "compare/src/raster.h"
 
 pm_status pm_raster_init(pm_raster *r, int w, int h, pm_error *err) {
-  memset(r, 0, sizeof *r);
   if (w <= 0 || h <= 0 || w > 8192 || h > 8192)
     return pm_error_setf(err, PM_ERR_ARG, "picture of %d x %d pixels", w, h);
   size_t n = (size_t)w * h * PM_RASTER_SS * PM_RASTER_SS;
-  r->rgb = malloc(3 * n * sizeof *r->rgb);
-  r->depth = malloc(n * sizeof *r->depth);
-  if (!r->rgb || !r->depth) {
-    pm_raster_clear(r);
-    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  if (n > r->cap) {
+    float *rgb = realloc(r->rgb, 3 * n * sizeof *rgb);
+    if (rgb) r->rgb = rgb;
+    float *depth = rgb ? realloc(r->depth, n * sizeof *depth) : NULL;
+    if (depth) r->depth = depth;
+    if (!rgb || !depth) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    r->cap = n;
   }
   r->w = w, r->h = h;
   for (size_t i = 0; i < 3 * n; ++i) r->rgb[i] = 1.0f;
@@ -76,19 +77,32 @@ void pm_raster_triangle(pm_raster *r, const double x[3], const double y[3], cons
 
 void pm_raster_line(pm_raster *r, double x0, double y0, double z0, double x1, double y1,
                     double z1, double width, const float rgb[3], float alpha, double depth_tol) {
-  const int W = r->w * PM_RASTER_SS;
+  const int W = r->w * PM_RASTER_SS, H = r->h * PM_RASTER_SS;
   double ax = x0 * PM_RASTER_SS, ay = y0 * PM_RASTER_SS, bx = x1 * PM_RASTER_SS,
          by = y1 * PM_RASTER_SS;
   double dx = bx - ax, dy = by - ay, len2 = dx * dx + dy * dy;
   double hw = 0.5 * width * PM_RASTER_SS;
   if (hw < 0.5) hw = 0.5; /* thinner than a subpixel would leave gaps */
-  int px0, px1, py0, py1;
-  pixel_box(r, fmin(ax, bx) - hw, fmax(ax, bx) + hw, fmin(ay, by) - hw, fmax(ay, by) + hw, &px0,
-            &px1, &py0, &py1);
-  /* Every pixel centre within half the width of the segment, once (a line drawn as two
-   * triangles would blend the centres of their shared diagonal twice). */
-  for (int py = py0; py <= py1; ++py)
-    for (int px = px0; px <= px1; ++px) {
+  /* Along the major axis, the pixels within reach of the line in the other: cost in proportion
+   * to the line's length, not its bounding box. Every pixel centre within half the width of the
+   * segment is blended once (a line drawn as two triangles would blend the centres of their
+   * shared diagonal twice). */
+  int steep = fabs(dy) > fabs(dx);
+  double u0 = steep ? ay : ax, u1 = steep ? by : bx, du = steep ? dy : dx, dv = steep ? dx : dy;
+  double v0 = steep ? ax : ay, reach = hw * (len2 > 0 ? sqrt(len2) / fmax(fabs(du), 1e-12) : 1);
+  int ulo = (int)floor(fmin(u0, u1) - hw), uhi = (int)ceil(fmax(u0, u1) + hw);
+  int ulim = steep ? H - 1 : W - 1, vlim = steep ? W - 1 : H - 1;
+  if (ulo < 0) ulo = 0;
+  if (uhi > ulim) uhi = ulim;
+  for (int pu = ulo; pu <= uhi; ++pu) {
+    double s = fabs(du) > 1e-12 ? (pu + 0.5 - u0) / du : 0;
+    s = s < 0 ? 0 : s > 1 ? 1 : s;
+    double vc = v0 + s * dv;
+    int vlo = (int)floor(vc - reach - 1), vhi = (int)ceil(vc + reach + 1);
+    if (vlo < 0) vlo = 0;
+    if (vhi > vlim) vhi = vlim;
+    for (int pv = vlo; pv <= vhi; ++pv) {
+      int px = steep ? pv : pu, py = steep ? pu : pv;
       double cx = px + 0.5 - ax, cy = py + 0.5 - ay;
       double t = len2 > 0 ? (cx * dx + cy * dy) / len2 : 0;
       if (t < 0) t = 0;
@@ -100,6 +114,7 @@ void pm_raster_line(pm_raster *r, double x0, double y0, double z0, double x1, do
       if (z + depth_tol < r->depth[i]) continue;
       for (int c = 0; c < 3; ++c) r->rgb[3 * i + c] += alpha * (rgb[c] - r->rgb[3 * i + c]);
     }
+  }
 }
 
 void pm_raster_rect(pm_raster *r, double x0, double y0, double x1, double y1, const float rgb[3]) {

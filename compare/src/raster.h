@@ -21,9 +21,12 @@ typedef struct pm_raster {
   int w, h;      /* output size in pixels; the buffers are PM_RASTER_SS times larger per axis */
   float *rgb;    /* [3 * W * H] colour, 0..1, W = w * PM_RASTER_SS, H = h * PM_RASTER_SS */
   float *depth;  /* [W * H] larger is nearer; -INFINITY where nothing was drawn */
+  size_t cap;    /* supersampled pixels the buffers hold */
 } pm_raster;
 
-/* A white image of w x h output pixels; PM_ERR_NOMEM on failure. */
+/* Make r (zeroed, or used before) a white image of w x h output pixels. Its buffers are kept
+ * when they are large enough: a study's pictures reuse one canvas instead of touching fresh
+ * memory for each. PM_ERR_NOMEM on failure. pm_raster_clear frees the buffers. */
 pm_status pm_raster_init(pm_raster *r, int w, int h, pm_error *err);
 void pm_raster_clear(pm_raster *r);
 

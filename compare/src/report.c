@@ -387,14 +387,15 @@ static void mesh_pictures(doc *d, const pm_cmp_study *st, const pm_cmp_figures *
            "surface's, for volume meshes) coloured by R/l_min on one log scale for the whole "
            "study, from 0.577 (equilateral, blue) to %.3g (red; larger values are red too). "
            "Beside each, a zoom on its worst element. The %d pictures took %.2f s to draw "
-           "(the runs: %.1f s).",
-           figs->colour_max, figs->npic, figs->picture_s, mesh_s);
+           "(%.2f s of processor time; the runs: %.1f s).",
+           figs->colour_max, figs->npic, figs->picture_s, figs->picture_cpu_s, mesh_s);
   doc_p(d, p);
   for (int c = 0; c < st->suite.ncase; ++c) {
     int any = 0;
-    for (int k = 0; k < figs->npic; ++k) {
-      const pm_cmp_picture *pic = &figs->pic[k];
-      if (pic->icase != c) continue;
+    /* Method by method, each mesh beside its zoom. */
+    for (int k = 0; k < figs->npic * st->suite.nmethod; ++k) {
+      const pm_cmp_picture *pic = &figs->pic[k % figs->npic];
+      if (pic->icase != c || pic->imethod != k / figs->npic) continue;
       if (!any++) {
         doc_h(d, 3, st->suite.cases[c].name);
         SB(&d->html, "<div class=\"meshes\">\n");

@@ -116,7 +116,8 @@ def test_pictures(methods):
             worst_name = "plots/mesh_%s_%s_worst.png" % (case, label)
             check('<img src="%s"' % worst_name in html, "report.html does not show %s" % worst_name)
         check(len(sizes) == 1, "%s: the methods' pictures differ in size %s (one frame per case)" % (case, sizes))
-    cost = re.search(r"The (\d+) pictures took ([0-9.]+) s to draw \(the runs: ([0-9.]+) s\)", md)
+    cost = re.search(r"The (\d+) pictures took ([0-9.]+) s to draw \(([0-9.]+) s of processor time; "
+                     r"the runs: ([0-9.]+) s\)", md)
     if check(cost, "report.md does not say what the pictures cost"):
         check(int(cost.group(1)) == 4 * len(methods), "pictures counted: %s" % cost.group(1))
     return folder, rows
