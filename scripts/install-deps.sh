@@ -17,6 +17,7 @@
 # (scripts/slurm-local.sh).
 # chromium loads report pages and players headless in their tests (tests/scripts/page_check.py);
 # libjs-three is the three.js that a study's report copies beside itself for its 3D viewer.
+# zlib1g-dev: the PNG encoder of a study's mesh pictures (compare/src/png.c).
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 
@@ -34,7 +35,7 @@ packages=(
   libtet1.5-dev
   libembree-dev
   libgmsh-dev gmsh
-  libmuparser-dev libcjson-dev libcmocka-dev
+  libmuparser-dev libcjson-dev libcmocka-dev zlib1g-dev
   gnuplot-nox
   clang libclang-rt-14-dev strace
   python3-meshio python3-numpy

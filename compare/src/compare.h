@@ -55,6 +55,12 @@ typedef struct pm_cmp_suite {
   int nseed;
   int match_nodes;   /* scale every other method's size until its node count matches the
                         reference's (packmesh mesh --target-nodes: within 3%) */
+  int match_surface; /* 1 ("match": "surface"): match the surface nodes (the nodes of the
+                        triangles; --target-surface-nodes), so that volume meshes are compared
+                        on like surfaces; 0 ("all", the default): all nodes (--target-nodes) */
+  int whiskers_minmax; /* 1 ("whiskers": "minmax"): box-plot whiskers at the min and max, as
+                          papers/001 Fig. 11; 0 ("tukey", the default): Tukey's 1.5 IQR, with
+                          the elements beyond as points */
   int reference;     /* index into methods of the reference method */
   double timeout_s;  /* time limit of one run */
   int threads;       /* --threads of each run; 0: cores / jobs */
@@ -104,6 +110,8 @@ typedef struct pm_cmp_row {
   long nodes;          /* node count (from stats.json), -1 when unknown */
   int elements_ok;     /* runs/ID/elements.csv holds the per-element measures */
   int reused;          /* finished in an earlier invocation and not run again */
+  int same_mesh_as;    /* the earlier row whose mesh.msh this row's repeats byte for byte (one
+                          result, counted once), -1 when none; set once the runs are done */
   pm_stats_flat flat;  /* the flattened stats.json (empty unless status is OK) */
 } pm_cmp_row;
 
@@ -161,18 +169,42 @@ typedef struct pm_cmp_figure {
   char error[512];     /* why not, when !drawn */
 } pm_cmp_figure;
 
+/* A picture of one run's mesh (plot_mesh.c): plots/NAME.png and plots/NAME.svg. */
+typedef struct pm_cmp_picture {
+  char name[160];      /* file stem under plots/: mesh_CASE_LABEL, or ..._worst for the zoom */
+  char caption[512];
+  int icase, imethod, row; /* the case, the method and the row pictured */
+  int worst;           /* 1: the zoom on the mesh's worst element */
+  double worst_value;  /* R/l_min of that element (worst pictures) */
+  int drawn;           /* both files were written */
+  char error[512];     /* why not, when !drawn */
+} pm_cmp_picture;
+
 typedef struct pm_cmp_figures {
   pm_cmp_figure *fig;
   int n;
   int have_gnuplot;
   char gnuplot_version[128];
+  pm_cmp_picture *pic; /* the mesh pictures, per case and method, each followed by its zoom */
+  int npic;
+  double colour_max;   /* the top of the pictures' shared R/l_min colour scale */
+  double picture_s;    /* seconds spent drawing them (wall clock) */
+  double picture_cpu_s; /* and the processor time they took (clock(): a busy machine stretches
+                           the wall time, not this) */
 } pm_cmp_figures;
 
 /* Write the data and the gnuplot script of every figure under plots/ and run gnuplot on each
- * (time-limited). A missing gnuplot or a failed figure is recorded, not an error; PM_ERR_IO when
- * files cannot be written. */
+ * (time-limited), then draw the mesh pictures (pm_cmp_mesh_pictures). A missing gnuplot or a
+ * failed figure is recorded, not an error; PM_ERR_IO when files cannot be written. */
 pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *err);
 void pm_cmp_figures_clear(pm_cmp_figures *figs);
+
+/* The pictures of the meshes into figs->pic: for each case and method the first successful
+ * run's mesh (planar cases flat, surfaces and volumes shaded from one camera per case), its
+ * triangles coloured by R/l_min on one colour scale shared by the whole study, and a zoom on
+ * its worst element (a tet's for volume meshes). A mesh that cannot be read is recorded in its
+ * picture, not an error; PM_ERR_IO when files cannot be written. */
+pm_status pm_cmp_mesh_pictures(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *err);
 
 /* report.md and report.html. `invocation` is the command line that ran the study. */
 pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,

@@ -5,10 +5,11 @@
  *
  * Figures:
  *   aspect_tri, aspect_tet   R / l_min (circumradius over shortest edge) on a log scale, one box
- *                            per method per case: min, p25, median, p75, max -- the box plots of
- *                            papers/001 Fig. 11 (a) and (b). The five numbers are computed here
- *                            with quality.h's percentile rule (not gnuplot's Tukey whiskers), so
- *                            the whiskers are the true min and max, as in the paper.
+ *                            per method per case -- the box plots of papers/001 Fig. 11 (a) and
+ *                            (b). The numbers are computed here (spread.c, with quality.h's
+ *                            percentile rule): Tukey's whiskers with the elements beyond them as
+ *                            points, or the true min and max as in the paper ("whiskers":
+ *                            "minmax"); each distinct mesh of the repeats is pooled once.
  *   radius_ratio_tri/_tet    radius ratio (2r/R, 3r/R), same layout, linear scale.
  *   min_angle_tri            minimum angle of each triangle; min_dihedral_tet for tets.
  *   time                     wall time of packmesh's run (time_s.total), mean over seeds with
@@ -17,6 +18,7 @@
  *   sweep_CASE               with a sweep: metrics against the swept value, mean over seeds with
  *                            the min-max spread.
  * With a sweep, the box plots get one figure per case with the swept values along x.
+ * The pictures of the meshes are drawn by plot_mesh.c, without gnuplot.
  */
 #include <errno.h>
 #include <math.h>
@@ -46,22 +48,28 @@ static int has_elements(const pm_cmp_study *st, int c, int m, int w) {
   return 0;
 }
 
-/* Five numbers of the pooled per-element values of one group; 0 when there are none. */
+/* The box of the pooled per-element values of one group (each distinct mesh once: spread.c),
+ * its outliers (the values beyond the whiskers, as "x value" lines of the data's outlier block,
+ * one line per distinct value to 4 digits) appended to *out; 0 when there are none. */
 static int group_summary(const pm_cmp_study *st, int c, int m, int w, const char *kind,
-                         const char *column, pm_summary *out, pm_error *err, pm_status *s) {
+                         const char *column, double x, pm_cmp_box *box, sbuf *out, pm_error *err,
+                         pm_status *s) {
   double *v = NULL;
   size_t n = 0, cap = 0;
   for (int i = 0; i < st->nrow && !*s; ++i)
-    if (pm_cmp_row_in(&st->rows[i], c, m, w))
+    if (pm_cmp_row_in(&st->rows[i], c, m, w) && st->rows[i].same_mesh_as < 0)
       *s = pm_cmp_row_elements(st, &st->rows[i], kind, column, &v, &n, &cap, err);
   int got = 0;
   if (!*s && n > 0 && !(*s = pm_sort_doubles(v, n, err))) {
-    out->n = (int64_t)n;
-    out->min = v[0];
-    out->max = v[n - 1];
-    out->p25 = pm_percentile_sorted(v, n, 0.25);
-    out->median = pm_percentile_sorted(v, n, 0.5);
-    out->p75 = pm_percentile_sorted(v, n, 0.75);
+    pm_cmp_box_of_sorted(v, n, st->suite.whiskers_minmax, box);
+    char last[32] = "", now[32];
+    for (size_t i = 0; i < n; ++i) {
+      if (i == box->lo_end) i = box->hi_begin;
+      if (i >= n) break;
+      snprintf(now, sizeof now, "%.4g", v[i]);
+      if (strcmp(now, last) != 0) SB(out, "%g %s\n", x, now);
+      memcpy(last, now, sizeof last);
+    }
     got = 1;
   }
   free(v);
@@ -92,36 +100,41 @@ static pm_status boxplot(pm_cmp_plotctx *P, const boxspec *b, int only_case, pm_
   if (!blocks) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   /* The five numbers of every (cluster, method) first; clusters without any data (a surface
    * case in a tet figure) are left out of the axis. */
-  pm_summary *sum = calloc((size_t)ncl * nm + 1, sizeof *sum);
+  pm_cmp_box *sum = calloc((size_t)ncl * nm + 1, sizeof *sum);
   int *got = calloc((size_t)ncl * nm + 1, sizeof *got), *xpos = calloc((size_t)ncl + 1, sizeof *xpos);
-  if (!sum || !got || !xpos) {
-    free(sum), free(got), free(xpos), free(blocks);
+  sbuf *outl = calloc((size_t)nm + 1, sizeof *outl); /* each method's outliers, "x value" lines */
+  int *oblocks = calloc((size_t)nm + 1, sizeof *oblocks);
+  if (!sum || !got || !xpos || !outl || !oblocks) {
+    free(sum), free(got), free(xpos), free(blocks), free(outl), free(oblocks);
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
   int nshown = 0;
   for (int k = 0; k < ncl && !s; ++k) {
     int c = sweep ? only_case : k, w = sweep ? k : -1, here = 0;
     for (int m = 0; m < nm && !s; ++m)
-      if (has_elements(st, c, m, w))
-        here |= got[k * nm + m] = group_summary(st, c, m, w, b->kind, b->column, &sum[k * nm + m], err, &s);
+      if (has_elements(st, c, m, w)) /* x as placed below, if the cluster is shown */
+        here |= got[k * nm + m] = group_summary(st, c, m, w, b->kind, b->column,
+                                                nshown * (nm + 1) + m + 1, &sum[k * nm + m],
+                                                &outl[m], err, &s);
     xpos[k] = here ? nshown++ : -1;
   }
   SB(&d, "# %s\n# one block per method (blocks separated by two blank lines, in the order of "
-         "the plot command)\n# x  min  p25  median  p75  max  n  cluster\n",
-     b->title);
+         "the plot command), then one block of outliers per method that has any (x value)\n"
+         "# x  whisker_low  p25  median  p75  whisker_high  n  cluster  min  max   (whiskers: %s)\n",
+     b->title, su->whiskers_minmax ? "min and max" : "Tukey, 1.5 IQR");
   for (int m = 0; m < nm && !s; ++m) {
     int rows = 0;
     for (int k = 0; k < ncl; ++k) {
       if (!got[k * nm + m]) continue;
-      const pm_summary *sm = &sum[k * nm + m];
+      const pm_cmp_box *sm = &sum[k * nm + m];
       if (!rows) SB(&d, "# method %s\n", su->methods[m].label);
       double x = xpos[k] * (nm + 1) + m + 1;
       char cl[256];
       snprintf(cl, sizeof cl, "%s", sweep ? su->sweep_values[k] : su->cases[k].name);
       for (char *q = cl; *q; ++q)
         if (*q == ' ' || *q == '"') *q = '_';
-      SB(&d, "%g %.9g %.9g %.9g %.9g %.9g %lld %s\n", x, sm->min, sm->p25, sm->median, sm->p75,
-         sm->max, (long long)sm->n, cl);
+      SB(&d, "%g %.9g %.9g %.9g %.9g %.9g %lld %s %.9g %.9g\n", x, sm->whisker_lo, sm->p25,
+         sm->median, sm->p75, sm->whisker_hi, (long long)sm->n, cl, sm->min, sm->max);
       if (sm->max > top) top = sm->max;
       rows++;
     }
@@ -131,10 +144,19 @@ static pm_status boxplot(pm_cmp_plotctx *P, const boxspec *b, int only_case, pm_
       any = 1;
     }
   }
+  for (int m = 0; m < nm; ++m) {
+    d.bad |= outl[m].bad;
+    if (!outl[m].n) continue;
+    SB(&d, "# outliers of method %s: x value\n%s\n\n", su->methods[m].label, outl[m].s);
+    oblocks[m] = ++block;
+  }
+  for (int m = 0; m < nm; ++m) free(outl[m].s);
+  free(outl);
   free(sum);
   free(got);
   if (s || !any) {
     free(blocks);
+    free(oblocks);
     free(xpos);
     free(d.s);
     return s;
@@ -200,6 +222,9 @@ static pm_status boxplot(pm_cmp_plotctx *P, const boxspec *b, int only_case, pm_
            "lw 1.5 title \"%s\", \\\n"
            "    data index %d using 1:4:4:4:4 with candlesticks lc rgb \"black\" lw 2.5 notitle",
        first ? "" : ", \\\n", blocks[m] - 1, pm_cmp_palette[m % PM_CMP_NPALETTE], q, blocks[m] - 1);
+    if (oblocks[m])
+      SB(&g, ", \\\n    data index %d using 1:2 with points pt 7 ps 0.6 lc rgb \"%s\" notitle",
+         oblocks[m] - 1, pm_cmp_palette[m % PM_CMP_NPALETTE]);
     first = 0;
   }
   /* The ideal value as a dashed line named in the key (a label on the plot would sit on the
@@ -219,13 +244,18 @@ static pm_status boxplot(pm_cmp_plotctx *P, const boxspec *b, int only_case, pm_
   free(d.s);
   free(g.s);
   free(blocks);
+  free(oblocks);
   free(xpos);
   if (s) return s;
   char cap[1024];
   snprintf(cap, sizeof cap,
-           "Per element, pooled over the seeds%s: the box spans p25 to p75 with the median as "
-           "a black bar, the whiskers reach the minimum and the maximum%s.",
+           "Per element, pooled over the seeds%s (a mesh that repeats an earlier run's byte for "
+           "byte is counted once): the box spans p25 to p75 with the median as a black bar, %s%s.",
            sweep ? "" : (su->nsweep ? " and the swept values" : ""),
+           su->whiskers_minmax ? "the whiskers reach the minimum and the maximum (as papers/001 "
+                                 "Fig. 11; the suite's \"whiskers\": \"minmax\")"
+                               : "the whiskers reach the furthest elements within 1.5 IQR of "
+                                 "the box (Tukey), and the elements beyond are points",
            b->logscale && top > ASPECT_AXIS_MAX
                ? "; degenerate elements (aspect ratio 1e100) lie beyond the top of the axis"
                : "");
@@ -516,11 +546,13 @@ pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *e
   if (!s) s = time_bars(&P, err);
   for (int c = 0; c < su->ncase && !s; ++c) s = pm_cmp_plot_convergence(&P, c, err);
   for (int c = 0; c < su->ncase && !s && su->nsweep; ++c) s = sweep_plot(&P, c, err);
+  if (!s) s = pm_cmp_mesh_pictures(st, figs, err);
   return s;
 }
 
 void pm_cmp_figures_clear(pm_cmp_figures *figs) {
   if (!figs) return;
   free(figs->fig);
+  free(figs->pic);
   memset(figs, 0, sizeof *figs);
 }

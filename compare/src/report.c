@@ -191,6 +191,7 @@ static const col tri_cols[] = {
 };
 static const col tet_cols[] = {
     {"nodes", "nodes", 7},
+    {"surface nodes", "surface_nodes", 7},
     {"tets", "tets", 7},
     {"mean radius ratio", "tet.radius_ratio.mean", 4},
     {"min radius ratio", "tet.radius_ratio.min", 3},
@@ -210,7 +211,7 @@ static const col site_cols[] = {
     {"regular", "tri.by_site.regular.count", 7},
     {"median R/l_min", "tri.by_site.regular.aspect_ratio.median", 4},
 };
-#define NCOL 10 /* the most columns of a table above */
+#define NCOL 11 /* the most columns of a table above */
 #define COLS(a) ((int)(sizeof(a) / sizeof((a)[0])))
 _Static_assert(COLS(tri_cols) <= NCOL && COLS(tet_cols) <= NCOL && COLS(site_cols) <= NCOL,
                "a summary table has more columns than NCOL");
@@ -223,13 +224,14 @@ static int any_value(const pm_cmp_study *st, int c, const char *key) {
 
 static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols, int ncol) {
   const pm_cmp_suite *su = &st->suite;
-  const char *h[NCOL + 4];
+  const char *h[NCOL + 5];
   int nh = 0;
   h[nh++] = "method";
   if (su->nsweep) h[nh++] = su->sweep_key;
   h[nh++] = "ok runs";
+  h[nh++] = "distinct";
   for (int k = 0; k < ncol; ++k) h[nh++] = cols[k].head;
-  if (su->match_nodes) h[nh++] = "nodes vs reference";
+  if (su->match_nodes) h[nh++] = su->match_surface ? "surface nodes vs reference" : "nodes vs reference";
   h[nh++] = "valid";
   doc_table_head(d, nh, h);
   int nw = su->nsweep ? su->nsweep : 1;
@@ -238,14 +240,25 @@ static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols
       int ww = su->nsweep ? w : -1;
       int total = count_rows(st, c, m, ww);
       if (!total) continue;
-      char cells[NCOL + 4][CELL];
+      char cells[NCOL + 5][CELL];
       int k = 0, ok = 0;
       snprintf(cells[k++], CELL, "%s", su->methods[m].label);
       if (su->nsweep) snprintf(cells[k++], CELL, "%s", su->sweep_values[w]);
       mean_of(st, c, m, ww, "nodes", &ok);
+      int distinct = pm_cmp_distinct_count(st, c, m, ww);
       snprintf(cells[k++], CELL, "%d/%d", ok, total);
-      for (int q = 0; q < ncol; ++q)
-        fmt_num(cells[k++], CELL, mean_of(st, c, m, ww, cols[q].key, NULL), cols[q].digits);
+      snprintf(cells[k++], CELL, "%d", distinct);
+      for (int q = 0; q < ncol; ++q) {
+        double mean, sd;
+        int n;
+        pm_cmp_mean_sd(st, c, m, ww, cols[q].key, &mean, &sd, &n);
+        fmt_num(cells[k], CELL, mean, cols[q].digits);
+        if (n > 1) { /* the spread over the seeds, to two digits */
+          size_t at = strlen(cells[k]);
+          snprintf(cells[k] + at, CELL - at, " ± %.2g", sd);
+        }
+        k++;
+      }
       if (su->match_nodes) {
         if (m == su->reference) {
           snprintf(cells[k++], CELL, "reference");
@@ -256,8 +269,11 @@ static void summary_table(doc *d, const pm_cmp_study *st, int c, const col *cols
             const pm_cmp_row *r = &st->rows[i];
             if (r->icase != c || r->imethod != m || (ww >= 0 && r->isweep != ww)) continue;
             if (r->status != PM_CMP_OK || r->ref_row < 0) continue;
-            double ref = (double)st->rows[r->ref_row].nodes;
-            double rel = ((double)r->nodes - ref) / ref;
+            /* The count the runs were matched on: all nodes, or the surface nodes. */
+            const pm_cmp_row *rr = &st->rows[r->ref_row];
+            double ref = su->match_surface ? pm_cmp_row_value(rr, "surface_nodes") : (double)rr->nodes;
+            double mine = su->match_surface ? pm_cmp_row_value(r, "surface_nodes") : (double)r->nodes;
+            double rel = (mine - ref) / ref;
             if (!isfinite(worst) || fabs(rel) > fabs(worst)) worst = rel;
           }
           if (isfinite(worst))
@@ -309,7 +325,12 @@ static void reference_table(doc *d, const pm_cmp_study *st, int c) {
         snprintf(cells[1], CELL, "%s", v->valuestring);
       else
         snprintf(cells[1], CELL, "-");
-      if (m >= 0) fmt_num(cells[2], CELL, mean_of(st, c, m, -1, v->string, NULL), 6);
+      if (m >= 0) {
+        double mean, sd;
+        int n;
+        pm_cmp_mean_sd(st, c, m, -1, v->string, &mean, &sd, &n);
+        fmt_num(cells[2], CELL, mean, 6);
+      }
       doc_table_row(d, m >= 0 ? 3 : 2, cells);
     }
     doc_table_end(d);
@@ -342,6 +363,77 @@ static void figure(doc *d, const pm_cmp_figure *f) {
              f->error, f->name, f->name, f->name);
     doc_p(d, p);
   }
+}
+
+/* The pictures of plot_mesh.c, per case: each method's mesh beside the zoom on its worst
+ * element. */
+static void mesh_pictures(doc *d, const pm_cmp_study *st, const pm_cmp_figures *figs) {
+  if (!figs->npic) return;
+  doc_h(d, 2, "Meshes");
+  double mesh_s = 0;
+  for (int i = 0; i < st->nrow; ++i)
+    if (st->rows[i].status == PM_CMP_OK) mesh_s += st->rows[i].wall_s;
+  char p[1024];
+  snprintf(p, sizeof p,
+           "The first successful run of each method, on one camera per case; triangles (the "
+           "surface's, for volume meshes) coloured by R/l_min on one log scale for the whole "
+           "study, from 0.577 (equilateral, blue) to %.3g (red; larger values are red too). "
+           "Beside each, a zoom on its worst element. The %d pictures took %.2f s to draw "
+           "(%.2f s of processor time; the runs: %.1f s).",
+           figs->colour_max, figs->npic, figs->picture_s, figs->picture_cpu_s, mesh_s);
+  doc_p(d, p);
+  for (int c = 0; c < st->suite.ncase; ++c) {
+    int any = 0;
+    /* Method by method, each mesh beside its zoom. */
+    for (int k = 0; k < figs->npic * st->suite.nmethod; ++k) {
+      const pm_cmp_picture *pic = &figs->pic[k % figs->npic];
+      if (pic->icase != c || pic->imethod != k / figs->npic) continue;
+      if (!any++) {
+        doc_h(d, 3, st->suite.cases[c].name);
+        SB(&d->html, "<div class=\"meshes\">\n");
+      }
+      if (!pic->drawn) {
+        char q[800];
+        snprintf(q, sizeof q, "%s: not drawn (%s).", pic->name, pic->error);
+        doc_p(d, q);
+        continue;
+      }
+      SB(&d->md, "![%s](plots/%s.png)\n\n%s [SVG](plots/%s.svg)\n\n", pic->caption, pic->name,
+         pic->caption, pic->name);
+      SB(&d->html, "<figure class=\"%s\"><a href=\"plots/%s.svg\"><img src=\"plots/%s.png\" alt=\"",
+         pic->worst ? "worst" : "mesh", pic->name, pic->name);
+      html_esc(&d->html, pic->caption);
+      SB(&d->html, "\"></a><figcaption>");
+      html_esc(&d->html, pic->caption);
+      SB(&d->html, "</figcaption></figure>\n");
+    }
+    if (any) SB(&d->html, "</div>\n");
+  }
+}
+
+/* The 3D viewer (viewer.c writes its folder): a place for viewer.js, three.js, the cases' data
+ * and viewer.js itself, in that order; or why there is none. */
+static void viewer_section(doc *d, const pm_cmp_study *st, const pm_cmp_viewer *v) {
+  doc_h(d, 2, "3D viewer");
+  if (!v->available) {
+    doc_p(d, v->note);
+    return;
+  }
+  SB(&d->md, "The 3D viewer is in report.html (it needs a browser with WebGL). ");
+  doc_p(d, "Drag to rotate, wheel to zoom, shift-drag to pan; choose the case, the measure the "
+           "triangles are coloured by, and the methods shown side by side; click a triangle to "
+           "see its values. It shows the first successful run of each method, the surface "
+           "triangles of volume meshes. Everything it needs is in viewer/, so the study folder "
+           "works offline.");
+  SB(&d->html, "<div id=\"pm-viewer\"></div>\n<script src=\"viewer/three.min.js\"></script>\n");
+  for (int c = 0; c < st->suite.ncase; ++c) {
+    if (!v->case_written[c]) continue;
+    char rel[400];
+    pm_cmp_viewer_case_file(st, c, rel, sizeof rel);
+    SB(&d->html, "<script src=\"%s\"></script>\n", rel);
+  }
+  SB(&d->html, "<script src=\"viewer/viewer.js\"></script>\n");
+  doc_p(d, v->note);
 }
 
 static void environment(doc *d, const pm_cmp_figures *figs) {
@@ -420,9 +512,13 @@ static void inputs(doc *d, const pm_cmp_study *st) {
     k += snprintf(p + k, sizeof p - (size_t)k, "%s %ld", i ? "," : "", su->seeds[i]);
   k += snprintf(p + k, sizeof p - (size_t)k,
                 ". Node counts %s. Time limit per run: %g s. Threads per run: %s. Traces: %s.",
-                su->match_nodes ? "matched to the reference method (packmesh mesh "
-                                  "--target-nodes: within 3%)"
-                                : "not matched",
+                !su->match_nodes ? "not matched"
+                : su->match_surface
+                    ? "matched on the surface nodes (the nodes of the triangles; a volume mesh's "
+                      "interior nodes are not counted) to the reference method's (packmesh mesh "
+                      "--target-surface-nodes: within 3%)"
+                    : "matched on all nodes to the reference method's (packmesh mesh "
+                      "--target-nodes: within 3%)",
                 su->timeout_s, su->threads ? "as set" : "cores / jobs",
                 su->trace ? "recorded" : "off");
   if (su->match_nodes && k < (int)sizeof p - 128)
@@ -475,6 +571,11 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
      "pre{background:#f7f7f7;padding:0.8em;overflow-x:auto;font-size:0.85em}\n"
      "figure{margin:1em 0}figure img{max-width:100%%;border:1px solid #eee}\n"
      "figcaption{font-size:0.9em;color:#444}\n"
+     "#pm-viewer select,#pm-viewer label{margin-right:0.6em}#pm-viewer-info{font-size:0.9em;"
+     "min-height:1.4em}#pm-viewer-legend{font-size:0.85em;color:#444}\n"
+     ".meshes{display:flex;flex-wrap:wrap;gap:0.5em 1em;align-items:flex-start}\n"
+     ".meshes figure{margin:0.3em 0}.meshes figure.mesh img{width:520px}"
+     ".meshes figure.worst img{width:260px}\n"
      "</style>\n</head>\n<body>\n");
   char title[512];
   snprintf(title, sizeof title, "packmesh comparison: %s", su->name);
@@ -505,11 +606,25 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
            "box plots, runs/ID/ each run's mesh, stats, trace and log.");
 
   doc_h(d, 2, "Summary");
-  doc_p(d, "Means over the successful runs of each method (seeds and repeats pooled). Radius "
+  doc_p(d, "Mean ± standard deviation over the distinct results of each method (seeds and "
+           "repeats; runs whose meshes are byte-identical are one result, counted once here and "
+           "in the box plots' element pools: 'distinct' counts them; times are over every "
+           "successful run). Radius "
            "ratio: 2r/R for triangles, 3r/R for tets (1 is ideal). R/l_min: circumradius over "
            "shortest edge (0.577 for an equilateral triangle, 0.612 for a regular tet). Angles in "
            "degrees. eps_t, eps_g: Shimada's irregularities (papers/003 eq. 8-9). valid: the mesh "
            "checker's verdict.");
+  if (su->match_nodes) {
+    char m[600];
+    snprintf(m, sizeof m,
+             "Node counts are matched to %s's %s (within 3%%).", su->methods[su->reference].label,
+             su->match_surface ? "on the surface nodes, the nodes of the triangles: a volume "
+                                 "mesh's interior nodes are not counted, so that surfaces are "
+                                 "compared like for like"
+                               : "on all nodes: a volume mesh's interior nodes count too, so its "
+                                 "surface may be finer or coarser than the reference's");
+    doc_p(d, m);
+  }
   for (int c = 0; c < su->ncase; ++c) {
     char h[300];
     snprintf(h, sizeof h, "%s (%s)", su->cases[c].name, su->cases[c].input);
@@ -530,6 +645,17 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
     }
     reference_table(d, st, c);
   }
+
+  mesh_pictures(d, st, figs);
+  pm_cmp_viewer viewer;
+  pm_status vs = pm_cmp_viewer_write(st, figs->colour_max > 0 ? figs->colour_max : 1.5, &viewer, err);
+  if (vs) {
+    free(d->md.s);
+    free(d->html.s);
+    return vs;
+  }
+  viewer_section(d, st, &viewer);
+  pm_cmp_viewer_clear(&viewer);
 
   doc_h(d, 2, "Figures");
   if (!figs->have_gnuplot)
@@ -561,11 +687,11 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
            st->dir);
   doc_p(d, p);
   {
-    const char *h[5] = {"run", "status", "nodes", "wall time (s)", "iterations"};
-    doc_table_head(d, 5, h);
+    const char *h[6] = {"run", "status", "nodes", "wall time (s)", "iterations", "same mesh as"};
+    doc_table_head(d, 6, h);
     for (int i = 0; i < st->nrow; ++i) {
       const pm_cmp_row *r = &st->rows[i];
-      char cells[5][CELL];
+      char cells[6][CELL];
       snprintf(cells[0], CELL, "%s", r->id);
       snprintf(cells[1], CELL, "%s", pm_cmp_status_name(r->status));
       if (r->status == PM_CMP_OK)
@@ -574,7 +700,8 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
         snprintf(cells[2], CELL, "-");
       fmt_num(cells[3], CELL, r->status == PM_CMP_SKIPPED ? NAN : r->wall_s, 3);
       fmt_num(cells[4], CELL, pm_cmp_row_value(r, "iterations"), 7);
-      doc_table_row(d, 5, cells);
+      snprintf(cells[5], CELL, "%s", r->same_mesh_as >= 0 ? st->rows[r->same_mesh_as].id : "");
+      doc_table_row(d, 6, cells);
     }
     doc_table_end(d);
     sbuf cmds = {0};

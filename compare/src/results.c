@@ -2,7 +2,8 @@
  *   results.csv   one row per run: case, method, seed, sweep_key, sweep_value, status, error,
  *                 command (DESIGN.md's leading columns, in that order), then row (the folder
  *                 under runs/), label (the method entry's label), input, wall_s (seconds of the
- *                 child process, start to exit), then every key of the run's --stats JSON
+ *                 child process, start to exit), same_mesh_as (the row whose mesh.msh this
+ *                 run's repeats byte for byte, spread.c; empty when none), then every key of the run's --stats JSON
  *                 flattened with dots (stats.h), except method, input and seed, which are the
  *                 leading columns already. The key columns are the union over the runs, merged
  *                 so that each run's keys keep their document order (a 3D run's tet.* columns
@@ -19,11 +20,12 @@
 #include <string.h>
 
 #include "common/base/atomic_file.h"
+#include "common/mesh/mesh_io.h"
 #include "compare/src/study.h"
 
 static const char *const lead[] = {"case",   "method", "seed",  "sweep_key", "sweep_value",
                                    "status", "error",  "command", "row",     "label",
-                                   "input",  "wall_s", NULL};
+                                   "input",  "wall_s", "same_mesh_as", NULL};
 
 /* Flattened keys that repeat a leading column. */
 static int is_lead_key(const char *k) {
@@ -152,6 +154,8 @@ static pm_status write_results(const pm_cmp_study *st, pm_error *err) {
     /* Milliseconds are all a wall time measured by polling every 20 ms can tell. */
     if (r->status != PM_CMP_SKIPPED && r->status != PM_CMP_PENDING)
       pm_csv_number(f, round(r->wall_s * 1000) / 1000);
+    fputc(',', f);
+    if (r->same_mesh_as >= 0) pm_csv_field(f, st->rows[r->same_mesh_as].id);
     for (int k = 0; k < ks.n; ++k) {
       fputc(',', f);
       if (r->status == PM_CMP_OK) write_item(f, pm_stats_flat_find(&r->flat, ks.k[k]));
@@ -295,5 +299,28 @@ pm_status pm_cmp_row_elements(const pm_cmp_study *st, const pm_cmp_row *r, const
   }
   free(line);
   fclose(in);
+  return s;
+}
+
+int pm_cmp_first_ok_row(const pm_cmp_study *st, int c, int m) {
+  for (int i = 0; i < st->nrow; ++i) {
+    const pm_cmp_row *r = &st->rows[i];
+    if (r->icase == c && r->imethod == m && r->status == PM_CMP_OK) return i;
+  }
+  return -1;
+}
+
+pm_status pm_cmp_row_mesh(const pm_cmp_study *st, const pm_cmp_row *r, pm_mesh **mesh,
+                          pm_element_values *values, pm_error *err) {
+  *mesh = NULL;
+  memset(values, 0, sizeof *values);
+  char path[4400];
+  snprintf(path, sizeof path, "%s/runs/%s/mesh.msh", st->dir, r->id);
+  pm_status s = pm_mesh_read(path, mesh, err);
+  if (!s) s = pm_element_values_compute(*mesh, values, err);
+  if (s) {
+    pm_mesh_destroy(*mesh);
+    *mesh = NULL;
+  }
   return s;
 }

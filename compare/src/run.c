@@ -152,7 +152,8 @@ static void arg_free(argvec *a) {
   a->n = 0;
 }
 
-/* argv for `packmesh mesh` and its shell form. target > 0 adds --target-nodes. Paths of the
+/* argv for `packmesh mesh` and its shell form. target > 0 adds --target-nodes (or, when the
+ * suite matches surfaces, --target-surface-nodes). Paths of the
  * outputs are relative to the study folder, where the child runs. */
 static int build_command(const runner *R, const pm_cmp_row *r, long target, argvec *a,
                          char *cmd, size_t cmdlen) {
@@ -196,7 +197,7 @@ static int build_command(const runner *R, const pm_cmp_row *r, long target, argv
   }
   if (target > 0) {
     snprintf(buf, sizeof buf, "%ld", target);
-    bad |= arg_add(a, "--target-nodes");
+    bad |= arg_add(a, s->match_surface ? "--target-surface-nodes" : "--target-nodes");
     bad |= arg_add(a, buf);
   }
   snprintf(buf, sizeof buf, "runs/%s/mesh.msh", r->id);
@@ -459,6 +460,20 @@ static int start_mesh(runner *R, job *j, pm_cmp_row *r, pm_status *io, pm_error 
       return 0;
     }
     target = ref->nodes;
+    if (st->suite.match_surface) {
+      /* The reference's surface nodes, which every run records (surface_nodes). */
+      double sn = pm_cmp_row_value(ref, "surface_nodes");
+      target = isfinite(sn) ? (long)sn : 0;
+      if (target < 3) {
+        r->status = PM_CMP_FAILED;
+        snprintf(r->error, sizeof r->error,
+                 "not run: surface nodes are matched to %s, whose run %s has no surface_nodes",
+                 st->suite.methods[ref->imethod].label, ref->id);
+        r->command[0] = '\0';
+        finish_row(R, r, io, err);
+        return 0;
+      }
+    }
   }
   argvec a = {0};
   if (build_command(R, r, target, &a, r->command, sizeof r->command)) {
@@ -605,6 +620,7 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
     st->rows[i].reused = 0;
     st->rows[i].elements_ok = 0;
     st->rows[i].nodes = -1;
+    st->rows[i].same_mesh_as = -1;
     pm_stats_flat_clear(&st->rows[i].flat);
   }
   char runs[4096];
@@ -727,6 +743,7 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
   free(R.state);
   free(slots);
   st->interrupted = interrupted;
+  if (!io && !interrupted) io = pm_cmp_duplicates_mark(st, err);
   if (!io && interrupted)
     io = pm_error_setf(err, PM_ERR_ARG,
                        "compare interrupted by %s with %d of %d runs finished; run the same "

@@ -3,9 +3,13 @@
  *   suite.c       read and check a suite, expand it into rows
  *   run.c         run the rows as child processes (parallel, time-limited, resumable)
  *   results.c     results.csv, elements.csv, per-row values for tables and plots
+ *   spread.c      statistics over repeats: identical meshes, mean and sd, box-plot whiskers
  *   plot.c        gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
  *   plot_convergence.c  the convergence figures from the traces
  *   plot_gnuplot.c      what the figures share (plot_gnuplot.h)
+ *   plot_mesh.c   pictures of the meshes (PNG through raster.c and png.c, SVG)
+ *   raster.c      a small rasterizer for them; png.c its PNG encoder (raster.h)
+ *   viewer.c      the 3D viewer's folder: three.js, viewer.js, the meshes as JS data
  *   report.c      report.md and report.html
  *   animate.c     a run's frames as a GIF and an HTML player (packmesh animate)
  *   sysinfo.c     library versions and the machine, for the report
@@ -25,6 +29,7 @@
 #include <sys/types.h>
 
 #include "common/backends/versions.h"
+#include "common/mesh/element_measure.h"
 #include "compare/src/compare.h"
 
 #ifdef __cplusplus
@@ -55,6 +60,65 @@ pm_status pm_cmp_row_elements(const pm_cmp_study *st, const pm_cmp_row *r, const
                               const char *column, double **v, size_t *n, size_t *cap,
                               pm_error *err);
 
+/* The first successful row of (case c, method m), in row order (its first seed and sweep
+ * value); -1 when there is none. */
+int pm_cmp_first_ok_row(const pm_cmp_study *st, int c, int m);
+
+/* A row's mesh (runs/ID/mesh.msh) and the measures of its elements (element_measure.h). On
+ * success the caller owns both (pm_mesh_destroy, pm_element_values_clear); on failure both are
+ * left empty. */
+pm_status pm_cmp_row_mesh(const pm_cmp_study *st, const pm_cmp_row *r, pm_mesh **mesh,
+                          pm_element_values *values, pm_error *err);
+
+/* ---- statistics over the repeats (spread.c) ------------------------------------------------ */
+
+/* Mark every successful row whose mesh.msh is byte-identical to an earlier row's of the same
+ * case, method and sweep value: row->same_mesh_as = that row (the first to make the mesh), else
+ * -1. Such rows are one result in the tables and the box plots. */
+pm_status pm_cmp_duplicates_mark(pm_cmp_study *st, pm_error *err);
+
+/* The number of distinct results of (case c, method m, sweep value w; w < 0: all): successful
+ * rows that repeat no earlier row's mesh. */
+int pm_cmp_distinct_count(const pm_cmp_study *st, int c, int m, int w);
+
+/* Mean and sample standard deviation of a stats key over the distinct results of the group (over
+ * every successful run for time keys, time_s.*: a repeated mesh is still a timing of its own);
+ * *n values. NaN when there are none (sd: fewer than two). */
+void pm_cmp_mean_sd(const pm_cmp_study *st, int c, int m, int w, const char *key, double *mean,
+                    double *sd, int *n);
+
+/* A box plot's numbers from n >= 1 sorted values: quartiles, and whiskers at Tukey's fences
+ * (the furthest values within 1.5 IQR of the box) or, with minmax, at the min and max. The
+ * values outside the whiskers, drawn as points, are v[0 .. lo_end) and v[hi_begin .. n). */
+typedef struct pm_cmp_box {
+  int64_t n;
+  double min, p25, median, p75, max;
+  double whisker_lo, whisker_hi;
+  size_t lo_end, hi_begin;
+} pm_cmp_box;
+void pm_cmp_box_of_sorted(const double *v, size_t n, int minmax, pm_cmp_box *b);
+
+/* ---- the 3D viewer (viewer.c) -------------------------------------------------------------- */
+
+typedef struct pm_cmp_viewer {
+  int available;      /* three.js was found and copied: report.html shows the viewer */
+  char note[768];     /* where three.js came from, or why the viewer is not available */
+  int *case_written;  /* [ncase] 1: viewer/mesh_CASE.js holds the case's meshes (owned) */
+} pm_cmp_viewer;
+
+/* Write the study's viewer/ folder: three.js and its licence (copied from $PM_THREE_JS, else
+ * Debian's libjs-three), viewer.js (built into packmesh from compare/viewer/viewer.js) and, per
+ * case, viewer/mesh_CASE.js with the first successful run of each method (its surface triangles
+ * and their measures; colour_max tops the R/l_min colour scale). Without three.js nothing is
+ * written and v->note says why: the report then says the viewer is not available. PM_ERR_IO when
+ * files cannot be written. */
+pm_status pm_cmp_viewer_write(const pm_cmp_study *st, double colour_max, pm_cmp_viewer *v,
+                              pm_error *err);
+void pm_cmp_viewer_clear(pm_cmp_viewer *v);
+
+/* The case's data file, relative to the study folder ("viewer/mesh_qi3.js"). */
+void pm_cmp_viewer_case_file(const pm_cmp_study *st, int c, char *buf, size_t len);
+
 /* ---- environment --------------------------------------------------------------------------- */
 
 typedef struct pm_cmp_sysinfo {
@@ -82,7 +146,7 @@ int pm_cmp_appendf(char **buf, size_t *len, size_t *cap, const char *fmt, ...)
 /* A growing text for SB; `bad` records a failed append (out of memory), checked once when the
  * text is used. */
 typedef struct sbuf {
-  char *s;
+  char *s; /* malloc'ed, NUL-terminated (NULL while empty) */
   size_t n, cap;
   int bad;
 } sbuf;

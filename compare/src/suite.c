@@ -86,6 +86,18 @@ static pm_status get_number(const cJSON *obj, const char *key, const char *where
   return PM_OK;
 }
 
+/* A string that must be one of two words: *out = 0 for the first, 1 for the second. */
+static pm_status get_choice(const cJSON *obj, const char *key, const char *where, const char *w0,
+                            const char *w1, int *out, pm_error *err) {
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+  if (!v) return PM_OK;
+  if (!cJSON_IsString(v) || (strcmp(v->valuestring, w0) != 0 && strcmp(v->valuestring, w1) != 0))
+    return pm_error_setf(err, PM_ERR_ARG, "%s: \"%s\" must be \"%s\" or \"%s\"", where, key, w0,
+                         w1);
+  *out = strcmp(v->valuestring, w1) == 0;
+  return PM_OK;
+}
+
 static const char *base_name(const char *p) {
   const char *s = strrchr(p, '/');
   return s ? s + 1 : p;
@@ -336,7 +348,8 @@ pm_status pm_cmp_suite_parse(const char *text, const char *base_dir, const char 
   static const char *const keys[] = {"name",  "description", "cases",   "methods", "seeds",
                                      "repeats", "size",      "options", "sweep",   NULL};
   static const char *const okeys[] = {"match_nodes", "reference", "volume", "timeout_s",
-                                      "threads",     "max_nodes", "trace",  NULL};
+                                      "threads",     "max_nodes", "trace",  "match",
+                                      "whiskers",    NULL};
   const cJSON *cases, *methods, *opts, *seeds, *repeats, *name, *desc;
   int def_volume = 0, n;
   if (!cJSON_IsObject(root)) {
@@ -379,7 +392,9 @@ pm_status pm_cmp_suite_parse(const char *text, const char *base_dir, const char 
         (st = get_bool(opts, "trace", "options", &s->trace, err)) ||
         (st = get_number(opts, "timeout_s", "options", 1e-3, 1e7, &s->timeout_s, err)) ||
         (st = get_number(opts, "threads", "options", 1, 1024, &thr, err)) ||
-        (st = get_number(opts, "max_nodes", "options", 3, 2e9, &mx, err)))
+        (st = get_number(opts, "max_nodes", "options", 3, 2e9, &mx, err)) ||
+        (st = get_choice(opts, "match", "options", "all", "surface", &s->match_surface, err)) ||
+        (st = get_choice(opts, "whiskers", "options", "tukey", "minmax", &s->whiskers_minmax, err)))
       goto done;
     if (thr != floor(thr) || mx != floor(mx)) {
       st = pm_error_setf(err, PM_ERR_ARG, "options: \"threads\" and \"max_nodes\" are whole numbers");
@@ -644,6 +659,7 @@ pm_status pm_cmp_study_init(pm_cmp_study *st, pm_cmp_suite *s, const char *dir, 
           r->isweep = su->nsweep ? w : -1;
           r->nodes = -1;
           r->ref_row = -1;
+          r->same_mesh_as = -1;
           if (su->match_nodes) {
             if (m == su->reference)
               ref = st->nrow;

@@ -264,6 +264,9 @@ typedef struct pm_generate_options {
   int target_runs;         /* in: default 8 */
   pm_progress_fn progress; /* in, may be NULL */
   void *progress_user;     /* borrowed: passed to progress */
+  int target_surface;      /* in: 1: target_nodes counts the surface nodes (the nodes of the
+                              triangles; a volume mesh's interior nodes are left out), so that
+                              volume meshes are matched on their surfaces; default 0: all nodes */
 } pm_generate_options;
 
 /* Fill o with the defaults above. */
@@ -277,6 +280,8 @@ typedef struct pm_generate_result {
   double size_scale;       /* the factor the size field was scaled by (1 without target_nodes) */
   int target_met;          /* 1 when the node count is within the tolerance (or no target) */
   double seconds;          /* wall time of all the runs */
+  int64_t target_count;    /* with target_nodes: the count compared with it (all nodes, or the
+                              surface nodes with target_surface) in the last run; else 0 */
 } pm_generate_result;
 
 /* Mesh `model` (in) with `method` (in), its parameters `params` (in, may be NULL: the

@@ -200,6 +200,7 @@ pm_status pm_generate_report(const pm_model *model, const pm_sizing *size,
   memset(&ro, 0, sizeof ro);
   double scale = 1;
   int target_met = 1;
+  int64_t target_count = 0;
   while (!s) {
     ++w.run;
     const pm_sizing *use = base;
@@ -219,11 +220,14 @@ pm_status pm_generate_report(const pm_model *model, const pm_sizing *size,
     in.volume = o->volume, in.max_nodes = o->max_nodes, in.observer = &obs;
     if ((s = method->run(&in, values, &ro, err))) break;
     if (o->target_nodes <= 0) break;
-    /* Nodes of a surface mesh go as 1/d^2, of a volume mesh as 1/d^3. */
-    double ratio = (double)ro.mesh->nnode / (double)o->target_nodes;
+    int32_t counted = ro.mesh->nnode;
+    if (o->target_surface && (s = pm_mesh_surface_nodes(ro.mesh, &counted, err))) break;
+    /* Nodes of a surface go as 1/d^2, of a volume as 1/d^3. */
+    target_count = counted;
+    double ratio = (double)counted / (double)o->target_nodes;
     target_met = fabs(ratio - 1) <= o->target_tolerance;
     if (target_met || w.run >= o->target_runs) break;
-    scale *= pow(ratio, 1.0 / (o->volume && ro.mesh->ntet ? 3.0 : 2.0));
+    scale *= pow(ratio, 1.0 / (o->volume && ro.mesh->ntet && !o->target_surface ? 3.0 : 2.0));
   }
   if (!s) s = stage(&w, "done", err);
   if (!s) {
@@ -236,6 +240,7 @@ pm_status pm_generate_report(const pm_model *model, const pm_sizing *size,
       result->runs = w.run;
       result->size_scale = scale;
       result->target_met = target_met;
+      result->target_count = target_count;
       result->seconds = pm_seconds() - t0;
     }
     if (final_size) {

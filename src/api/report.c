@@ -138,6 +138,12 @@ pm_status pm_report_measure(pm_report *r, const pm_mesh *m, const pm_model *mode
     if ((s = pm_quality_compute(m, size, &r->quality, err))) return s;
     pm_stats_set_quality(st, &r->quality);
     pm_stats_set_mesh(st, m);
+    /* The nodes a surface-node target counts (--target-surface-nodes), for every run, so that a
+     * volume study can compare surfaces like for like. */
+    int32_t surface = 0;
+    if ((s = pm_mesh_surface_nodes(m, &surface, err)) ||
+        (s = pm_stats_add_number(st, "surface_nodes", (double)surface, err)))
+      return s;
     if ((s = pm_needles_classify(m, model, PM_NEEDLE_DEG, &r->needles, NULL, err)) ||
         (m->ntri > 0 && (s = pm_stats_set_needles(st, &r->needles, PM_NEEDLE_DEG, err))) ||
         (timed && (s = pm_stats_set_time(st, "quality", pm_seconds() - t0, err))))
@@ -182,7 +188,8 @@ pm_status pm_report_record_run(pm_report *r, const pm_model *model, const pm_met
                              err)))
     return s;
   if (opts->target_nodes > 0 &&
-      ((s = pm_stats_add_number(st, "target_nodes", (double)opts->target_nodes, err)) ||
+      ((s = pm_stats_add_number(st, opts->target_surface ? "target_surface_nodes" : "target_nodes",
+                                (double)opts->target_nodes, err)) ||
        (s = pm_stats_add_number(st, "size_scale", result->size_scale, err)) ||
        (s = pm_stats_add_number(st, "target_runs", result->runs, err)) ||
        (s = pm_stats_add_bool(st, "target_nodes_met", result->target_met, err))))

@@ -2,8 +2,8 @@
  * (DESIGN.md's JSON keys), the per-iteration trace and snapshots.
  *
  *   packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]
- *                 [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]
- *                 -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--stats STATS.json] [--trace TRACE.csv]
+ *                 [--seed N] [--threads N] [--volume] [--target-nodes N]
+ *                 [--target-surface-nodes N] [--max-nodes N] -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--stats STATS.json] [--trace TRACE.csv]
  *                 [--frames DIR] [--msh-parametric] [--quiet | --progress]
  *   packmesh mesh --method M --help      the method's parameters, defaults and sources
  *
@@ -41,6 +41,7 @@ typedef struct mesh_opts {
   long threads;
   int volume, help, msh_parametric, quiet, progress;
   long target_nodes, max_nodes;
+  int target_surface; /* --target-surface-nodes: target_nodes counts the surface nodes */
   int method_given;
 } mesh_opts;
 
@@ -63,7 +64,8 @@ void pm_cli_mesh_usage(FILE *f) {
   pm_generate_options_init(&defaults);
   fprintf(f,
           "usage: packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]\n"
-          "                    [--seed N] [--threads N] [--volume] [--target-nodes N] [--max-nodes N]\n"
+          "                    [--seed N] [--threads N] [--volume] [--target-nodes N]\n"
+          "                    [--target-surface-nodes N] [--max-nodes N]\n"
           "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--msh-parametric]\n"
           "                    [--stats STATS.json] [--trace TRACE.csv] [--frames DIR]\n"
           "                    [--quiet | --progress]\n"
@@ -84,6 +86,9 @@ void pm_cli_mesh_usage(FILE *f) {
           "  --target-nodes N    scale the size field until the node count is within %g%% of N (at\n"
           "                      most %d runs); a miss is a warning on stderr, and target_nodes_met in\n"
           "                      --stats\n"
+          "  --target-surface-nodes N\n"
+          "                      the same on the surface nodes (the nodes of the triangles): with\n"
+          "                      --volume, a volume mesh's interior nodes are not counted\n"
           "  --max-nodes N       the node cap (default %lld): a size field that would need more nodes\n"
           "                      is refused before any method grows\n"
           "  -o, --output OUT    the mesh: .msh, .vtk, .vtu, .stl, .obj or .mesh\n"
@@ -203,7 +208,19 @@ static int parse(int argc, char **argv, mesh_opts *o) {
     if ((r = pm_cli_option(argc, argv, &i, "target-nodes", &v)) != 0) {
       if (r < 0 || !pm_cli_parse_long(v, 3, 2000000000L, &n))
         return pm_cli_usage("mesh", "--target-nodes takes a whole number >= 3, got '%s'", v ? v : "");
+      if (o->target_nodes && o->target_surface)
+        return pm_cli_usage("mesh", "--target-nodes and --target-surface-nodes: give one");
       o->target_nodes = n;
+      continue;
+    }
+    if ((r = pm_cli_option(argc, argv, &i, "target-surface-nodes", &v)) != 0) {
+      if (r < 0 || !pm_cli_parse_long(v, 3, 2000000000L, &n))
+        return pm_cli_usage("mesh", "--target-surface-nodes takes a whole number >= 3, got '%s'",
+                            v ? v : "");
+      if (o->target_nodes && !o->target_surface)
+        return pm_cli_usage("mesh", "--target-nodes and --target-surface-nodes: give one");
+      o->target_nodes = n;
+      o->target_surface = 1;
       continue;
     }
     if ((r = pm_cli_option(argc, argv, &i, "max-nodes", &v)) != 0) {
@@ -342,6 +359,7 @@ int pm_cli_mesh(int argc, char **argv) {
   go.volume = o.volume;
   go.max_nodes = o.max_nodes;
   go.target_nodes = o.target_nodes;
+  go.target_surface = o.target_surface;
   go.target_tolerance = TARGET_TOL;
   go.target_runs = TARGET_RUNS;
   if (progress.active) go.progress = pm_cli_progress_report, go.progress_user = &progress;
@@ -352,8 +370,9 @@ int pm_cli_mesh(int argc, char **argv) {
     if (misfit == PM_MISFIT_VOLUME) pm_error_prefix(&e, "--volume");
     if (misfit == PM_MISFIT_TARGET)
       pm_error_setf(&e, PM_ERR_ARG,
-                    "--target-nodes needs --size for method %s (it has no default field to scale)",
-                    pm_method_name(method));
+                    "--target-%snodes needs --size for method %s (it has no default field to "
+                    "scale)",
+                    o.target_surface ? "surface-" : "", pm_method_name(method));
     usage = misfit != PM_MISFIT_NONE;
     goto fail;
   }
@@ -413,10 +432,11 @@ int pm_cli_mesh(int argc, char **argv) {
   const int32_t nodes = pm_mesh_node_count(out_mesh);
   if (o.target_nodes && !result.target_met && !o.quiet)
     fprintf(stderr,
-            "packmesh: warning: --target-nodes %ld missed: %d nodes after %d runs (%+.1f%%; the "
-            "tolerance is %g%%)\n",
-            o.target_nodes, (int)nodes, result.runs,
-            100.0 * ((double)nodes / (double)o.target_nodes - 1), 100 * TARGET_TOL);
+            "packmesh: warning: --target-%snodes %ld missed: %lld %snodes after %d runs (%+.1f%%; "
+            "the tolerance is %g%%)\n",
+            o.target_surface ? "surface-" : "", o.target_nodes, (long long)result.target_count,
+            o.target_surface ? "surface " : "", result.runs,
+            100.0 * ((double)result.target_count / (double)o.target_nodes - 1), 100 * TARGET_TOL);
   if (!o.quiet)
     printf("%s %s: %d nodes, %d segments, %d triangles, %d tets in %.2f s (%s) -> %s\n",
            pm_method_name(method), o.input, (int)nodes, (int)pm_mesh_element_count(out_mesh, 1),

@@ -98,6 +98,33 @@ static void target_nodes_and_threads(void **state) {
   free(x2);
 }
 
+/* --target-surface-nodes: a volume mesh's surface nodes (the nodes of its triangles, stats key
+ * surface_nodes) end within 3% of the target while its interior nodes are not counted; the stats
+ * name the target; it and --target-nodes together, or a value below 3, are usage errors. */
+static void target_surface_nodes(void **state) {
+  (void)state;
+  char args[1024], js[300];
+  snprintf(js, sizeof js, "%s/ts.json", dir);
+  snprintf(args, sizeof args,
+           "mesh case:boxhole --volume --method gmsh-frontal --target-surface-nodes 800 -o "
+           "'%s/ts.msh' --stats '%s'",
+           dir, js);
+  assert_int_equal(pm_test_cli(dir, args, NULL, NULL), 0);
+  cJSON *j = pm_test_read_json(js);
+  double surface = pm_test_stat(j, "surface_nodes", NULL, NULL), all = pm_test_stat(j, "nodes", NULL, NULL);
+  if (!(fabs(surface / 800 - 1) <= 0.03)) fail_msg("%g surface nodes for a target of 800", surface);
+  assert_true(all > surface); /* the interior nodes are there, and were not counted */
+  assert_int_equal((int)pm_test_stat(j, "target_surface_nodes", NULL, NULL), 800);
+  assert_null(cJSON_GetObjectItemCaseSensitive(j, "target_nodes"));
+  assert_true(cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(j, "target_nodes_met")));
+  cJSON_Delete(j);
+  snprintf(args, sizeof args, "mesh case:qi3 --target-nodes 100 --target-surface-nodes 100 -o '%s/x.msh'", dir);
+  pm_test_cli_error(dir, args, 2, "--target-nodes and --target-surface-nodes: give one");
+  snprintf(args, sizeof args, "mesh case:qi3 --target-surface-nodes 2 -o '%s/x.msh'", dir);
+  pm_test_cli_error(dir, args, 2, "--target-surface-nodes takes a whole number >= 3, got '2'");
+  assert_false(exists("x.msh"));
+}
+
 /* A target the method cannot reach: qi3's square has 4 corners, and 5 nodes is within 3% of
  * nothing bubble can place (it ends with the 4 corners). The mesh is written (exit 0), stderr has
  * one warning line naming the target and the count, and the stats say target_nodes_met false. */
@@ -277,6 +304,7 @@ int main(void) {
       cmocka_unit_test(stats_keys_of_design),
       cmocka_unit_test(target_nodes_and_threads),
       cmocka_unit_test(target_nodes_missed),
+      cmocka_unit_test(target_surface_nodes),
       cmocka_unit_test(usage_errors_exit_2),
       cmocka_unit_test(formats_that_drop_elements_warn),
       cmocka_unit_test(one_line_errors),

@@ -51,8 +51,16 @@ static void test_forms(void **state) {
   assert_int_equal(s.nseed, 3);
   assert_int_equal(s.seeds[2], 3);
   assert_int_equal(s.match_nodes, 0);
+  assert_int_equal(s.match_surface, 0);   /* "match": "all" */
+  assert_int_equal(s.whiskers_minmax, 0); /* "whiskers": "tukey" */
   assert_int_equal(s.trace, 1);
   PM_ASSERT_NEAR(s.timeout_s, 600, 0);
+  pm_cmp_suite_clear(&s);
+  parse_ok("{\"cases\": [\"case:qi1\"], \"methods\": [\"bubble\"],"
+           " \"options\": {\"match_nodes\": true, \"match\": \"surface\", \"whiskers\": \"minmax\"}}",
+           &s);
+  assert_int_equal(s.match_surface, 1);
+  assert_int_equal(s.whiskers_minmax, 1);
   pm_cmp_suite_clear(&s);
 }
 
@@ -123,6 +131,12 @@ static void test_errors(void **state) {
               " \"options\": {\"timeout_s\": -1}}",
               "\"timeout_s\" must be a number");
   parse_fails("{\"cases\": [{\"size\": 1}], \"methods\": [\"bubble\"]}", "cases[0]: expected an input");
+  parse_fails("{\"cases\": [\"case:qi1\"], \"methods\": [\"bubble\"],"
+              " \"options\": {\"match\": \"surfaces\"}}",
+              "options: \"match\" must be \"all\" or \"surface\"");
+  parse_fails("{\"cases\": [\"case:qi1\"], \"methods\": [\"bubble\"],"
+              " \"options\": {\"whiskers\": true}}",
+              "options: \"whiskers\" must be \"tukey\" or \"minmax\"");
 }
 
 /* Rows: case-major, then seed, sweep value, method with the reference first; ids unique. */

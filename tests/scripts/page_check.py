@@ -265,9 +265,12 @@ def main():
 
         for sel in a.canvas:
             r = dt.send("Runtime.evaluate", {
+                # The clip is in page coordinates: the box seen in the viewport, plus the
+                # scroll (an element far down a long page, such as a report's viewer).
                 "expression": "(function(){var e=document.querySelector(%s);if(!e)return null;"
                               "e.scrollIntoView();var b=e.getBoundingClientRect();"
-                              "return [b.x,b.y,b.width,b.height];})()" % json.dumps(sel),
+                              "return [b.x+window.scrollX,b.y+window.scrollY,b.width,b.height];})()"
+                              % json.dumps(sel),
                 "returnByValue": True})
             box = r.get("result", {}).get("value")
             if not box or box[2] < 1 or box[3] < 1:

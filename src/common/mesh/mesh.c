@@ -201,3 +201,16 @@ pm_mesh *pm_mesh_copy(const pm_mesh *m) {
   c->ntet = m->ntet;
   return c;
 }
+
+pm_status pm_mesh_surface_nodes(const pm_mesh *m, int32_t *count, pm_error *err) {
+  *count = 0;
+  if (m->ntri == 0) return PM_OK;
+  unsigned char *seen = calloc((size_t)m->nnode, 1);
+  if (!seen) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory (surface nodes)");
+  int32_t n = 0;
+  for (int64_t k = 0; k < 3 * (int64_t)m->ntri; ++k)
+    if (!seen[m->tri[k]]) seen[m->tri[k]] = 1, ++n;
+  free(seen);
+  *count = n;
+  return PM_OK;
+}

@@ -71,6 +71,11 @@ pm_status pm_mesh_add_tet(pm_mesh *m, int32_t a, int32_t b, int32_t c, int32_t d
 /* A deep copy; NULL when out of memory. */
 pm_mesh *pm_mesh_copy(const pm_mesh *m);
 
+/* The number of distinct nodes of the mesh's triangles into *count: its surface nodes (a volume
+ * mesh's interior nodes are not among them; on a surface mesh every node of a face is). Triangle
+ * indices must be in range. */
+pm_status pm_mesh_surface_nodes(const pm_mesh *m, int32_t *count, pm_error *err);
+
 #ifdef __cplusplus
 }
 #endif
