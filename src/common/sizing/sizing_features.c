@@ -206,6 +206,7 @@ typedef struct width_ctx {
   const pm_cell *fc;
   int32_t ca;
   const double *pts;   /* the curves' polylines */
+  const double *tpar;  /* their points' parameters on their curves */
   const int32_t *poff; /* curve c's points: [poff[c], poff[c + 1]) */
 } width_ctx;
 
@@ -213,8 +214,9 @@ typedef struct width_ctx {
  * curves, for two curves that share a vertex only where it is below WEDGE_SIN times the
  * distance to that vertex (a corner narrower than 15 degrees: a wider corner's tip is one
  * triangle whose angle there is the corner's, no needle, and refining it would only add
- * nodes). Against the other curves' polylines, or, when `exact`, against the nearest of those
- * curves itself (projected on where its polyline comes within twice the best width so far).
+ * nodes). Against the other curves' polylines, and, when `exact`, against the curves themselves
+ * where their polylines come within twice the best width so far (projected on from the nearest
+ * chord's middle).
  * INFINITY when no other curve counts. */
 static double width_at(const width_ctx *wc, const double x[3], int exact, int32_t *near_curve,
                        int32_t *near_seg) {
@@ -234,8 +236,11 @@ static double width_at(const width_ctx *wc, const double x[3], int exact, int32_
       if (d < wb) wb = d, qb = q;
     }
     if (exact && wb < 2 * w) {
-      double t, d;
-      if (pm_cell_project(cvb, x, NULL, &t, NULL, &d, NULL) == PM_OK && isfinite(d)) wb = d;
+      /* From the nearest chord's middle: the curve's nearest point, not another local one. A
+       * chord that passes nearer than its curve keeps its (smaller) distance. */
+      double t = 0.5 * (wc->tpar[qb] + wc->tpar[qb + 1]), d;
+      if (pm_cell_project(cvb, x, &t, &t, NULL, &d, NULL) == PM_OK && isfinite(d))
+        wb = fmin(wb, d);
     }
     double s = INFINITY;
     for (int32_t u = 0; u < cva->nbound; ++u)
@@ -313,7 +318,7 @@ static pm_status build(const pm_model *m, unsigned kinds, pm_feature_size *r, pm
       for (int32_t q = 0; q < a; ++q) seen |= fc->bound[q].cell == ca;
       if (seen) continue;
       for (int32_t k = poff[ca]; k + 1 < poff[ca + 1] && ok; ++k) {
-        const width_ctx wc = {m, fc, ca, pts, poff};
+        const width_ctx wc = {m, fc, ca, pts, tpar, poff};
         const double *a0 = &pts[3 * k], *a1 = &pts[3 * (k + 1)];
         double mid[3];
         pm_v3_add(mid, a0, a1);
