@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # packmesh compare --engine slurm on a single-node Slurm (scripts/slurm-local.sh), end to end:
 #   - a suite of 14 runs: three cases, each a matched-node group (bubble the reference,
-#     gmsh-frontal matched to it), and a method that fails (an unknown parameter) on one case;
+#     gmsh-frontal or a method that fails, an unknown parameter, matched to it);
 #   - the submission prints the runs array, the matched array (afterany) and the report job;
 #     submitting again at once submits nothing (squeue --name) and names the same report job;
 #   - one running task cancelled with scancel, another killed (SIGKILL to its batch step): the
@@ -10,7 +10,7 @@
 #     skipped; results.csv has every row, each run's host;
 #   - submitting again resumes: exactly the cancelled run and the run matched to it;
 #   - --retry-failed submits exactly the runs that did not succeed (the killed one, the run
-#     matched to it, the two failing runs); the killed run then succeeds, the runs that had
+#     matched to it, the three failing runs); the killed run then succeeds, the runs that had
 #     succeeded are not run again (their records name the first submission's jobs);
 #   - results.csv equals --engine local's for the same suite but for wall_s, host and time_s.*,
 #     and report.md's tables equal local's but for the times.
@@ -41,11 +41,12 @@ cat > "$tmp/suite.json" <<'EOF'
 {
   "name": "slurm-e2e",
   "description": "The Slurm engine's end-to-end test: a matched-node group per case and a run that fails.",
-  "cases": [{"input": "case:qi1", "name": "slow", "size": 0.018},
+  "cases": [{"input": "case:qi1", "name": "slow", "size": 0.02},
             {"input": "case:qi1", "size": 0.2},
             "case:qi3"],
-  "methods": ["bubble", "gmsh-frontal",
-              {"method": "bubble", "label": "broken", "set": {"no_such_key": 1}, "cases": ["qi1"]}],
+  "methods": ["bubble", {"method": "gmsh-frontal", "cases": ["qi1", "qi3"]},
+              {"method": "bubble", "label": "broken", "set": {"no_such_key": 1},
+               "cases": ["slow", "qi1"]}],
   "seeds": [1, 2],
   "options": {"match_nodes": true, "reference": "bubble", "timeout_s": 120, "threads": 1}
 }
@@ -168,14 +169,16 @@ drain 240
   fail "the cancelled run is '$(status_of slow__bubble__s1)', not pending"
 cell "$study/results.csv" slow__bubble__s1 error | grep -q "CANCELLED" ||
   fail "the cancelled run's error does not say CANCELLED: $(cell "$study/results.csv" slow__bubble__s1 error)"
-[ "$(status_of slow__gmsh-frontal__s1)" = pending ] ||
-  fail "the run matched to the cancelled one is '$(status_of slow__gmsh-frontal__s1)', not pending"
+[ "$(status_of slow__broken__s1)" = pending ] ||
+  fail "the run matched to the cancelled one is '$(status_of slow__broken__s1)', not pending"
+cell "$study/results.csv" slow__broken__s1 error | grep -q "waits for its reference run slow__bubble__s1" ||
+  fail "the run matched to the cancelled one does not wait for it: $(cell "$study/results.csv" slow__broken__s1 error)"
 [ "$(status_of slow__bubble__s2)" = crashed ] ||
   fail "the killed run is '$(status_of slow__bubble__s2)', not crashed"
 cell "$study/results.csv" slow__bubble__s2 error | grep -q "FAILED (exit code 0:9)" ||
   fail "the killed run's error does not give Slurm's state: $(cell "$study/results.csv" slow__bubble__s2 error)"
-[ "$(status_of slow__gmsh-frontal__s2)" = skipped ] ||
-  fail "the run matched to the killed one is '$(status_of slow__gmsh-frontal__s2)', not skipped"
+[ "$(status_of slow__broken__s2)" = skipped ] ||
+  fail "the run matched to the killed one is '$(status_of slow__broken__s2)', not skipped"
 [ "$(count_status ok)" -eq 8 ] || fail "$(count_status ok) runs ok after the first submission, not 8"
 [ "$(count_status failed)" -eq 2 ] || fail "$(count_status failed) runs failed, not the 2 broken ones"
 [ "$(cell "$study/results.csv" qi3__bubble__s1 host)" = "$node" ] ||
@@ -194,8 +197,8 @@ grep -q "14 runs: 12 finished, 0 pending or running in Slurm already, 2 submitte
 grep -q "pending, .* running, .* done, .* failed" "$tmp/sub3.err" || fail "--wait shows no counts"
 drain 60
 [ "$(status_of slow__bubble__s1)" = ok ] || fail "the resumed run is '$(status_of slow__bubble__s1)'"
-[ "$(status_of slow__gmsh-frontal__s1)" = ok ] ||
-  fail "the resumed matched run is '$(status_of slow__gmsh-frontal__s1)'"
+[ "$(status_of slow__broken__s1)" = failed ] ||
+  fail "the resumed matched run is '$(status_of slow__broken__s1)', not failed"
 [ "$(status_of slow__bubble__s2)" = crashed ] || fail "resuming changed the crashed run"
 
 # ---- --retry-failed: exactly the runs that did not succeed -----------------------------------
@@ -204,17 +207,17 @@ first_jobs=$(sed -n 's/^job \([0-9]*\): [0-9]* runs\{0,1\}, .*/\1/p' "$tmp/sub1"
 rc=$?
 cat "$tmp/sub4"
 [ $rc -eq 0 ] || fail "--retry-failed --wait exits $rc: $(cat "$tmp/sub4.err")"
-grep -q "14 runs: 10 finished, 0 pending or running in Slurm already, 4 submitted" "$tmp/sub4" ||
-  fail "--retry-failed does not submit exactly the 4 runs that did not succeed"
+grep -q "14 runs: 9 finished, 0 pending or running in Slurm already, 5 submitted" "$tmp/sub4" ||
+  fail "--retry-failed does not submit exactly the 5 runs that did not succeed"
 drain 60
 retry_job=$(sed -n 's/^job \([0-9]*\): [0-9]* runs\{0,1\}, .*: the runs that can start now/\1/p' "$tmp/sub4")
 [ "$(status_of slow__bubble__s2)" = ok ] || fail "the retried run is '$(status_of slow__bubble__s2)', not ok"
 [ "$(json_field "$study/runs/slow__bubble__s2/status.json" slurm_job)" = "${retry_job}_2" ] ||
   fail "the retried run's record names job $(json_field "$study/runs/slow__bubble__s2/status.json" slurm_job), not ${retry_job}_2"
-[ "$(status_of slow__gmsh-frontal__s2)" = ok ] ||
-  fail "the run matched to the retried one is '$(status_of slow__gmsh-frontal__s2)', not ok"
-[ "$(count_status ok)" -eq 12 ] || fail "$(count_status ok) runs ok after the retry, not 12"
-[ "$(count_status failed)" -eq 2 ] || fail "the broken runs are not failed again"
+[ "$(status_of slow__broken__s2)" = failed ] ||
+  fail "the run matched to the retried one is '$(status_of slow__broken__s2)', not failed"
+[ "$(count_status ok)" -eq 10 ] || fail "$(count_status ok) runs ok after the retry, not 10"
+[ "$(count_status failed)" -eq 4 ] || fail "$(count_status failed) runs failed after the retry, not the 4 broken ones"
 for r in qi1__bubble__s1 qi1__gmsh-frontal__s2 qi3__bubble__s2 qi3__gmsh-frontal__s1; do
   j=$(json_field "$study/runs/$r/status.json" slurm_job)
   case " $first_jobs" in
