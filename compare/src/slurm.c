@@ -588,11 +588,22 @@ pm_status pm_cmp_slurm_wait(pm_cmp_study *st, const pm_cmp_slurm_submission *sub
   int threads = pm_cmp_run_threads(&st->suite, 0);
   char last[256] = "";
   double t0 = (double)time(NULL), last_print = 0;
+  int unanswered = 0;
   for (;;) {
     queue q;
-    pm_status s = queue_read(st, &q, 1, err);
-    if (!s) s = pm_cmp_records_read(st, threads, err);
+    pm_error qe = {0};
+    pm_status s = queue_read(st, &q, 1, &qe);
     if (s) {
+      /* A controller that restarts does not answer for a while: give it a minute. */
+      if (++unanswered * WAIT_POLL_S > 60) {
+        if (err) *err = qe;
+        return s;
+      }
+      sleep(WAIT_POLL_S);
+      continue;
+    }
+    unanswered = 0;
+    if ((s = pm_cmp_records_read(st, threads, err))) {
       queue_free(&q);
       return s;
     }

@@ -110,9 +110,6 @@ done:
 /* --slurm-task ROW: one row, as a task of a job array. */
 static int run_task(pm_cmp_study *st, const pm_cli_compare_options *o) {
   pm_error e = {0};
-  if (o->task_row >= st->nrow)
-    return pm_cli_fail("--slurm-task %d: the study has %d runs (0 to %d)", o->task_row,
-                       st->nrow, st->nrow - 1);
   if (pm_cmp_slurm_task(st, o->task_row, o->retry_failed, o->quiet ? 0 : 1, stderr, &e))
     return st->interrupted ? 128 + st->interrupted : pm_cli_error(&e);
   const pm_cmp_row *r = &st->rows[o->task_row];
