@@ -850,7 +850,12 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
   free(R.state);
   free(slots);
   st->interrupted = interrupted;
-  if (!io && interrupted)
+  if (!io && interrupted && o->single)
+    io = pm_error_setf(err, PM_ERR_ARG,
+                       "compare interrupted by %s before run %d (%s) finished; it has no record: "
+                       "the next submission runs it",
+                       interrupted == SIGINT ? "SIGINT" : "SIGTERM", o->row, st->rows[o->row].id);
+  else if (!io && interrupted)
     io = pm_error_setf(err, PM_ERR_ARG,
                        "compare interrupted by %s with %d of %d runs finished; run the same "
                        "command again to resume",

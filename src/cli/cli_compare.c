@@ -110,8 +110,10 @@ done:
 /* --slurm-task ROW: one row, as a task of a job array. */
 static int run_task(pm_cmp_study *st, const pm_cli_compare_options *o) {
   pm_error e = {0};
-  if (pm_cmp_slurm_task(st, o->task_row, o->retry_failed, o->quiet ? 0 : 1, stderr, &e))
-    return st->interrupted ? 128 + st->interrupted : pm_cli_error(&e);
+  if (pm_cmp_slurm_task(st, o->task_row, o->retry_failed, o->quiet ? 0 : 1, stderr, &e)) {
+    int code = pm_cli_error(&e);
+    return st->interrupted ? 128 + st->interrupted : code;
+  }
   const pm_cmp_row *r = &st->rows[o->task_row];
   if (r->reused)
     fprintf(stderr, "packmesh compare: run %d (%s) is finished already: not run again\n",
