@@ -1,11 +1,12 @@
 /* packmesh_compare, the comparison engine behind `packmesh compare` and `packmesh demo`: what its
  * callers (the packmesh command, src/cli) use. A suite (compare/README.md documents its JSON) is
  * read and expanded into a study of rows, one per case x method x seed x sweep value; the rows
- * are run as `packmesh mesh` child processes; the results, figures and report are written into
- * the study folder. The engine's own declarations are in study.h, which callers do not include.
+ * are run as `packmesh mesh` child processes, here (pm_cmp_run) or as the tasks of Slurm job
+ * arrays (pm_cmp_slurm_submit); the results, figures and report are written into the study
+ * folder. The engine's own declarations are in study.h, which callers do not include.
  *
- * The engine prints nothing but pm_cmp_run's progress (to the stream its caller gives) and
- * never exits; its errors come back as pm_status with a pm_error. Dependencies run one way,
+ * The engine prints nothing but the progress of pm_cmp_run and pm_cmp_slurm_wait (to the
+ * stream its caller gives) and never exits; its errors come back as pm_status with a pm_error. Dependencies run one way,
  * cli -> compare -> libpackmesh: the command uses the engine, the engine uses libpackmesh (its
  * public header and headers of src/common), never the command. compare/README.md ("Code") names
  * the files.
@@ -107,6 +108,8 @@ typedef struct pm_cmp_row {
   char error[1024];
   char command[8192];  /* shell form of the packmesh mesh command, run in the study folder */
   double wall_s;       /* wall-clock seconds of the child process */
+  char host[256];      /* the machine that ran it (gethostname; Slurm's node), "" when not run */
+  char job[64];        /* the Slurm job that ran it ("12_3": array job 12, task 3), "" locally */
   long nodes;          /* node count (from stats.json), -1 when unknown */
   int elements_ok;     /* runs/ID/elements.csv holds the per-element measures */
   int reused;          /* finished in an earlier invocation and not run again */
@@ -139,9 +142,17 @@ typedef struct pm_cmp_run_opts {
   int retry_failed;    /* rerun rows that failed in an earlier invocation */
   int progress;        /* 0 quiet, 1 lines, 2 one updating line (a terminal) */
   FILE *log;           /* progress stream (stderr) */
+  int threads;         /* > 0: --threads of every run; 0: pm_cmp_run_threads(suite, jobs) */
+  int single;          /* 1: run row `row` alone (a Slurm task): the other rows are read from
+                          their records, never run, and failed records of its reference are kept */
+  int row;             /* the row, with single */
+  const char *job;     /* the Slurm job running it ("12_3"), recorded with the row; NULL: none */
+  const char *job_id;  /* that job's own id (SLURM_JOB_ID), for the marker; NULL: none */
+  const char *host;    /* the machine recorded for the runs; NULL: gethostname */
 } pm_cmp_run_opts;
 
-/* Run every row that is not finished yet. A row is finished when runs/ID/status.json records a
+/* Run every row that is not finished yet (with single, the one row: it stays PENDING, unrun,
+ * when its reference has no record yet). A row is finished when runs/ID/status.json records a
  * status for the same command (a changed suite reruns exactly the rows whose command changed).
  * Returns PM_OK when every row has a status (failed rows included); PM_ERR_IO when the study
  * folder cannot be written; PM_ERR_ARG when interrupted by SIGINT / SIGTERM, with the signal in
@@ -149,6 +160,84 @@ typedef struct pm_cmp_run_opts {
  * temporaries, then SIGKILL after a grace period -- and whatever temporaries they left in their
  * run folders are removed; the next invocation resumes). */
 pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err);
+
+/* ---- the Slurm engine ---------------------------------------------------------------------- */
+
+/* A study on a Slurm cluster (slurm.c): the same rows, commands, run folders and records as the
+ * local engine, each row run by one task of a job array, `packmesh compare SUITE -o DIR
+ * --slurm-task ROW`, and the tables, figures and report written by a last job, `packmesh compare
+ * SUITE -o DIR --collect`. The study folder is the only shared state: it must be on a file system
+ * every node sees, like the suite (and the files it names) and the packmesh binary. A task writes
+ * only into its own runs/ID/. Every run's --threads and CPUs are the suite's threads, else 1. */
+
+typedef struct pm_cmp_slurm_opts {
+  const char *suite_path;  /* the suite file, which the jobs load again (borrowed) */
+  int retry_failed;        /* resubmit the runs whose record is failed, crashed or timeout */
+  double timeout_s;        /* > 0: --timeout, passed on to the jobs; 0: the suite's */
+  char **sbatch_args;      /* [nsbatch_arg] words added to every sbatch command (borrowed) */
+  int nsbatch_arg;
+  const char *invocation;  /* the command line, which the report will show (borrowed) */
+} pm_cmp_slurm_opts;
+
+#define PM_CMP_SLURM_MAX_JOBS 64
+
+typedef enum { PM_CMP_JOB_RUNS = 0, PM_CMP_JOB_MATCHED, PM_CMP_JOB_REPORT } pm_cmp_job_kind;
+
+typedef struct pm_cmp_slurm_job {
+  char id[32];             /* the job id sbatch gave */
+  pm_cmp_job_kind kind;    /* runs (no reference, or theirs is done), runs matched to
+                              references still to run, the report */
+  int ntask;               /* tasks of the array (0: the report) */
+  char array[128];         /* the array's task ids (= rows; cut with "..." when longer) */
+  char after[128];         /* "afterany:ID:ID" or "" */
+} pm_cmp_slurm_job;
+
+typedef struct pm_cmp_slurm_submission {
+  int nfinished;           /* rows with a record that stands (or skipped) */
+  int nqueued;             /* rows pending or running in Slurm already: not submitted again */
+  int nsubmitted;          /* rows submitted now */
+  pm_cmp_slurm_job job[PM_CMP_SLURM_MAX_JOBS]; /* the jobs submitted now, in order */
+  int njob;
+  char report_job[32];     /* the job that will write the report (submitted now or queued) */
+  char names[1024];        /* the study's job names, for squeue --name */
+  double submitted;        /* when (seconds since the epoch) */
+} pm_cmp_slurm_submission;
+
+/* Submit the rows of the study that are neither finished (a record for their command; a failed
+ * one too unless retry_failed) nor pending or running in Slurm already (squeue --name: the job
+ * names carry a hash of the study folder): one job array of the rows that can run now, one of
+ * the rows matched to references that are still to run (--dependency=afterany on theirs), and
+ * a report job after all of them (or the report job already queued when nothing was submitted).
+ * Each task's --time is 2 x timeout_s + 1 minute (the run and its quality measures each have
+ * timeout_s), its --cpus-per-task the suite's threads (else 1). Writes DIR/slurm/submit.json
+ * (the invocation, the time, the job ids, for the report) and the tasks' logs go to
+ * DIR/slurm/log/. PM_ERR_IO naming sbatch's message when a submission fails. */
+pm_status pm_cmp_slurm_submit(pm_cmp_study *st, const pm_cmp_slurm_opts *o,
+                              pm_cmp_slurm_submission *sub, pm_error *err);
+
+/* Follow a submission until its report job has left the queue: every few seconds, the numbers
+ * of runs pending and running in Slurm and done and failed in the folder, to log (progress 1: a
+ * line when they change; 2: one updating line). PM_ERR_IO when the report job ended without a
+ * report (its log is named). */
+pm_status pm_cmp_slurm_wait(pm_cmp_study *st, const pm_cmp_slurm_submission *sub, int progress,
+                            FILE *log, pm_error *err);
+
+/* One task of an array: run row `row` alone (pm_cmp_run with single), recording the job
+ * (SLURM_ARRAY_JOB_ID, SLURM_ARRAY_TASK_ID, SLURM_JOB_ID) and node (SLURMD_NODENAME) from the
+ * environment. PM_ERR_ARG when the suite is not the one submitted (DIR/suite.json). */
+pm_status pm_cmp_slurm_task(pm_cmp_study *st, int row, int retry_failed, int progress, FILE *log,
+                            pm_error *err);
+
+/* The study as the folder holds it, for the tables and the report, running nothing: every row's
+ * record; a row whose Slurm task started (runs/ID/slurm.json) and ended without a record is
+ * recorded now (status.json) as timeout (Slurm's TIMEOUT) or crashed (FAILED, NODE_FAIL,
+ * OUT_OF_MEMORY, ...), with Slurm's state (sacct, else scontrol) in its error; a task cancelled
+ * (scancel) leaves its row unfinished, to be submitted again. The other unfinished rows stay
+ * PENDING with their state in error (pending or running in Slurm, waiting for its reference,
+ * not submitted). Sets st->nrun (rows made by the last submission's jobs), st->nreused and
+ * st->wall_s (since that submission) and copies its invocation into `invocation` (left as it is
+ * when there was none). Where Slurm does not answer nothing is recorded. */
+pm_status pm_cmp_collect(pm_cmp_study *st, char *invocation, size_t len, pm_error *err);
 
 /* ---- results ------------------------------------------------------------------------------- */
 

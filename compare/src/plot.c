@@ -503,23 +503,16 @@ pm_status pm_cmp_plots(const pm_cmp_study *st, pm_cmp_figures *figs, pm_error *e
   if (s) return s;
 
   /* Is there a gnuplot? */
-  char tmp[4400];
-  snprintf(tmp, sizeof tmp, "%s/.gnuplot-version", P.dir);
   char *argv[] = {"gnuplot", "--version", NULL};
+  char *v = NULL;
   int ws = 0, to = 0;
-  int track = pm_tmp_track(tmp, 0);
-  if (pm_cmp_run_program(argv, NULL, tmp, NULL, 10, &ws, &to) == 0 && !to && WIFEXITED(ws) &&
+  if (pm_cmp_capture(argv, NULL, 10, &v, NULL, &ws, &to) == 0 && !to && WIFEXITED(ws) &&
       WEXITSTATUS(ws) == 0) {
-    char *v = pm_cmp_read_file(tmp, NULL);
-    if (v) {
-      v[strcspn(v, "\n")] = '\0';
-      snprintf(figs->gnuplot_version, sizeof figs->gnuplot_version, "%s", v);
-      free(v);
-    }
+    v[strcspn(v, "\n")] = '\0';
+    snprintf(figs->gnuplot_version, sizeof figs->gnuplot_version, "%s", v);
     P.have_gnuplot = figs->have_gnuplot = 1;
   }
-  unlink(tmp);
-  pm_tmp_untrack(track);
+  free(v);
 
   const pm_cmp_suite *su = &st->suite;
   static const boxspec boxes[] = {

@@ -1,7 +1,8 @@
 /* report.md and report.html of a study: the summary tables per case and method, the figures,
- * the published figures a suite quotes for reference, the failed runs with their messages, the
- * exact command of every run, the inputs (the suite itself) and where it ran (library versions
- * and the machine). Both files come from one pass over the same content: a tiny writer emits
+ * the published figures a suite quotes for reference, the failed runs with their messages (and
+ * the runs not finished, when --collect writes it mid-study), the exact command of every run,
+ * the inputs (the suite itself) and where it ran (the machines or Slurm nodes of the runs,
+ * library versions and the machine writing the report). Both files come from one pass over the same content: a tiny writer emits
  * each block as Markdown and as HTML. The HTML is self-contained (inline style) and refers to
  * the figures by relative paths, so the study folder can be moved or archived whole.
  */
@@ -551,6 +552,39 @@ static void references(doc *d) {
   }
 }
 
+/* "Runs ran on: HOST (N runs), ...": the machines (Slurm's nodes) of the runs that ran, in the
+ * order they first appear in the study. */
+static void hosts(doc *d, const pm_cmp_study *st) {
+  sbuf b = {0};
+  SB(&b, "Runs ran on:");
+  int listed = 0, unknown = 0;
+  for (int i = 0; i < st->nrow; ++i) {
+    const pm_cmp_row *r = &st->rows[i];
+    if (r->status == PM_CMP_PENDING || r->status == PM_CMP_SKIPPED) continue;
+    if (!r->host[0]) {
+      unknown++;
+      continue;
+    }
+    int seen = 0;
+    for (int k = 0; k < i && !seen; ++k)
+      seen = st->rows[k].status != PM_CMP_PENDING && st->rows[k].status != PM_CMP_SKIPPED &&
+             strcmp(st->rows[k].host, r->host) == 0;
+    if (seen) continue;
+    int n = 0;
+    for (int k = i; k < st->nrow; ++k)
+      n += st->rows[k].status != PM_CMP_PENDING && st->rows[k].status != PM_CMP_SKIPPED &&
+           strcmp(st->rows[k].host, r->host) == 0;
+    SB(&b, "%s %s (%d run%s)", listed++ ? "," : "", r->host, n, n == 1 ? "" : "s");
+  }
+  if (unknown) SB(&b, "%s not recorded (%d run%s)", listed++ ? "," : "", unknown,
+                  unknown == 1 ? "" : "s");
+  if (!listed) SB(&b, " none");
+  SB(&b, ".");
+  if (!b.bad) doc_p(d, b.s);
+  d->md.bad |= b.bad;
+  free(b.s);
+}
+
 pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
                         const char *invocation, pm_error *err) {
   const pm_cmp_suite *su = &st->suite;
@@ -585,22 +619,28 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
   SB(&d->html, "</h1>\n");
   if (su->description[0]) doc_p(d, su->description);
 
-  int nok = 0, nbad = 0;
-  for (int i = 0; i < st->nrow; ++i) nok += st->rows[i].status == PM_CMP_OK;
-  nbad = st->nrow - nok;
+  int nok = 0, nbad = 0, npend = 0;
+  for (int i = 0; i < st->nrow; ++i) {
+    nok += st->rows[i].status == PM_CMP_OK;
+    npend += st->rows[i].status == PM_CMP_PENDING;
+  }
+  nbad = st->nrow - nok - npend;
   char when[64];
   time_t now = time(NULL);
   struct tm tmv;
   localtime_r(&now, &tmv);
   strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S %Z", &tmv);
   char p[4096];
+  char pend[96] = "";
+  if (npend) snprintf(pend, sizeof pend, ", %d not finished (listed below)", npend);
   snprintf(p, sizeof p,
-           "%d runs: %d succeeded, %d did not%s. Made on %s by the command below in %.1f s; "
+           "%d runs: %d succeeded, %d did not%s%s. Made on %s by the command below in %.1f s; "
            "runs made now: %d, kept from an earlier invocation: %d.",
-           st->nrow, nok, nbad, nbad ? " (listed below)" : "", when, st->wall_s, st->nrun,
+           st->nrow, nok, nbad, nbad ? " (listed below)" : "", pend, when, st->wall_s, st->nrun,
            st->nreused);
   doc_p(d, p);
   doc_code(d, invocation, "sh");
+  hosts(d, st);
   doc_p(d, "Every run is one `packmesh mesh` command, listed at the end; results.csv holds one "
            "row per run with every statistic, elements.csv the per-element measures behind the "
            "box plots, runs/ID/ each run's mesh, stats, trace and log.");
@@ -670,12 +710,29 @@ pm_status pm_cmp_report(const pm_cmp_study *st, const pm_cmp_figures *figs,
     doc_table_head(d, 3, h);
     for (int i = 0; i < st->nrow; ++i) {
       const pm_cmp_row *r = &st->rows[i];
-      if (r->status == PM_CMP_OK) continue;
+      if (r->status == PM_CMP_OK || r->status == PM_CMP_PENDING) continue;
       char cells[3][CELL];
       snprintf(cells[0], CELL, "%s", r->id);
       snprintf(cells[1], CELL, "%s", pm_cmp_status_name(r->status));
       snprintf(cells[2], CELL, "%s", r->error);
       doc_table_row(d, 3, cells);
+    }
+    doc_table_end(d);
+  }
+
+  if (npend) {
+    doc_h(d, 2, "Runs not finished");
+    doc_p(d, "These runs have no record yet: the tables leave them out. Running the study's "
+             "command again runs them (or, with the Slurm engine, submits them).");
+    const char *h[2] = {"run", "state"};
+    doc_table_head(d, 2, h);
+    for (int i = 0; i < st->nrow; ++i) {
+      const pm_cmp_row *r = &st->rows[i];
+      if (r->status != PM_CMP_PENDING) continue;
+      char cells[2][CELL];
+      snprintf(cells[0], CELL, "%s", r->id);
+      snprintf(cells[1], CELL, "%s", r->error[0] ? r->error : "not run");
+      doc_table_row(d, 2, cells);
     }
     doc_table_end(d);
   }

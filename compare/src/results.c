@@ -2,8 +2,10 @@
  *   results.csv   one row per run: case, method, seed, sweep_key, sweep_value, status, error,
  *                 command (DESIGN.md's leading columns, in that order), then row (the folder
  *                 under runs/), label (the method entry's label), input, wall_s (seconds of the
- *                 child process, start to exit), same_mesh_as (the row whose mesh.msh this
- *                 run's repeats byte for byte, spread.c; empty when none), then every key of the run's --stats JSON
+ *                 child process, start to exit), host (the machine or Slurm node that ran it;
+ *                 empty when it did not run), same_mesh_as (the row whose mesh.msh this run's
+ *                 repeats byte for byte, spread.c; empty when none), then every key of the run's
+ *                 --stats JSON
  *                 flattened with dots (stats.h), except method, input and seed, which are the
  *                 leading columns already. The key columns are the union over the runs, merged
  *                 so that each run's keys keep their document order (a 3D run's tet.* columns
@@ -25,7 +27,7 @@
 
 static const char *const lead[] = {"case",   "method", "seed",  "sweep_key", "sweep_value",
                                    "status", "error",  "command", "row",     "label",
-                                   "input",  "wall_s", "same_mesh_as", NULL};
+                                   "input",  "wall_s", "host",  "same_mesh_as", NULL};
 
 /* Flattened keys that repeat a leading column. */
 static int is_lead_key(const char *k) {
@@ -154,6 +156,8 @@ static pm_status write_results(const pm_cmp_study *st, pm_error *err) {
     /* Milliseconds are all a wall time measured by polling every 20 ms can tell. */
     if (r->status != PM_CMP_SKIPPED && r->status != PM_CMP_PENDING)
       pm_csv_number(f, round(r->wall_s * 1000) / 1000);
+    fputc(',', f);
+    pm_csv_field(f, r->host);
     fputc(',', f);
     if (r->same_mesh_as >= 0) pm_csv_field(f, st->rows[r->same_mesh_as].id);
     for (int k = 0; k < ks.n; ++k) {

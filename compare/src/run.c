@@ -9,6 +9,10 @@
  * the rows that have no status.json, or whose recorded command differs from the one the suite
  * asks for now (so a changed suite reruns exactly the rows it changed).
  *
+ * status.json also records the machine (and, in a Slurm task, the job) that ran the row. A Slurm
+ * task (single) writes runs/ID/slurm.json when it starts the row, naming its job, so that a task
+ * that dies without a status.json can be traced in Slurm's accounting (slurm.c).
+ *
  * A failed child costs its row only: its status is "failed" with the child's one-line message
  * ("packmesh: ..." on stderr), "crashed (signal N, NAME)" when a library brought it down, or
  * "timed out after T s" when it was ended (the whole process group, so TetGen's helper process
@@ -28,6 +32,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/ioctl.h>
+#include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
@@ -230,7 +235,7 @@ static int build_command(const runner *R, const pm_cmp_row *r, long target, argv
 
 /* ---- status.json --------------------------------------------------------------------------- */
 
-static pm_status write_status(const runner *R, const pm_cmp_row *r, pm_error *err) {
+pm_status pm_cmp_record_write(const pm_cmp_study *st, const pm_cmp_row *r, pm_error *err) {
   cJSON *o = cJSON_CreateObject();
   if (!o) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   cJSON_AddStringToObject(o, "status", pm_cmp_status_name(r->status));
@@ -239,11 +244,13 @@ static pm_status write_status(const runner *R, const pm_cmp_row *r, pm_error *er
   cJSON_AddNumberToObject(o, "wall_s", r->wall_s);
   cJSON_AddNumberToObject(o, "nodes", (double)r->nodes);
   cJSON_AddBoolToObject(o, "elements", r->elements_ok);
+  cJSON_AddStringToObject(o, "host", r->host);
+  if (r->job[0]) cJSON_AddStringToObject(o, "slurm_job", r->job);
   char *text = cJSON_Print(o);
   cJSON_Delete(o);
   if (!text) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   char path[4096];
-  row_path(R->st, r, "status.json", path, sizeof path);
+  row_path(st, r, "status.json", path, sizeof path);
   pm_status s = pm_atomic_write(path, text, strlen(text), err);
   free(text);
   return s;
@@ -272,8 +279,9 @@ static pm_status load_stats(const runner *R, pm_cmp_row *r, pm_error *err) {
   return PM_OK;
 }
 
-/* A row finished by an earlier invocation with the same command: take its record. */
-static int try_reuse(runner *R, pm_cmp_row *r) {
+/* A row finished by an earlier invocation with the same command: take its record (a failed one
+ * only when !retry). */
+static int try_reuse(const runner *R, pm_cmp_row *r, int retry) {
   char path[4096];
   row_path(R->st, r, "status.json", path, sizeof path);
   char *text = pm_cmp_read_file(path, NULL);
@@ -286,14 +294,20 @@ static int try_reuse(runner *R, pm_cmp_row *r) {
   const cJSON *error = cJSON_GetObjectItemCaseSensitive(o, "error");
   const cJSON *wall = cJSON_GetObjectItemCaseSensitive(o, "wall_s");
   const cJSON *elements = cJSON_GetObjectItemCaseSensitive(o, "elements");
+  const cJSON *host = cJSON_GetObjectItemCaseSensitive(o, "host");
+  const cJSON *job = cJSON_GetObjectItemCaseSensitive(o, "slurm_job");
+  const cJSON *nodes = cJSON_GetObjectItemCaseSensitive(o, "nodes");
   int ok = cJSON_IsString(status) && cJSON_IsString(command) &&
            strcmp(command->valuestring, r->command) == 0;
   pm_cmp_status s = ok ? status_of(status->valuestring) : PM_CMP_PENDING;
-  if (s == PM_CMP_PENDING || (s != PM_CMP_OK && R->o->retry_failed)) ok = 0;
+  if (s == PM_CMP_PENDING || (s != PM_CMP_OK && retry)) ok = 0;
   if (ok) {
     r->status = s;
     snprintf(r->error, sizeof r->error, "%s", cJSON_IsString(error) ? error->valuestring : "");
     r->wall_s = cJSON_IsNumber(wall) ? wall->valuedouble : 0;
+    snprintf(r->host, sizeof r->host, "%s", cJSON_IsString(host) ? host->valuestring : "");
+    snprintf(r->job, sizeof r->job, "%s", cJSON_IsString(job) ? job->valuestring : "");
+    if (cJSON_IsNumber(nodes)) r->nodes = (long)nodes->valuedouble;
     r->elements_ok = cJSON_IsTrue(elements);
     if (s == PM_CMP_OK && load_stats(R, r, NULL) != PM_OK) ok = 0;
     if (r->elements_ok) {
@@ -305,7 +319,10 @@ static int try_reuse(runner *R, pm_cmp_row *r) {
   if (!ok) {
     r->status = PM_CMP_PENDING;
     r->error[0] = '\0';
+    r->host[0] = r->job[0] = '\0';
+    r->wall_s = 0;
     r->nodes = -1;
+    r->elements_ok = 0;
     pm_stats_flat_clear(&r->flat);
   }
   r->reused = ok;
@@ -319,10 +336,15 @@ static int try_reuse(runner *R, pm_cmp_row *r) {
 static pid_t spawn(const char *exe, char *const argv[], const char *cwd, const char *out_path,
                    int out_append, const char *err_path) {
   fflush(NULL);
+  pid_t parent = getpid();
   pid_t pid = fork();
   if (pid < 0) return -1;
   if (pid == 0) {
     setpgid(0, 0);
+    /* A study killed outright (SIGKILL: a Slurm task ended by its node, the OOM killer) takes
+     * its run with it: no orphan goes on writing into the run folder that a later attempt uses. */
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(126);
     /* The study's own handlers must not run in the child. */
     signal(SIGINT, SIG_DFL);
     signal(SIGTERM, SIG_DFL);
@@ -435,29 +457,33 @@ static void report_row(runner *R, const pm_cmp_row *r) {
 static void finish_row(runner *R, pm_cmp_row *r, pm_status *io, pm_error *err) {
   R->state[r->index] = R_DONE;
   R->ndone++;
-  if (!r->reused && r->status != PM_CMP_SKIPPED) {
+  if (!r->reused && r->status != PM_CMP_SKIPPED && r->status != PM_CMP_PENDING) {
     pm_error e = {0};
-    if (write_status(R, r, &e) && *io == PM_OK) {
+    if (pm_cmp_record_write(R->st, r, &e) && *io == PM_OK) {
       *io = e.code;
       if (err) *err = e;
     }
   }
-  report_row(R, r);
+  if (r->status != PM_CMP_PENDING) report_row(R, r);
 }
 
-static int start_mesh(runner *R, job *j, pm_cmp_row *r, pm_status *io, pm_error *err) {
+/* The command of a row into r->command, and its argv into a when given: a matched row's target
+ * is its reference's node count. Returns 0; 1 when the row is not run: SKIPPED (its reference
+ * did not succeed) or FAILED (no command could be built); -1 when its reference has no record
+ * yet (the row stays PENDING, with no command). */
+static int plan_row(const runner *R, pm_cmp_row *r, argvec *a) {
   const pm_cmp_study *st = R->st;
   long target = 0;
+  r->command[0] = '\0';
   if (r->ref_row >= 0) {
     const pm_cmp_row *ref = &st->rows[r->ref_row];
+    if (ref->status == PM_CMP_PENDING) return -1;
     if (ref->status != PM_CMP_OK) {
       r->status = PM_CMP_SKIPPED;
       snprintf(r->error, sizeof r->error, "not run: node counts are matched to %s, whose run %s",
                st->suite.methods[ref->imethod].label,
                ref->status == PM_CMP_SKIPPED ? "was skipped" : "failed");
-      r->command[0] = '\0';
-      finish_row(R, r, io, err);
-      return 0;
+      return 1;
     }
     target = ref->nodes;
     if (st->suite.match_surface) {
@@ -469,21 +495,60 @@ static int start_mesh(runner *R, job *j, pm_cmp_row *r, pm_status *io, pm_error 
         snprintf(r->error, sizeof r->error,
                  "not run: surface nodes are matched to %s, whose run %s has no surface_nodes",
                  st->suite.methods[ref->imethod].label, ref->id);
-        r->command[0] = '\0';
-        finish_row(R, r, io, err);
-        return 0;
+        return 1;
       }
     }
   }
-  argvec a = {0};
-  if (build_command(R, r, target, &a, r->command, sizeof r->command)) {
-    arg_free(&a);
+  argvec tmp = {0};
+  argvec *v = a ? a : &tmp;
+  int bad = build_command(R, r, target, v, r->command, sizeof r->command);
+  if (bad || !a) arg_free(v);
+  if (bad) {
+    r->command[0] = '\0';
     r->status = PM_CMP_FAILED;
     snprintf(r->error, sizeof r->error, "command too long or out of memory");
+    return 1;
+  }
+  return 0;
+}
+
+/* runs/ID/slurm.json: the Slurm job that starts the row now (study.h). */
+static pm_status write_marker(const runner *R, const pm_cmp_row *r, pm_error *err) {
+  cJSON *o = cJSON_CreateObject();
+  if (!o) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  cJSON_AddStringToObject(o, "job", R->o->job);
+  cJSON_AddStringToObject(o, "job_id", R->o->job_id ? R->o->job_id : "");
+  cJSON_AddStringToObject(o, "host", r->host);
+  cJSON_AddNumberToObject(o, "started", (double)time(NULL));
+  char *text = cJSON_Print(o);
+  cJSON_Delete(o);
+  if (!text) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  char path[4096];
+  row_path(R->st, r, PM_CMP_SLURM_MARKER, path, sizeof path);
+  pm_status s = pm_atomic_write(path, text, strlen(text), err);
+  free(text);
+  return s;
+}
+
+static void set_host(const runner *R, pm_cmp_row *r) {
+  if (R->o->host && R->o->host[0]) {
+    snprintf(r->host, sizeof r->host, "%s", R->o->host);
+  } else if (gethostname(r->host, sizeof r->host) != 0) {
+    snprintf(r->host, sizeof r->host, "unknown");
+  }
+  r->host[sizeof r->host - 1] = '\0';
+  snprintf(r->job, sizeof r->job, "%s", R->o->job ? R->o->job : "");
+}
+
+static int start_mesh(runner *R, job *j, pm_cmp_row *r, pm_status *io, pm_error *err) {
+  const pm_cmp_study *st = R->st;
+  argvec a = {0};
+  int planned = plan_row(R, r, &a);
+  if (planned != 0) {
     finish_row(R, r, io, err);
     return 0;
   }
-  if (try_reuse(R, r)) {
+  if (try_reuse(R, r, R->o->retry_failed)) {
     arg_free(&a);
     finish_row(R, r, io, err);
     R->st->nreused++;
@@ -500,13 +565,24 @@ static int start_mesh(runner *R, job *j, pm_cmp_row *r, pm_status *io, pm_error 
     }
     return -1;
   }
-  /* Outputs of an earlier, different run of this row must not be taken for this one's. */
-  static const char *const old[] = {"status.json", "stats.json", "mesh.msh", "trace.csv",
-                                    "elements.csv", NULL};
+  /* Outputs of an earlier, different run of this row must not be taken for this one's (nor an
+   * earlier Slurm task's marker for this run's). */
+  static const char *const old[] = {"status.json", "stats.json",  "mesh.msh",
+                                    "trace.csv",   "elements.csv", PM_CMP_SLURM_MARKER,
+                                    NULL};
   for (int k = 0; old[k]; ++k) {
     char p[4096];
     row_path(st, r, old[k], p, sizeof p);
     unlink(p);
+  }
+  set_host(R, r);
+  if (R->o->job && R->o->job[0] && write_marker(R, r, &e)) {
+    arg_free(&a);
+    if (*io == PM_OK) {
+      *io = e.code;
+      if (err) *err = e;
+    }
+    return -1;
   }
   row_path(st, r, "log.txt", logp, sizeof logp);
   j->pid = spawn(st->exe, a.v, st->dir, logp, 0, NULL);
@@ -598,15 +674,59 @@ static int child_done(runner *R, job *j, int ws) {
   return 0;
 }
 
+int pm_cmp_run_threads(const pm_cmp_suite *s, int jobs) {
+  if (s->threads > 0) return s->threads;
+  if (jobs <= 0) return 1;
+  long cores = sysconf(_SC_NPROCESSORS_ONLN);
+  return (int)(cores / jobs > 0 ? cores / jobs : 1);
+}
+
+static void reset_row(pm_cmp_row *r) {
+  r->status = PM_CMP_PENDING;
+  r->reused = 0;
+  r->elements_ok = 0;
+  r->nodes = -1;
+  r->wall_s = 0;
+  r->same_mesh_as = -1;
+  r->error[0] = r->host[0] = r->job[0] = '\0';
+  pm_stats_flat_clear(&r->flat);
+}
+
+/* A row's state from its record, running nothing (pm_cmp_records_read); a failed record is taken
+ * unless retry. */
+static void read_row(const runner *R, pm_cmp_row *r, int retry) {
+  reset_row(r);
+  if (plan_row(R, r, NULL) == 0) try_reuse(R, r, retry);
+}
+
+pm_status pm_cmp_records_read(pm_cmp_study *st, int threads, pm_error *err) {
+  (void)err;
+  pm_cmp_run_opts o = {0};
+  o.threads = threads;
+  runner R;
+  memset(&R, 0, sizeof R);
+  R.st = st;
+  R.o = &o;
+  R.threads = threads > 0 ? threads : pm_cmp_run_threads(&st->suite, 0);
+  st->nreused = 0;
+  /* In row order: a reference comes before the rows matched to it. */
+  for (int i = 0; i < st->nrow; ++i) {
+    read_row(&R, &st->rows[i], 0);
+    st->nreused += st->rows[i].reused;
+  }
+  return PM_OK;
+}
+
 pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) {
   runner R;
   memset(&R, 0, sizeof R);
   R.st = st;
   R.o = o;
-  int jobs = o->jobs > 0 ? o->jobs : 1;
-  long cores = sysconf(_SC_NPROCESSORS_ONLN);
-  R.threads = st->suite.threads > 0 ? st->suite.threads
-                                     : (int)(cores / jobs > 0 ? cores / jobs : 1);
+  int jobs = o->single ? 1 : o->jobs > 0 ? o->jobs : 1;
+  R.threads = o->threads > 0 ? o->threads : pm_cmp_run_threads(&st->suite, jobs);
+  if (o->single && (o->row < 0 || o->row >= st->nrow))
+    return pm_error_setf(err, PM_ERR_ARG, "run %d is not in the study (it has runs 0 to %d)",
+                         o->row, st->nrow - 1);
   R.state = calloc((size_t)st->nrow + 1, sizeof *R.state);
   job *slots = calloc((size_t)jobs, sizeof *slots);
   if (!R.state || !slots) {
@@ -615,13 +735,14 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
   for (int k = 0; k < jobs; ++k) slots[k].row = -1;
-  for (int i = 0; i < st->nrow; ++i) {
-    st->rows[i].status = PM_CMP_PENDING;
-    st->rows[i].reused = 0;
-    st->rows[i].elements_ok = 0;
-    st->rows[i].nodes = -1;
-    st->rows[i].same_mesh_as = -1;
-    pm_stats_flat_clear(&st->rows[i].flat);
+  for (int i = 0; i < st->nrow; ++i) reset_row(&st->rows[i]);
+  if (o->single) {
+    /* One row: the others are done as far as this invocation goes; its reference (run by another
+     * task) is read from its record as it is, failed or not. */
+    for (int i = 0; i < st->nrow; ++i)
+      if (i != o->row) R.state[i] = R_DONE, R.ndone++;
+    int ref = st->rows[o->row].ref_row;
+    if (ref >= 0) read_row(&R, &st->rows[ref], 0);
   }
   char runs[4096];
   snprintf(runs, sizeof runs, "%s/runs", st->dir);
@@ -743,8 +864,13 @@ pm_status pm_cmp_run(pm_cmp_study *st, const pm_cmp_run_opts *o, pm_error *err) 
   free(R.state);
   free(slots);
   st->interrupted = interrupted;
-  if (!io && !interrupted) io = pm_cmp_duplicates_mark(st, err);
-  if (!io && interrupted)
+  if (!io && !interrupted && !o->single) io = pm_cmp_duplicates_mark(st, err);
+  if (!io && interrupted && o->single)
+    io = pm_error_setf(err, PM_ERR_ARG,
+                       "compare interrupted by %s before run %d (%s) finished; it has no record: "
+                       "the next submission runs it",
+                       interrupted == SIGINT ? "SIGINT" : "SIGTERM", o->row, st->rows[o->row].id);
+  else if (!io && interrupted)
     io = pm_error_setf(err, PM_ERR_ARG,
                        "compare interrupted by %s with %d of %d runs finished; run the same "
                        "command again to resume",

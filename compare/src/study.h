@@ -1,7 +1,9 @@
 /* The comparison engine's own declarations (compare.h is what its callers use), one concern per
  * file of compare/src:
  *   suite.c       read and check a suite, expand it into rows
- *   run.c         run the rows as child processes (parallel, time-limited, resumable)
+ *   run.c         run the rows as child processes (parallel, time-limited, resumable); the
+ *                 rows' records (runs/ID/status.json)
+ *   slurm.c       the Slurm engine: job arrays of rows, following them, collecting the study
  *   results.c     results.csv, elements.csv, per-row values for tables and plots
  *   spread.c      statistics over repeats: identical meshes, mean and sd, box-plot whiskers
  *   plot.c        gnuplot figures (script + data beside each figure; SVG, PNG, PDF)
@@ -45,6 +47,28 @@ void pm_cmp_row_title(const pm_cmp_study *st, const pm_cmp_row *r, char *buf, si
 
 /* The sweep value text of a row ("" without a sweep). */
 const char *pm_cmp_row_sweep(const pm_cmp_study *st, const pm_cmp_row *r);
+
+/* ---- records (run.c) ------------------------------------------------------------------------ */
+
+/* The file a Slurm task writes into runs/ID/ when it starts its row: the job ("12_3"), the job's
+ * own id, the node, the time. Whoever collects the study asks Slurm about that job when the row
+ * has no status.json. */
+#define PM_CMP_SLURM_MARKER "slurm.json"
+
+/* The --threads of every run: the suite's; else cores / jobs; jobs <= 0: 1 (the Slurm engine,
+ * whose tasks get the suite's threads as CPUs, else one). */
+int pm_cmp_run_threads(const pm_cmp_suite *s, int jobs);
+
+/* Every row's state from the records in the study folder, running nothing: a row whose
+ * runs/ID/status.json records its command (built with `threads`; a matched row's with its
+ * reference's node count) takes the recorded status, error, wall time, host and job, and the
+ * stats of a successful run (reused = 1); a row whose reference has a record and did not succeed
+ * is SKIPPED; any other row is PENDING (with its command, or "" while its reference has no
+ * record). Failed records are taken as they are (retrying is the caller's decision). */
+pm_status pm_cmp_records_read(pm_cmp_study *st, int threads, pm_error *err);
+
+/* Write a row's record, runs/ID/status.json, atomically. */
+pm_status pm_cmp_record_write(const pm_cmp_study *st, const pm_cmp_row *r, pm_error *err);
 
 /* ---- results ------------------------------------------------------------------------------- */
 
@@ -164,6 +188,14 @@ pm_status pm_cmp_mkdirs(const char *path, pm_error *err);
  * wait status in *wstatus and sets *timed_out. -1 when the program could not be started. */
 int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path,
                        const char *err_path, double timeout_s, int *wstatus, int *timed_out);
+
+/* Run argv (a program looked up in PATH; env: NULL, or "NAME=VALUE" entries added to its
+ * environment) with a time limit, capturing its stdout into *out and its stderr into *errtext
+ * (malloc'ed, NUL-terminated; pass NULL to drop one). Returns 0 with the wait status in *wstatus
+ * and *timed_out set; -1 when the program could not be started (not installed) or out of
+ * memory, with nothing captured. */
+int pm_cmp_capture(char *const argv[], char *const env[], double timeout_s, char **out,
+                   char **errtext, int *wstatus, int *timed_out);
 
 /* Record a helper's process group, ended by pm_cmp_children_kill_all; returns its record, -1
  * when the table is full. pm_cmp_children_forget releases it (accepts -1). */

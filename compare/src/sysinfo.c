@@ -8,27 +8,19 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "common/base/atomic_file.h"
 #include "compare/src/study.h"
 
 /* The first line of a helper's stdout, "" when it cannot run. */
 static void first_line(char *const argv[], int need_success, char *out, size_t len) {
   out[0] = '\0';
-  /* A temporary file for its output, recorded so that a signal removes it (atomic_file.h). */
-  pm_atomic_file a;
-  if (pm_atomic_begin(&a, "/tmp/packmesh-sysinfo", 0, NULL)) return;
-  const char *tmp = a.tmp;
+  char *text = NULL;
   int ws = 0, to = 0;
-  if (pm_cmp_run_program(argv, NULL, tmp, NULL, 10, &ws, &to) == 0 && !to && WIFEXITED(ws) &&
-      (!need_success || WEXITSTATUS(ws) == 0)) {
-    char *text = pm_cmp_read_file(tmp, NULL);
-    if (text) {
-      text[strcspn(text, "\n")] = '\0';
-      snprintf(out, len, "%s", text);
-      free(text);
-    }
+  if (pm_cmp_capture(argv, NULL, 10, &text, NULL, &ws, &to) != 0) return;
+  if (!to && WIFEXITED(ws) && (!need_success || WEXITSTATUS(ws) == 0)) {
+    text[strcspn(text, "\n")] = '\0';
+    snprintf(out, len, "%s", text);
   }
-  pm_atomic_abort(&a);
+  free(text);
 }
 
 void pm_cmp_sysinfo_get(pm_cmp_sysinfo *si) {

@@ -1,7 +1,9 @@
 /* Small helpers shared by the compare_*.c files: growing strings, shell quoting, whole-file
- * reads, folder creation and running a helper program (gnuplot, dpkg-query) with a time limit. */
+ * reads, folder creation and running a helper program (gnuplot, dpkg-query, Slurm's sbatch,
+ * squeue, sacct) with a time limit, its output into a file or captured. */
 #include <errno.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -173,5 +175,124 @@ int pm_cmp_run_program(char *const argv[], const char *cwd, const char *out_path
   pm_cmp_children_forget(group);
   /* exec failure is exit code 127 from the child. */
   if (WIFEXITED(*wstatus) && WEXITSTATUS(*wstatus) == 127) return -1;
+  return 0;
+}
+
+/* Appends what fd has to read to *buf (grown; NUL-terminated); returns 0 at end of file, 1 when
+ * more may come, -1 out of memory. */
+static int drain(int fd, char **buf, size_t *len, size_t *cap) {
+  char chunk[4096];
+  ssize_t n = read(fd, chunk, sizeof chunk);
+  if (n < 0) return errno == EINTR || errno == EAGAIN ? 1 : 0;
+  if (n == 0) return 0;
+  if (*len + (size_t)n + 1 > *cap) {
+    size_t c = *cap ? *cap : 4096;
+    while (c < *len + (size_t)n + 1) c *= 2;
+    char *b = realloc(*buf, c);
+    if (!b) return -1;
+    *buf = b;
+    *cap = c;
+  }
+  memcpy(*buf + *len, chunk, (size_t)n);
+  *len += (size_t)n;
+  (*buf)[*len] = '\0';
+  return 1;
+}
+
+int pm_cmp_capture(char *const argv[], char *const env[], double timeout_s, char **out,
+                   char **errtext, int *wstatus, int *timed_out) {
+  *timed_out = 0;
+  *wstatus = 0;
+  if (out) *out = NULL;
+  if (errtext) *errtext = NULL;
+  int po[2], pe[2];
+  if (pipe(po) != 0) return -1;
+  if (pipe(pe) != 0) {
+    close(po[0]);
+    close(po[1]);
+    return -1;
+  }
+  fflush(NULL);
+  pid_t pid = fork();
+  if (pid < 0) {
+    close(po[0]);
+    close(po[1]);
+    close(pe[0]);
+    close(pe[1]);
+    return -1;
+  }
+  if (pid == 0) {
+    setpgid(0, 0);
+    int fi = open("/dev/null", O_RDONLY);
+    if (fi < 0) _exit(127);
+    dup2(fi, 0);
+    dup2(po[1], 1);
+    dup2(pe[1], 2);
+    close(po[0]);
+    close(pe[0]);
+    for (int k = 0; env && env[k]; ++k) putenv(env[k]);
+    execvp(argv[0], argv);
+    _exit(127);
+  }
+  setpgid(pid, pid);
+  int group = pm_cmp_children_add(pid);
+  close(po[1]);
+  close(pe[1]);
+  char *b[2] = {NULL, NULL};
+  size_t n[2] = {0, 0}, c[2] = {0, 0};
+  int open_fd[2] = {po[0], pe[0]}, bad = 0;
+  double t0 = pm_seconds();
+  while (open_fd[0] >= 0 || open_fd[1] >= 0) {
+    struct pollfd p[2];
+    int np = 0, which[2];
+    for (int k = 0; k < 2; ++k)
+      if (open_fd[k] >= 0) {
+        p[np].fd = open_fd[k];
+        p[np].events = POLLIN;
+        p[np].revents = 0;
+        which[np++] = k;
+      }
+    int r = poll(p, (nfds_t)np, 100);
+    if (r < 0 && errno != EINTR) break;
+    for (int i = 0; i < np && r > 0; ++i) {
+      if (!p[i].revents) continue;
+      int k = which[i];
+      int d = drain(open_fd[k], &b[k], &n[k], &c[k]);
+      if (d < 0) bad = 1;
+      if (d <= 0) {
+        close(open_fd[k]);
+        open_fd[k] = -1;
+      }
+    }
+    if (!*timed_out && pm_seconds() - t0 > timeout_s) {
+      kill(-pid, SIGKILL);
+      kill(pid, SIGKILL);
+      *timed_out = 1;
+    }
+  }
+  for (int k = 0; k < 2; ++k)
+    if (open_fd[k] >= 0) close(open_fd[k]);
+  while (waitpid(pid, wstatus, 0) < 0 && errno == EINTR) {
+  }
+  pm_cmp_children_forget(group);
+  for (int k = 0; k < 2; ++k)
+    if (!b[k] && !bad) {
+      b[k] = calloc(1, 1);
+      if (!b[k]) bad = 1;
+    }
+  /* exec failure is exit code 127 from the child. */
+  if (bad || (WIFEXITED(*wstatus) && WEXITSTATUS(*wstatus) == 127)) {
+    free(b[0]);
+    free(b[1]);
+    return -1;
+  }
+  if (out)
+    *out = b[0];
+  else
+    free(b[0]);
+  if (errtext)
+    *errtext = b[1];
+  else
+    free(b[1]);
   return 0;
 }

@@ -53,9 +53,9 @@ class Study:
     outdir        the folder
     rows          results.csv, one dict per run: case, method, seed, sweep_key, sweep_value,
                   status ("ok", "failed", "crashed", "timeout", "skipped"), error, command, row,
-                  label, input, wall_s, then every --stats key flattened with dots ("nodes",
-                  "tri.radius_ratio.median", "time_s.total"); empty fields are None, numbers
-                  int or float, true/false bools
+                  label, input, wall_s, host, then every --stats key flattened with dots
+                  ("nodes", "tri.radius_ratio.median", "time_s.total"); empty fields are None,
+                  numbers int or float, true/false bools
     report        the report (report.html; report.md beside it)
     results_csv, elements_csv   the paths of the two tables
     """

@@ -11,7 +11,7 @@
  *   NAME.(a|b)     files:a b   files ending .a or .b (NAME.ext: files ending .ext)
  *   DIR            dirs        folders
  *   FILE           files:      any file
- *   A|b|c          words:b c   the lower-case alternatives
+ *   A|b|c, a|b     words:b c   the lower-case alternatives
  *   anything else  none        nothing to offer (a number, an expression)
  * and a flag has no value (""). */
 #include "cli/cli_completion.h"
@@ -63,7 +63,11 @@ static void add_option(command_doc *d, const char *name, const char *value, int 
   }
 }
 
-static int is_placeholder(const char *word) { return isupper((unsigned char)word[0]); }
+/* A placeholder: an upper-case word ("INPUT", "EXPR|NUMBER|inferred"), or literal choices
+ * ("local|slurm"). */
+static int is_placeholder(const char *word) {
+  return isupper((unsigned char)word[0]) || (islower((unsigned char)word[0]) && strchr(word, '|'));
+}
 
 /* The words of a form after "packmesh NAME": an option followed, inside the same brackets, by a
  * placeholder takes it as its value ("[--size EXPR]", "-o OUT"); a placeholder of its own is an
@@ -111,8 +115,11 @@ static void read_term(command_doc *d, const char *term) {
     if (!len) break;
     if (s[0] == '-' && n < 8)
       snprintf(names[n++], sizeof names[0], "%.*s", (int)len, s);
-    else if (!value[0] && isupper((unsigned char)s[0]))
-      snprintf(value, sizeof value, "%.*s", (int)len, s);
+    else if (!value[0]) {
+      char word[96];
+      snprintf(word, sizeof word, "%.*s", (int)len, s);
+      if (is_placeholder(word)) snprintf(value, sizeof value, "%s", word);
+    }
     s += len;
   }
   for (int i = 0; i < n; ++i) add_option(d, names[i], value, 0);
