@@ -249,8 +249,9 @@ for x, y in zip(a, b):
     if y["status"] != "skipped" and y["host"] != node:
         bad.append("results.csv %s: host %r, not %r" % (y["row"], y["host"], node))
 def report(d):
-    """report.md without what names the invocation, the time, the folder and the hosts, and
-    with the cells of every time column blanked."""
+    """report.md without what names the invocation, the time, the folder and the hosts, with
+    the cells of every time column blanked and every duration in seconds in the prose too
+    (how long the pictures took to draw is measured on whichever machine drew them)."""
     out, head = [], None
     for line in open(d + "/report.md"):
         if ("Made on " in line or line.startswith("packmesh compare ") or
@@ -265,7 +266,7 @@ def report(d):
             out.append(" | ".join(cells))
             continue
         head = None
-        out.append(line.rstrip("\n"))
+        out.append(re.sub(r"[0-9]+(\.[0-9]+)? s\b", "# s", line.rstrip("\n")))
     return out
 ra, rb = report(local), report(slurm)
 for i, (x, y) in enumerate(zip(ra, rb)):
