@@ -125,7 +125,9 @@ drain() {
 }
 
 # ---- submit; submit again at once ------------------------------------------------------------
-"$pm" compare "$suite" -o "$study" --engine slurm >"$tmp/sub1" 2>"$tmp/sub1.err" ||
+# Held (sbatch --hold) until both submissions are made and checked: on a loaded machine the
+# second submission can take longer than the slow runs, which would end before they are killed.
+"$pm" compare "$suite" -o "$study" --engine slurm --slurm-opt "--hold" >"$tmp/sub1" 2>"$tmp/sub1.err" ||
   fail "the submission failed: $(cat "$tmp/sub1.err")"
 "$pm" compare "$suite" -o "$study" --engine slurm >"$tmp/sub2" 2>"$tmp/sub2.err" ||
   fail "the second submission failed: $(cat "$tmp/sub2.err")"
@@ -146,15 +148,22 @@ grep -q "^job $report_job: the report, queued already" "$tmp/sub2" ||
 
 # ---- cancel one running task, kill another ---------------------------------------------------
 # Each as soon as its task has started its run (the marker; the run takes seconds).
-cancelled= killed=
+held=$(sed -n 's/^job \([0-9]*\): .*/\1/p' "$tmp/sub1" | tr '\n' ' ')
+# shellcheck disable=SC2086  # one job id a word
+scontrol release $held || fail "scontrol release $held failed"
+# A marker's job ("12_3"), read without starting a Python at the moment that counts.
+marker_job() { sed -n 's/^[[:space:]]*"job":[[:space:]]*"\([0-9_]*\)".*/\1/p' "$1"; }
+cancelled= killed= t0=$SECONDS
 for ((i = 0; i < 2400; i++)); do
   if [ -z "$cancelled" ] && [ -s "$study/runs/slow__bubble__s1/slurm.json" ]; then
-    cancelled=$(json_field "$study/runs/slow__bubble__s1/slurm.json" job)
+    cancelled=$(marker_job "$study/runs/slow__bubble__s1/slurm.json")
     scancel "$cancelled" || fail "scancel $cancelled failed"
+    echo "cancelled $cancelled, $((SECONDS - t0)) s after the release"
   fi
   if [ -z "$killed" ] && [ -s "$study/runs/slow__bubble__s2/slurm.json" ]; then
-    killed=$(json_field "$study/runs/slow__bubble__s2/slurm.json" job)
+    killed=$(marker_job "$study/runs/slow__bubble__s2/slurm.json")
     scancel --batch --signal=KILL "$killed" || fail "scancel --batch --signal=KILL $killed failed"
+    echo "killed $killed, $((SECONDS - t0)) s after the release"
   fi
   [ -n "$cancelled" ] && [ -n "$killed" ] && break
   sleep 0.05
