@@ -1,8 +1,12 @@
 #!/usr/bin/env python3
 """Load an HTML page in headless Chromium and check it as a reader would see it.
 
-    page_check.py PAGE.html [--screenshot OUT.png] [--size 1200x900] [--wait-ms 500]
+    page_check.py PAGE.html [--screenshot OUT.png [--screenshot-of CSS_SELECTOR]]
+                  [--size 1200x900] [--wait-ms 500]
                   [--canvas CSS_SELECTOR]... [--eval JS]... [--expect-text TEXT]...
+
+--screenshot writes the top of the page as the window shows it, or with --screenshot-of the
+box of one element wherever it is on the page (a figure or the viewer far down a report).
 
 Exit 0 when the page loaded with no console error, no uncaught exception and no failed resource,
 and every check held; exit 1 with one line per failure otherwise; exit 77 when Chromium is not
@@ -207,10 +211,23 @@ def not_blank_fraction(png):
     return (total - max(counts.values())) / total if total else 0.0
 
 
+def element_box(dt, sel):
+    """The box [x, y, width, height] of the first element SEL in page coordinates (the box seen
+    in the viewport, plus the scroll, after scrolling it into view), or None."""
+    r = dt.send("Runtime.evaluate", {
+        "expression": "(function(){var e=document.querySelector(%s);if(!e)return null;"
+                      "e.scrollIntoView();var b=e.getBoundingClientRect();"
+                      "return [b.x+window.scrollX,b.y+window.scrollY,b.width,b.height];})()"
+                      % json.dumps(sel),
+        "returnByValue": True})
+    return r.get("result", {}).get("value")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("page")
     ap.add_argument("--screenshot")
+    ap.add_argument("--screenshot-of")
     ap.add_argument("--size", default="1200x900")
     ap.add_argument("--wait-ms", type=int, default=500)
     ap.add_argument("--timeout", type=float, default=60)
@@ -264,15 +281,7 @@ def main():
                 failures.append("the page's text has no '%s'" % t)
 
         for sel in a.canvas:
-            r = dt.send("Runtime.evaluate", {
-                # The clip is in page coordinates: the box seen in the viewport, plus the
-                # scroll (an element far down a long page, such as a report's viewer).
-                "expression": "(function(){var e=document.querySelector(%s);if(!e)return null;"
-                              "e.scrollIntoView();var b=e.getBoundingClientRect();"
-                              "return [b.x+window.scrollX,b.y+window.scrollY,b.width,b.height];})()"
-                              % json.dumps(sel),
-                "returnByValue": True})
-            box = r.get("result", {}).get("value")
+            box = element_box(dt, sel)
             if not box or box[2] < 1 or box[3] < 1:
                 failures.append("no visible element '%s'" % sel)
                 continue
@@ -284,9 +293,20 @@ def main():
                 failures.append("'%s' is blank (%.4f of its pixels differ from its background)"
                                 % (sel, frac))
 
-        if a.screenshot:
+        if a.screenshot and a.screenshot_of:
+            box = element_box(dt, a.screenshot_of)
+            if not box or box[2] < 1 or box[3] < 1:
+                failures.append("no visible element '%s' to take a screenshot of" % a.screenshot_of)
+                shot = None
+            else:
+                dt.drain(0.2)  # a canvas redraws after the scroll
+                shot = dt.send("Page.captureScreenshot", {
+                    "format": "png", "captureBeyondViewport": True,
+                    "clip": {"x": box[0], "y": box[1], "width": box[2], "height": box[3], "scale": 1}})
+        elif a.screenshot:
             dt.send("Runtime.evaluate", {"expression": "window.scrollTo(0,0)"})
             shot = dt.send("Page.captureScreenshot", {"format": "png"})
+        if a.screenshot and shot:
             tmp = a.screenshot + ".part"
             with open(tmp, "wb") as f:
                 f.write(base64.b64decode(shot["data"]))
