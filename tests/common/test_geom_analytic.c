@@ -237,6 +237,38 @@ static void face_projection_respects_trim(void **state) {
   pm_model_destroy(m);
 }
 
+/* The trimming polyline follows its curves to a quarter of the feature floor in 3D, not only to
+ * 2e-4 of the parameter box: a 100 x 100 square whose bottom side is an arc bulging 1 below it
+ * (radius 1250.5) has chords of its first 8 samples sagging 0.0156 into the face, under the
+ * (u, v) tolerance of 0.028; points 0.002 inside the arc (half the floor, 0.0042) must be
+ * inside the face. */
+static void trim_follows_curves_in_3d(void **state) {
+  (void)state;
+  const double s = 1, L = 100, R = (L * L / 4 + s * s) / (2 * s), cy = R - s;
+  const pm_planar_piece sq[4] = {{PM_PIECE_ARC, {0, 0}, {L / 2, cy}, 1},
+                                 {PM_PIECE_LINE, {L, 0}, {0, 0}, 0},
+                                 {PM_PIECE_LINE, {L, L}, {0, 0}, 0},
+                                 {PM_PIECE_LINE, {0, L}, {0, 0}, 0}};
+  pm_planar_loop l = {4, sq};
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_planar_model("bulge", 1, &l, &m, &e), e);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  const double floor = PM_FEATURE_FLOOR * m->diagonal, half = asin(L / 2 / R);
+  assert_true(0.002 < 0.5 * floor);
+  int inside = 0, outside = 0;
+  for (int k = 1; k < 400; ++k) {
+    const double phi = -half + 2 * half * k / 400.0;
+    const double in[2] = {L / 2 + (R - 0.002) * sin(phi), cy - (R - 0.002) * cos(phi)};
+    const double out[2] = {L / 2 + (R + 0.002) * sin(phi), cy - (R + 0.002) * cos(phi)};
+    inside += pm_face_inside(f, in);
+    outside += !pm_face_inside(f, out);
+  }
+  assert_int_equal(inside, 399);
+  assert_int_equal(outside, 399);
+  pm_model_destroy(m);
+}
+
 static void bad_domains_rejected(void **state) {
   (void)state;
   pm_model *m = NULL;
@@ -267,6 +299,7 @@ int main(void) {
       cmocka_unit_test(clip_rule_on_curves),
       cmocka_unit_test(arcs_evaluate_and_project),
       cmocka_unit_test(face_projection_respects_trim),
+      cmocka_unit_test(trim_follows_curves_in_3d),
       cmocka_unit_test(bad_domains_rejected),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

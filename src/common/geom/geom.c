@@ -212,11 +212,21 @@ pm_status pm_model_finish(pm_model *m, pm_error *err) {
       box_add(c->box, cp.p);
     }
   }
+  /* The trimming polylines sag at most a quarter of the feature floor from their curves in 3D
+   * (trim.c): a particle may come as near a boundary as the finest spacing the sizes ask for.
+   * The floor's diagonal is the vertices' and curves' box (the model's is known only once the
+   * faces' boxes are, which need the trimming). */
+  double wire[6];
+  box_empty(wire);
+  for (int d = 0; d < 2; ++d)
+    for (int32_t i = 0; i < m->count[d]; ++i) box_union(wire, m->cells[d][i].box);
+  const double wire_diag = wire[3] >= wire[0] ? pm_v3_dist(wire, wire + 3) : 0;
+  const double trim_tol3d = 0.25 * PM_FEATURE_FLOOR * (isfinite(wire_diag) ? wire_diag : 0);
   for (int32_t i = 0; i < m->count[PM_FACE]; ++i) {
     pm_cell *f = &m->cells[PM_FACE][i];
     if (!f->cls || !f->cls->face_eval || !f->cls->face_curve_uv)
       return pm_error_setf(err, PM_ERR_INTERNAL, "face %d has no evaluator", f->tag);
-    if ((s = pm_trim_build(m, f, err))) return s;
+    if ((s = pm_trim_build(m, f, trim_tol3d, err))) return s;
     if ((s = face_bound_from_loops(f, err))) return s;
     /* 3D box: the boundary curves' boxes and the inside samples of a grid over (u, v). */
     box_empty(f->box);

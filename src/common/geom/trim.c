@@ -12,8 +12,15 @@
 
 /* Polyline sampling of a pcurve: an interval is bisected while its midpoint lies farther than
  * SAMPLE_TOL x (diagonal of the face's parameter box) from the chord. At 2e-4 the polyline
- * misplaces the boundary by far less than any mesh size the methods use (a face would need
- * 5000 elements across for it to show), while a circle needs ~100 points. */
+ * misplaces the boundary by far less than any mesh size the methods use on a face of one scale
+ * (it would need 5000 elements across for it to show), while a circle needs ~100 points.
+ * On a large face beside a small feature that is not enough: the mesh next to the boundary is
+ * as fine as the feature asks, but the polyline's chords cut off a band as wide as their sag,
+ * which no particle may enter. t20_component8.step's face 0 (parameter box 27 wide) lost a
+ * band 0.0055 wide along a curve whose nodes are 0.00176 apart (the feature floor); the face's
+ * nodes stayed 0.014 off it, and the triangles between were needles. So an interval is also
+ * bisected while its chord's midpoint lies farther than tol3d (pm_trim_build's argument) in 3D
+ * from the curve's midpoint, both put on the surface: the sag the particles see. */
 #define SAMPLE_TOL 2e-4
 #define SAMPLE_MAX_DEPTH 10 /* at most 2^10 sub-intervals per initial interval */
 #define SAMPLE_INITIAL 8    /* initial intervals per curve (16 for a closed curve) */
@@ -67,22 +74,36 @@ static int buf_push(pts_buf *b, const double uv[2], int32_t use, double t) {
   return 1;
 }
 
+/* Whether the chord from uva to uvb sags more than tol (in (u, v)) or tol3d (in 3D, on the
+ * surface; 0: not asked) from the pcurve's point uvm between them. */
+static int chord_sags(const pm_cell *f, const double uva[2], const double uvb[2],
+                      const double uvm[2], double tol, double tol3d) {
+  const double mid[2] = {0.5 * (uva[0] + uvb[0]), 0.5 * (uva[1] + uvb[1])};
+  if (hypot(mid[0] - uvm[0], mid[1] - uvm[1]) > tol) return 1;
+  if (!(tol3d > 0)) return 0;
+  pm_face_point on_chord, on_curve;
+  pm_face_eval(f, mid, 0, &on_chord);
+  pm_face_eval(f, uvm, 0, &on_curve);
+  double dx = on_chord.p[0] - on_curve.p[0], dy = on_chord.p[1] - on_curve.p[1],
+         dz = on_chord.p[2] - on_curve.p[2];
+  return dx * dx + dy * dy + dz * dz > tol3d * tol3d; /* NaN: no */
+}
+
 /* Append the samples strictly after ta up to and including tb. */
 static int sample_interval(const pm_cell *f, const pm_use *use, int32_t iuse, double ta,
                            const double uva[2], double tb, const double uvb[2], double tol,
-                           int depth, pts_buf *b) {
+                           double tol3d, int depth, pts_buf *b) {
   double tm = 0.5 * (ta + tb), uvm[2];
   pm_face_curve_uv(f, use, tm, uvm);
-  double cu = 0.5 * (uva[0] + uvb[0]) - uvm[0], cv = 0.5 * (uva[1] + uvb[1]) - uvm[1];
-  if (depth < SAMPLE_MAX_DEPTH && sqrt(cu * cu + cv * cv) > tol) {
-    if (!sample_interval(f, use, iuse, ta, uva, tm, uvm, tol, depth + 1, b)) return 0;
-    return sample_interval(f, use, iuse, tm, uvm, tb, uvb, tol, depth + 1, b);
+  if (depth < SAMPLE_MAX_DEPTH && chord_sags(f, uva, uvb, uvm, tol, tol3d)) {
+    if (!sample_interval(f, use, iuse, ta, uva, tm, uvm, tol, tol3d, depth + 1, b)) return 0;
+    return sample_interval(f, use, iuse, tm, uvm, tb, uvb, tol, tol3d, depth + 1, b);
   }
   return buf_push(b, uvb, iuse, tb);
 }
 
 static pm_status sample_loop(const pm_model *m, const pm_cell *f, pm_loop *lp, double diag,
-                             pm_error *err) {
+                             double tol3d, pm_error *err) {
   pts_buf b = {0};
   const double tol = SAMPLE_TOL * diag;
   for (int32_t k = 0; k < lp->nuse; ++k) {
@@ -115,7 +136,7 @@ static pm_status sample_loop(const pm_model *m, const pm_cell *f, pm_loop *lp, d
       double ta = t0 + (t1 - t0) * i / nint, tb = (i + 1 == nint) ? t1 : t0 + (t1 - t0) * (i + 1) / nint;
       double uvb[2];
       pm_face_curve_uv(f, use, tb, uvb);
-      if (!sample_interval(f, use, k, ta, uvp, tb, uvb, tol, 0, &b)) goto nomem;
+      if (!sample_interval(f, use, k, ta, uvp, tb, uvb, tol, tol3d, 0, &b)) goto nomem;
       uvp[0] = uvb[0], uvp[1] = uvb[1];
     }
   }
@@ -362,7 +383,7 @@ int pm_trim_inside(const pm_cell *f, const double uv[2]) {
 
 /* ---- building ---------------------------------------------------------------------------- */
 
-pm_status pm_trim_build(const pm_model *m, pm_cell *f, pm_error *err) {
+pm_status pm_trim_build(const pm_model *m, pm_cell *f, double tol3d, pm_error *err) {
   if (f->nloop <= 0)
     return pm_error_setf(err, PM_ERR_GEOM, "face %d has no trimming loop", f->tag);
   double du = f->hi[0] - f->lo[0], dv = f->hi[1] - f->lo[1];
@@ -370,7 +391,7 @@ pm_status pm_trim_build(const pm_model *m, pm_cell *f, pm_error *err) {
   if (!(diag > 0) || !isfinite(diag))
     return pm_error_setf(err, PM_ERR_GEOM, "face %d has an empty parameter box", f->tag);
   for (int32_t l = 0; l < f->nloop; ++l) {
-    pm_status s = sample_loop(m, f, &f->loop[l], diag, err);
+    pm_status s = sample_loop(m, f, &f->loop[l], diag, tol3d, err);
     if (s) return s;
   }
   /* Outer or hole: a loop is a hole when an odd number of the other loops contain it. */
