@@ -26,16 +26,8 @@ fails=0
 fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
 skip() { echo "SKIP: $*"; exit 77; }
 
-tmp=$(mktemp -d /tmp/pm-compare-slurm.XXXXXX)
-export PM_SLURM_DIR=$tmp/slurm
-# shellcheck disable=SC2317  # run by the trap
-cleanup() {
-  bash "$script" stop >/dev/null 2>&1
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-trap 'exit 130' INT
-trap 'exit 143' TERM
+# shellcheck source=tests/scripts/slurm_test_cluster.sh
+. "$src/tests/scripts/slurm_test_cluster.sh" pm-compare-slurm
 
 cat > "$tmp/suite.json" <<'EOF'
 {
@@ -80,12 +72,6 @@ for c in munged slurmctld slurmd srun sbatch squeue scancel sacct scontrol sinfo
   command -v "$c" >/dev/null 2>&1 || skip "$c is not installed (scripts/install-deps.sh installs Slurm and munge)"
 done
 [ "$(id -u)" -eq 0 ] || skip "slurm-local.sh runs the daemons as root; this runs as uid $(id -u)"
-port_busy() { (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
-for ((i = 0; i < 20; i++)); do
-  PM_SLURM_PORT=$((20000 + RANDOM % 10000))
-  port_busy "$PM_SLURM_PORT" || port_busy $((PM_SLURM_PORT + 1)) || break
-done
-export PM_SLURM_PORT
 if ! started=$(bash "$script" start 2>"$tmp/start.err"); then
   cat "$tmp/start.err"
   skip "the single-node Slurm cannot start here: $(tail -n 1 "$tmp/start.err")"
@@ -153,7 +139,7 @@ held=$(sed -n 's/^job \([0-9]*\): .*/\1/p' "$tmp/sub1" | tr '\n' ' ')
 scontrol release $held || fail "scontrol release $held failed"
 # A marker's job ("12_3"), read without starting a Python at the moment that counts.
 marker_job() { sed -n 's/^[[:space:]]*"job":[[:space:]]*"\([0-9_]*\)".*/\1/p' "$1"; }
-cancelled= killed= t0=$SECONDS
+cancelled='' killed='' t0=$SECONDS
 for ((i = 0; i < 2400; i++)); do
   if [ -z "$cancelled" ] && [ -s "$study/runs/slow__bubble__s1/slurm.json" ]; then
     cancelled=$(marker_job "$study/runs/slow__bubble__s1/slurm.json")

@@ -22,24 +22,9 @@ for c in munged slurmctld slurmd srun sbatch squeue sinfo; do
 done
 [ "$(id -u)" -eq 0 ] || skip "slurm-local.sh runs the daemons as root; this runs as uid $(id -u)"
 
-tmp=$(mktemp -d /tmp/pm-slurm-test.XXXXXX)
-export PM_SLURM_DIR=$tmp/slurm
-# Two free ports in a row, away from a system Slurm's (6817, 6818) and the script's default.
-port_busy() { (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
-for ((i = 0; i < 20; i++)); do
-  PM_SLURM_PORT=$((20000 + RANDOM % 10000))
-  port_busy "$PM_SLURM_PORT" || port_busy $((PM_SLURM_PORT + 1)) || break
-done
-export PM_SLURM_PORT
 pids=()
-# shellcheck disable=SC2317  # run by the trap
-cleanup() {
-  bash "$script" stop >/dev/null 2>&1
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-trap 'exit 130' INT
-trap 'exit 143' TERM
+# shellcheck source=tests/scripts/slurm_test_cluster.sh
+. "$src/tests/scripts/slurm_test_cluster.sh" pm-slurm-test
 
 started=$(bash "$script" start 2>"$tmp/start.err")
 rc=$?
