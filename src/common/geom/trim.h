@@ -24,9 +24,9 @@ typedef struct pm_cell pm_cell;
 typedef struct pm_model pm_model;
 
 /* Sample the loops of face f (whose loop->use arrays the backend filled) into polylines, fix
- * their orientation and outer flags, and build f->trim. The polyline's chords sag at most
- * tol3d from the boundary curves in 3D (on the surface; 0: only the (u, v) tolerance of
- * trim.c), and at most 2e-4 of the parameter box's diagonal in (u, v). */
+ * their orientation and outer flags, and build f->trim. Each curve interval is bisected, up
+ * to 2^10 times, while its chord sags more than tol3d from the curve in 3D (on the surface; 0:
+ * not asked) or more than 2e-4 of the parameter box's diagonal in (u, v). */
 pm_status pm_trim_build(const pm_model *m, pm_cell *f, double tol3d, pm_error *err);
 
 /* Release f->trim and the loops' polylines (not the use arrays). */
