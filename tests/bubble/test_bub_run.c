@@ -277,16 +277,20 @@ static void trace_and_frames(void **state) {
   assert_true(file_exists(path));
   snprintf(path, sizeof path, "%s/frame_000000.svg", dir);
   assert_true(file_exists(path));
+  snprintf(path, sizeof path, "%s/frame_000000.dat", dir);
+  assert_true(file_exists(path));
   assert_true(pm_frames_count(fr) >= 2);
   for (int32_t k = 0; k < pm_frames_count(fr); ++k) {
     snprintf(path, sizeof path, "%s/frame_%06d.vtu", dir, (int)k);
     unlink(path);
     snprintf(path, sizeof path, "%s/frame_%06d.svg", dir, (int)k);
     unlink(path);
+    snprintf(path, sizeof path, "%s/frame_%06d.dat", dir, (int)k);
+    unlink(path);
   }
   snprintf(path, sizeof path, "%s/frames.pvd", dir);
   unlink(path);
-  rmdir(dir);
+  assert_int_equal(rmdir(dir), 0); /* every file the frames wrote was removed above */
   pm_frames_destroy(fr);
   pm_trace_destroy(tr);
   pm_mesh_destroy(out.mesh);

@@ -1,9 +1,11 @@
 /* Tests of distance.c: the two-sided mesh-to-model distance against closed-form answers (a plane
  * meshed in its plane, a lifted node, the sagitta of an inscribed polygon, the chordal error of an
  * inscribed sphere polyhedron, a dangling wire), classified against unclassified meshes, thread-
- * count independence, parameters and bad input. */
+ * count independence, the pruned searches and split reference quads against the previous code
+ * paths, parameters and bad input. */
 #include "test_rect_model.h"
 
+#include <gmshc.h>
 #include <omp.h>
 #include <stdlib.h>
 #include <string.h>
@@ -618,6 +620,30 @@ static pm_mesh *classified_prism(const pm_model *m, int n, int layers) {
   return me;
 }
 
+/* The torus case meshed on a 24 x 12 parameter grid, classified with its (u, v), one node pushed
+ * 0.02 off the surface. */
+static pm_mesh *pushed_torus_mesh(void) {
+  pm_mesh *me = pm_mesh_create();
+  pm_error e = {0};
+  const int nu = 24, nv = 12;
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      double uv[2] = {2 * M_PI * i / nu, 2 * M_PI * j / nv};
+      double p[3] = {(1 + 0.35 * cos(uv[1])) * cos(uv[0]), (1 + 0.35 * cos(uv[1])) * sin(uv[0]),
+                     0.35 * sin(uv[1])};
+      if (i == 5 && j == 3) p[2] += 0.02;
+      PM_ASSERT_OK(pm_mesh_add_node(me, p, PM_FACE, 0, uv, NULL, &e), e);
+    }
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      int32_t a = j * nu + i, b = j * nu + (i + 1) % nu, c = ((j + 1) % nv) * nu + i,
+              d = ((j + 1) % nv) * nu + (i + 1) % nu;
+      PM_ASSERT_OK(pm_mesh_add_tri(me, a, b, d, 0, &e), e);
+      PM_ASSERT_OK(pm_mesh_add_tri(me, a, d, c, 0, &e), e);
+    }
+  return me;
+}
+
 /* Pruning (distance.h: prune) skips searches that cannot find anything, so every figure is the
  * same as with the searches done everywhere: on the classified prism, whose samples near the rims
  * see the other faces and the circles, and on the torus with a node pushed off the surface. */
@@ -631,23 +657,7 @@ static void test_prune_changes_no_figure(void **state) {
     if (which == 0) {
       me = classified_prism(m, 24, 6);
     } else {
-      me = pm_mesh_create();
-      const int nu = 24, nv = 12;
-      for (int j = 0; j < nv; ++j)
-        for (int i = 0; i < nu; ++i) {
-          double uv[2] = {2 * M_PI * i / nu, 2 * M_PI * j / nv};
-          double p[3] = {(1 + 0.35 * cos(uv[1])) * cos(uv[0]), (1 + 0.35 * cos(uv[1])) * sin(uv[0]),
-                         0.35 * sin(uv[1])};
-          if (i == 5 && j == 3) p[2] += 0.02;
-          PM_ASSERT_OK(pm_mesh_add_node(me, p, PM_FACE, 0, uv, NULL, &e), e);
-        }
-      for (int j = 0; j < nv; ++j)
-        for (int i = 0; i < nu; ++i) {
-          int32_t a = j * nu + i, b = j * nu + (i + 1) % nu, c = ((j + 1) % nv) * nu + i,
-                  d = ((j + 1) % nv) * nu + (i + 1) % nu;
-          PM_ASSERT_OK(pm_mesh_add_tri(me, a, b, d, 0, &e), e);
-          PM_ASSERT_OK(pm_mesh_add_tri(me, a, d, c, 0, &e), e);
-        }
+      me = pushed_torus_mesh();
     }
     pm_distance_params p;
     pm_distance_params_init(&p);
@@ -674,6 +684,71 @@ static void test_prune_changes_no_figure(void **state) {
     } else {
       assert_true(dp.mesh_to_model_max > 0.015);
     }
+    pm_mesh_destroy(me);
+    pm_model_destroy(m);
+  }
+}
+
+/* The cylinder case drilled through along x at z = 0.3 by a hole of radius 0.003: two holes in
+ * its side far smaller than a cell of the distance's reference grid (about 0.03 there). */
+static int make_drilled_cylinder(void) {
+  int ierr = 0;
+  int cyl = gmshModelOccAddCylinder(0, 0, -1, 0, 0, 2, 0.5, -1, 2 * M_PI, &ierr);
+  if (ierr) return ierr;
+  int drill = gmshModelOccAddCylinder(-1, 0, 0.3, 2, 0, 0, 0.003, -1, 2 * M_PI, &ierr);
+  if (ierr) return ierr;
+  int obj[2] = {3, cyl}, tool[2] = {3, drill};
+  int *out = NULL, **map = NULL;
+  size_t nout = 0, *nmap = NULL, nnmap = 0;
+  gmshModelOccCut(obj, 2, tool, 2, &out, &nout, &map, &nmap, &nnmap, -1, 1, 1, &ierr);
+  if (out) gmshFree(out);
+  for (size_t i = 0; i < nnmap; ++i) gmshFree(map[i]);
+  if (map) gmshFree(map);
+  if (nmap) gmshFree(nmap);
+  return ierr;
+}
+
+/* The reference's split quads (distance.h: ref_split) replace the constrained triangulation
+ * inside the faces only: the same points cover the same region, so a triangulation of them has
+ * the same number of triangles, and the figures (which the reference only starts) agree. On the
+ * drilled cylinder the quads around each tiny hole have their four corners inside, yet hold the
+ * hole: they must stay with the constrained triangulation, or the count differs. On the torus,
+ * periodic in both parameters, almost every quad is split. */
+static void test_ref_split_same_reference(void **state) {
+  (void)state;
+  pm_error e = {0};
+  for (int which = 0; which < 2; ++which) {
+    pm_model *m = NULL;
+    pm_mesh *me = NULL;
+    if (which == 0) {
+      PM_ASSERT_OK(pm_cad_build_shapes("drilled cylinder", make_drilled_cylinder, &m, &e), e);
+      me = classified_prism(m, 24, 6);
+    } else {
+      PM_ASSERT_OK(pm_case_open("torus", &m, NULL, &e), e);
+      me = pushed_torus_mesh();
+    }
+    pm_distance_params p;
+    pm_distance_params_init(&p);
+    assert_int_equal(p.ref_split, 1);
+    pm_distance ds, dc;
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &ds, &e), e);
+    p.ref_split = 0;
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &dc, &e), e);
+    if (getenv("PM_TEST_VERBOSE"))
+      printf("model %d: split %lld triangles, %lld points triangulated, mean %.17g max %.17g; "
+             "unsplit %lld, %lld, mean %.17g max %.17g\n", which, (long long)ds.ref_triangles,
+             (long long)ds.ref_cdt_points, ds.mean, ds.max, (long long)dc.ref_triangles,
+             (long long)dc.ref_cdt_points, dc.mean, dc.max);
+    assert_int_equal(ds.ref_faces_degraded, 0);
+    assert_int_equal(dc.ref_faces_degraded, 0);
+    assert_true(ds.ref_triangles > 1000);
+    assert_int_equal(ds.ref_triangles, dc.ref_triangles);
+    /* most points are inside, away from the boundary: fewer than half are triangulated (the
+     * cylinder's disks are planar, with a reference of a few cells) */
+    assert_true(2 * ds.ref_cdt_points < dc.ref_cdt_points);
+    PM_ASSERT_NEAR(ds.mean, dc.mean, 1e-9 * dc.mean);
+    PM_ASSERT_NEAR(ds.max, dc.max, 1e-9 * dc.max);
+    assert_int_equal(ds.nfallback, 0);
     pm_mesh_destroy(me);
     pm_model_destroy(m);
   }
@@ -852,6 +927,10 @@ static void test_params_and_bad_input(void **state) {
   assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "tri_level"));
   pm_distance_params_init(&p);
+  p.ref_split = 2;
+  assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "ref_split"));
+  pm_distance_params_init(&p);
   p.ref_tol = 0.5;
   assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "ref_tol"));
@@ -900,6 +979,7 @@ int main(void) {
       cmocka_unit_test(test_cylinder_prism),
       cmocka_unit_test(test_torus_doubly_periodic),
       cmocka_unit_test(test_prune_changes_no_figure),
+      cmocka_unit_test(test_ref_split_same_reference),
       cmocka_unit_test(test_curve_samples_follow_segments),
       cmocka_unit_test(test_thread_count_independent),
       cmocka_unit_test(test_wire_dangling_segment),

@@ -31,8 +31,9 @@
  *         has zeros there, and a projection started from them can stop at a local minimum far
  *         from the foot;
  *       - a reference tessellation of the faces (per face, a grid of inside (u, v) points and the
- *         trimming polylines, triangulated by the constrained Delaunay triangulation of
- *         cdt_cgal.h in (u, v) and lifted; its chordal error is at most ref_tol x diagonal and
+ *         trimming polylines, triangulated in (u, v) and lifted: the grid's quads that lie
+ *         inside, away from the polylines, are split directly, the band along the polylines by
+ *         the constrained Delaunay triangulation of cdt_cgal.h (ref_split); its chordal error is at most ref_tol x diagonal and
  *         at most ref_spacing^2 = 1/16 of the mesh's own chordal error): the closest reference
  *         triangle names a face and a starting (u, v), from which Gauss-Newton finds the foot
  *         on that face;
@@ -118,6 +119,13 @@ typedef struct pm_distance_params {
                             previous sample's answers), which leaves every figure as it is;
                             0: search everywhere (the previous code path, kept for tests and
                             benchmarks); 0..1, default 1 */
+  int32_t ref_split;     /* 1: the reference grid's quads that lie inside a face, away from its
+                            trimming polylines, are split into two triangles directly, and only
+                            the band along the polylines goes through the constrained
+                            triangulation (the same points, the same covered region, the same
+                            number of triangles); 0: every point goes through the constrained
+                            triangulation (the previous code path, kept for tests and
+                            benchmarks); 0..1, default 1 */
 } pm_distance_params;
 
 /* Set the defaults above. */
@@ -146,6 +154,9 @@ typedef struct pm_distance {
                                        because no exact candidate was found */
   int32_t ref_faces_degraded;       /* faces whose reference triangulation fell back to grid
                                        cells (the constrained triangulation failed) */
+  int64_t ref_triangles;            /* triangles of the faces' reference tessellation */
+  int64_t ref_cdt_points;           /* points of it that went through the constrained
+                                       triangulation (ref_split) */
 } pm_distance;
 
 /* The two-sided distance between mesh and model (see above).
