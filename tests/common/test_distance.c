@@ -697,15 +697,7 @@ static int make_drilled_cylinder(void) {
   if (ierr) return ierr;
   int drill = gmshModelOccAddCylinder(-1, 0, 0.3, 2, 0, 0, 0.003, -1, 2 * M_PI, &ierr);
   if (ierr) return ierr;
-  int obj[2] = {3, cyl}, tool[2] = {3, drill};
-  int *out = NULL, **map = NULL;
-  size_t nout = 0, *nmap = NULL, nnmap = 0;
-  gmshModelOccCut(obj, 2, tool, 2, &out, &nout, &map, &nmap, &nnmap, -1, 1, 1, &ierr);
-  if (out) gmshFree(out);
-  for (size_t i = 0; i < nnmap; ++i) gmshFree(map[i]);
-  if (map) gmshFree(map);
-  if (nmap) gmshFree(nmap);
-  return ierr;
+  return pm_cad_occ_cut_volumes(cyl, drill);
 }
 
 /* The reference's split quads (distance.h: ref_split) replace the constrained triangulation

@@ -138,6 +138,18 @@ pm_status cad_new_gmsh_model(char name[64], pm_gmsh_scope *scope, pm_error *err)
 
 /* ---- building and loading ----------------------------------------------------------------- */
 
+int pm_cad_occ_cut_volumes(int object, int tool) {
+  int ierr = 0, obj[2] = {3, object}, tl[2] = {3, tool};
+  int *out = NULL, **map = NULL;
+  size_t nout = 0, *nmap = NULL, nnmap = 0;
+  gmshModelOccCut(obj, 2, tl, 2, &out, &nout, &map, &nmap, &nnmap, -1, 1, 1, &ierr);
+  if (out) gmshFree(out);
+  for (size_t i = 0; i < nnmap; ++i) gmshFree(map[i]);
+  if (map) gmshFree(map);
+  if (nmap) gmshFree(nmap);
+  return ierr;
+}
+
 pm_status pm_cad_build_shapes(const char *label, int (*make)(void), pm_model **out, pm_error *err) {
   *out = NULL;
   pm_status s = pm_gmsh_begin(err);

@@ -79,6 +79,10 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err);
 pm_status pm_cad_build_shapes(const char *label, int (*make)(void), pm_model **out,
                               pm_error *err);
 
+/* For a `make` of pm_cad_build_shapes: cut volume `tool` from volume `object` (both removed,
+ * the result kept under new tags) in the current gmsh model. Returns gmsh's ierr. */
+int pm_cad_occ_cut_volumes(int object, int tool);
+
 /* Number of gmsh evaluations of model m that failed and were replaced by the fallback output
  * (see above); -1 when m is not a geom_cad model. */
 long pm_cad_eval_failures(const pm_model *m);

@@ -127,15 +127,7 @@ static int make_boxhole(void) {
   /* The tool overshoots both faces so that the cut does not meet coplanar faces. */
   int cyl = gmshModelOccAddCylinder(0, 0, -0.5, 0, 0, 1, 0.25, -1, 2 * M_PI, &ierr);
   if (ierr) return ierr;
-  int obj[2] = {3, box}, tool[2] = {3, cyl};
-  int *out = NULL, **map = NULL;
-  size_t nout = 0, *nmap = NULL, nnmap = 0;
-  gmshModelOccCut(obj, 2, tool, 2, &out, &nout, &map, &nmap, &nnmap, -1, 1, 1, &ierr);
-  if (out) gmshFree(out);
-  for (size_t i = 0; i < nnmap; ++i) gmshFree(map[i]);
-  if (map) gmshFree(map);
-  if (nmap) gmshFree(nmap);
-  return ierr;
+  return pm_cad_occ_cut_volumes(box, cyl);
 }
 
 static int make_nonmanifold(void) {
