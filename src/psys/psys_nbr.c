@@ -176,14 +176,6 @@ void psys_nbr_reset(psys_sys *s) { s->nbr.rebuild = 1; }
 
 /* ---- making lists ---------------------------------------------------------------------------- */
 
-static void sort_small(int32_t *a, int32_t n) {
-  for (int32_t i = 1; i < n; ++i) {
-    int32_t v = a[i], j = i;
-    while (j > 0 && a[j - 1] > v) a[j] = a[j - 1], --j;
-    a[j] = v;
-  }
-}
-
 /* A visit of the grid that keeps the candidates of a gap list: most particles around a face
  * particle lie on its own face, which makes no gap, so they are dropped before anything else. */
 typedef struct gvisit {
@@ -217,7 +209,7 @@ static int make_list(const psys_sys *s, const psys_vl *V, int kind, int32_t i, p
     gvisit g = {s, V, i, psys_key(s, s->dim[i], s->cell[i]), l, 0};
     pm_grid_visit(V->grid, &V->x0[3 * i], r, PM_GRID_MUTUAL, gap_candidate, &g);
     if (g.oom) return -1;
-    sort_small(l->ids, l->n);
+    pm_sort_ids(l->ids, l->n); /* a gap list holds a few hundred */
     return 0;
   }
   if (pm_grid_query_mutual(V->grid, &V->x0[3 * i], r, q, NULL)) return -1;
@@ -514,11 +506,6 @@ pm_status psys_nbr_compact(psys_sys *s, const int32_t *map, int32_t n_old, pm_er
   return st;
 }
 
-static int cmp_i32(const void *a, const void *b) {
-  int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
-  return (x > y) - (x < y);
-}
-
 static pm_status vl_permute(psys_sys *s, psys_vl *V, int32_t lo, int32_t m, const int32_t *perm,
                             const int32_t *inv, pm_error *err) {
   const int32_t n = s->n;
@@ -541,9 +528,8 @@ static pm_status vl_permute(psys_sys *s, psys_vl *V, int32_t lo, int32_t m, cons
 #pragma omp parallel for num_threads(s->threads) schedule(dynamic, 256) if (n > 4096)
   for (int32_t i = 0; i < n; ++i) {
     psys_list *li = &V->l[i];
-    if (li->n == 0) continue; /* an empty list may have no array (qsort's argument is nonnull) */
     for (int32_t q = 0; q < li->n; ++q) li->ids[q] = inv[li->ids[q]];
-    qsort(li->ids, (size_t)li->n, sizeof(int32_t), cmp_i32);
+    pm_sort_ids(li->ids, li->n);
   }
   return pm_grid_renumber(V->grid, n, inv, err);
 }

@@ -29,11 +29,6 @@ static int ibuf_push(ibuf *b, int32_t x) {
   return 0;
 }
 
-static int cmp_i32(const void *a, const void *b) {
-  int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
-  return (x > y) - (x < y);
-}
-
 /* Append the closure of cell (dim, idx) to b: the cell, its boundary cells, the cells embedded in
  * it, recursively (duplicates removed later). Dimensions above 2 are not particle cells. */
 static int closure_add(const psys_sys *s, int dim, int32_t idx, ibuf *b, int depth) {
@@ -64,7 +59,7 @@ static pm_status build_closures(psys_sys *s, pm_error *err) {
     for (int32_t i = 0; i < m->count[d]; ++i) {
       one.n = 0;
       if (closure_add(s, d, i, &one, 0)) goto oom;
-      qsort(one.v, (size_t)one.n, sizeof(int32_t), cmp_i32);
+      pm_sort_ids(one.v, one.n);
       int32_t k = psys_key(s, d, i);
       for (int32_t q = 0; q < one.n; ++q) {
         if (q && one.v[q] == one.v[q - 1]) continue;

@@ -574,6 +574,37 @@ static void concurrent_queries(void **state) {
   pm_grid_destroy(g);
 }
 
+static int cmp_i32(const void *a, const void *b) {
+  int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+  return (x > y) - (x < y);
+}
+
+/* pm_sort_ids against qsort on both sides of its insertion-sort cut-over, with duplicates, and
+ * on the inputs that break a naive quicksort: sorted, reversed, all equal. */
+static void sort_ids(void **state) {
+  (void)state;
+  pm_rng g;
+  pm_rng_init(&g, 7, 0);
+  const int32_t sizes[] = {0, 1, 2, 47, 48, 49, 97, 1000, 100000};
+  for (size_t k = 0; k < sizeof sizes / sizeof *sizes; ++k) {
+    int32_t n = sizes[k];
+    int32_t *a = malloc((size_t)(n ? n : 1) * sizeof *a), *b = malloc((size_t)(n ? n : 1) * sizeof *b);
+    assert_non_null(a), assert_non_null(b);
+    for (int shape = 0; shape < 4; ++shape) {
+      for (int32_t i = 0; i < n; ++i)
+        a[i] = shape == 0   ? (int32_t)pm_rng_below(&g, (uint64_t)(n / 3 + 1))
+               : shape == 1 ? i
+               : shape == 2 ? n - i
+                            : 5;
+      memcpy(b, a, (size_t)n * sizeof *a);
+      pm_sort_ids(a, n);
+      qsort(b, (size_t)n, sizeof *b, cmp_i32);
+      if (n && memcmp(a, b, (size_t)n * sizeof *a)) fail_msg("n %d shape %d: order differs", n, shape);
+    }
+    free(a), free(b);
+  }
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(empty_grid),
@@ -589,6 +620,7 @@ int main(void) {
       cmocka_unit_test(offsets_and_levels),
       cmocka_unit_test(far_points),
       cmocka_unit_test(concurrent_queries),
+      cmocka_unit_test(sort_ids),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

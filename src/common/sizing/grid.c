@@ -161,9 +161,9 @@ void pm_idbuf_free(pm_idbuf *b) {
   b->n = b->cap = 0;
 }
 
-/* Sort ids increasingly: insertion sort for the short lists of most queries, quicksort (median
- * of three, recursing into the smaller part) for long ones. */
-static void sort_ids(int32_t *a, int32_t n) {
+/* Insertion sort for the short lists of most queries, quicksort (median of three, recursing into
+ * the smaller part) for long ones. */
+void pm_sort_ids(int32_t *a, int32_t n) {
   while (n > 48) {
     int32_t x = a[0], y = a[n / 2], z = a[n - 1];
     int32_t piv = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y));
@@ -179,10 +179,10 @@ static void sort_ids(int32_t *a, int32_t n) {
     /* a[0..j] <= piv <= a[j+1..n-1] */
     int32_t left = j + 1, right = n - left;
     if (left < right) {
-      sort_ids(a, left);
+      pm_sort_ids(a, left);
       a += left, n = right;
     } else {
-      sort_ids(a + left, right);
+      pm_sort_ids(a + left, right);
       n = left;
     }
   }
@@ -1249,7 +1249,7 @@ pm_status pm_grid_query(const pm_grid *g, const double xyz[3], double r, pm_grid
     out->n = 0;
     return q.st;
   }
-  sort_ids(out->ids, out->n);
+  pm_sort_ids(out->ids, out->n);
   return PM_OK;
 }
 
@@ -1408,7 +1408,7 @@ pm_status pm_grid_knearest(const pm_grid *g, const double xyz[3], int32_t k, pm_
     return pm_error_setf(err, PM_ERR_NOMEM, "k nearest: out of memory for %d distances", want);
   out->n = pm_grid_knearest_fixed(g, xyz, want, out->ids, d2);
   free(d2);
-  sort_ids(out->ids, out->n);
+  pm_sort_ids(out->ids, out->n);
   return PM_OK;
 }
 

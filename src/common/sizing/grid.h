@@ -102,6 +102,9 @@ pm_status pm_idbuf_push(pm_idbuf *b, int32_t id, pm_error *err);
 /* Release the array and reset to empty. Accepts NULL. */
 void pm_idbuf_free(pm_idbuf *b);
 
+/* Sort n ids increasingly, in place (the order every query returns; n <= 0 is a no-op). */
+void pm_sort_ids(int32_t *a, int32_t n);
+
 /* ---- the grid ---------------------------------------------------------------------------- */
 
 typedef struct pm_grid pm_grid;
