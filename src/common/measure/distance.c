@@ -81,53 +81,129 @@ pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
 
 static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
-/* The foot of x on face f from uv (in place): returns the distance |x - S(uv)|; *inside says
- * whether the final uv lies in the trimmed region by pm_face_inside (only then is S(uv) known to
- * be a point of the model); foot and nrm (may be NULL) receive S(uv) and Su x Sv there. */
-static double face_foot(const pm_cell *f, const double x[3], double uv[2], int *inside,
-                        double foot[3], double nrm[3]) {
-  const double tol = FOOT_STEP_TOL * f->model->diagonal;
+/* Feet on one face are searched FOOT_BATCH at a time, in lockstep: every round of the
+ * iteration evaluates the pending points of all searches in one pm_face_eval_many call. Each
+ * search evaluates the same points in the same order as alone, so the batch changes no figure;
+ * on a face evaluated by gmsh it shares one lock and one call among the batch (GMSH_API.md: 2 to
+ * 6 times cheaper per point than one call each). */
+#define FOOT_BATCH 64
+
+/* One search of face_feet: the current point (uv, fp, d) and, while a step is tried, the trial
+ * parameters uvn at lam times the Gauss-Newton step dpar. */
+typedef struct foot_search {
+  double uv[2], uvn[2], dpar[2], lam, d;
+  pm_face_point fp;
+  int it, bt;
+  enum { FOOT_START, FOOT_TRIAL, FOOT_DONE } stage;
+} foot_search;
+
+static void foot_clamp(const pm_cell *f, double uv[2]) {
   for (int k = 0; k < 2; ++k)
     if (!f->periodic[k]) uv[k] = clampd(uv[k], f->lo[k], f->hi[k]);
-  pm_face_point fp;
-  pm_face_eval(f, uv, 1, &fp);
-  double d = pm_v3_dist(x, fp.p);
-  for (int it = 0; it < FOOT_MAX_IT && d > 0; ++it) {
-    /* Gauss-Newton: the parameter step whose image is the tangential part of x - S (the
-     * shared papers/001 eq. 7-9 routine, which also handles the singular metric at a pole). */
-    double r[3], dpar[2] = {0, 0}, der[6];
-    pm_v3_sub(r, x, fp.p);
-    pm_v3_copy(der, fp.su), pm_v3_copy(der + 3, fp.sv);
-    pm_cell_param_delta(f, uv, der, r, dpar);
-    /* The step's image Su du + Sv dv is the tangential part of x - S: when it is below the
-     * tolerance, S(uv) is already the foot to within it, and evaluating the step would only
-     * confirm so. */
-    double img[3];
-    for (int k = 0; k < 3; ++k) img[k] = dpar[0] * fp.su[k] + dpar[1] * fp.sv[k];
-    if (pm_v3_norm(img) <= tol) break;
-    double lam = 1, uvn[2] = {uv[0], uv[1]}, dn = d;
-    pm_face_point fn;
-    int ok = 0;
-    for (int bt = 0; bt < FOOT_BACKTRACK; ++bt, lam *= 0.5) {
-      uvn[0] = uv[0] + lam * dpar[0], uvn[1] = uv[1] + lam * dpar[1];
-      for (int k = 0; k < 2; ++k)
-        if (!f->periodic[k]) uvn[k] = clampd(uvn[k], f->lo[k], f->hi[k]);
-      pm_face_eval(f, uvn, 1, &fn);
-      dn = pm_v3_dist(x, fn.p);
-      if (dn <= d) {
-        ok = 1;
-        break;
-      }
-    }
-    if (!ok) break;
-    double step = pm_v3_dist(fn.p, fp.p);
-    uv[0] = uvn[0], uv[1] = uvn[1], fp = fn, d = dn;
-    if (step <= tol) break;
+}
+
+static void foot_trial(const pm_cell *f, foot_search *s) {
+  s->uvn[0] = s->uv[0] + s->lam * s->dpar[0], s->uvn[1] = s->uv[1] + s->lam * s->dpar[1];
+  foot_clamp(f, s->uvn);
+}
+
+/* A new Gauss-Newton step from the current point, or the end of the search. */
+static void foot_step(const pm_cell *f, const double x[3], double tol, foot_search *s) {
+  if (s->it >= FOOT_MAX_IT || !(s->d > 0)) {
+    s->stage = FOOT_DONE;
+    return;
   }
-  pm_cell_wrap(f, uv);
-  *inside = pm_face_inside(f, uv);
-  if (foot) pm_v3_copy(foot, fp.p);
-  if (nrm) pm_v3_cross(nrm, fp.su, fp.sv);
+  /* The parameter step whose image is the tangential part of x - S (the shared papers/001 eq.
+   * 7-9 routine, which also handles the singular metric at a pole). */
+  double r[3], der[6], img[3];
+  s->dpar[0] = s->dpar[1] = 0;
+  pm_v3_sub(r, x, s->fp.p);
+  pm_v3_copy(der, s->fp.su), pm_v3_copy(der + 3, s->fp.sv);
+  pm_cell_param_delta(f, s->uv, der, r, s->dpar);
+  /* The step's image Su du + Sv dv is the tangential part of x - S: when it is below the
+   * tolerance, S(uv) is already the foot to within it, and evaluating the step would only
+   * confirm so. */
+  for (int k = 0; k < 3; ++k) img[k] = s->dpar[0] * s->fp.su[k] + s->dpar[1] * s->fp.sv[k];
+  if (pm_v3_norm(img) <= tol) {
+    s->stage = FOOT_DONE;
+    return;
+  }
+  s->lam = 1, s->bt = 0, s->stage = FOOT_TRIAL;
+  foot_trial(f, s);
+}
+
+/* Advance search s with the evaluation of its pending point. A trial is accepted when it does
+ * not increase the distance; otherwise the step is halved, up to FOOT_BACKTRACK trials. */
+static void foot_advance(const pm_cell *f, const double x[3], double tol, foot_search *s,
+                         const pm_face_point *at) {
+  if (s->stage == FOOT_START) {
+    s->fp = *at, s->d = pm_v3_dist(x, at->p), s->it = 0;
+    foot_step(f, x, tol, s);
+    return;
+  }
+  const double dn = pm_v3_dist(x, at->p);
+  if (dn <= s->d) {
+    const double step = pm_v3_dist(at->p, s->fp.p);
+    s->uv[0] = s->uvn[0], s->uv[1] = s->uvn[1], s->fp = *at, s->d = dn;
+    if (step <= tol) {
+      s->stage = FOOT_DONE;
+      return;
+    }
+    ++s->it;
+    foot_step(f, x, tol, s);
+    return;
+  }
+  if (++s->bt >= FOOT_BACKTRACK) {
+    s->stage = FOOT_DONE;
+    return;
+  }
+  s->lam *= 0.5;
+  foot_trial(f, s);
+}
+
+/* The feet of the n <= FOOT_BATCH points x on face f, each from its uv (in place), by
+ * Gauss-Newton iterations: d[i] = |x_i - S(uv_i)|; inside[i] says whether the final uv lies in
+ * the trimmed region by pm_face_inside (only then is S(uv) known to be a point of the model);
+ * foot and nrm (may be NULL) receive S(uv) and Su x Sv there. */
+static void face_feet(const pm_cell *f, int32_t n, const double *x, double *uv, double *d,
+                      int *inside, double *foot, double *nrm) {
+  const double tol = FOOT_STEP_TOL * f->model->diagonal;
+  foot_search s[FOOT_BATCH];
+  pm_face_point at[FOOT_BATCH];
+  double q[2 * FOOT_BATCH];
+  int32_t pending[FOOT_BATCH];
+  for (int32_t i = 0; i < n; ++i) {
+    s[i].uv[0] = uv[2 * i], s[i].uv[1] = uv[2 * i + 1];
+    foot_clamp(f, s[i].uv);
+    s[i].stage = FOOT_START;
+  }
+  for (;;) {
+    int32_t m = 0;
+    for (int32_t i = 0; i < n; ++i) {
+      if (s[i].stage == FOOT_DONE) continue;
+      const double *p = s[i].stage == FOOT_START ? s[i].uv : s[i].uvn;
+      q[2 * m] = p[0], q[2 * m + 1] = p[1], pending[m++] = i;
+    }
+    if (!m) break;
+    pm_face_eval_many(f, m, q, 1, at);
+    for (int32_t k = 0; k < m; ++k)
+      foot_advance(f, x + 3 * pending[k], tol, &s[pending[k]], &at[k]);
+  }
+  for (int32_t i = 0; i < n; ++i) {
+    pm_cell_wrap(f, s[i].uv);
+    uv[2 * i] = s[i].uv[0], uv[2 * i + 1] = s[i].uv[1];
+    d[i] = s[i].d;
+    inside[i] = pm_face_inside(f, s[i].uv);
+    if (foot) pm_v3_copy(foot + 3 * i, s[i].fp.p);
+    if (nrm) pm_v3_cross(nrm + 3 * i, s[i].fp.su, s[i].fp.sv);
+  }
+}
+
+/* The foot of one point (face_feet of one). */
+static double face_foot(const pm_cell *f, const double x[3], double uv[2], int *inside,
+                        double foot[3], double nrm[3]) {
+  double d;
+  face_feet(f, 1, x, uv, &d, inside, foot, nrm);
   return d;
 }
 
@@ -684,8 +760,10 @@ static int inside_exact(const dctx *c, int32_t fi, int poly_in, const double p[3
 }
 
 /* Distance from x to the model's faces (surface part) or dangling curves (wire part): the
- * smallest exact candidate (see distance.h). *fallback is set when none existed. */
-static double model_dist(const dctx *c, int part, const double x[3], const hint *h, int *fallback) {
+ * smallest exact candidate (see distance.h). pre (may be NULL) is the foot from the hint's face
+ * and parameters, already searched (face_feet). *fallback is set when none existed. */
+static double model_dist(const dctx *c, int part, const double x[3], const hint *h,
+                         const fcand *pre, int *fallback) {
   const pm_model *m = c->m;
   double best = INFINITY, eps = c->p->ref_tol * m->diagonal;
   *fallback = 0;
@@ -698,10 +776,14 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
      * within reach + ref_reach of x's closest reference triangle. */
     double reach = INFINITY;
     if (h && h->cell >= 0) {
-      double uv[2] = {h->par[0], h->par[1]};
       fcand *a = &fc[nf++];
-      a->f = h->cell;
-      a->d = face_foot(&m->cells[PM_FACE][h->cell], x, uv, &a->in, a->p, a->n);
+      if (pre) {
+        *a = *pre;
+      } else {
+        double uv[2] = {h->par[0], h->par[1]};
+        a->f = h->cell;
+        a->d = face_foot(&m->cells[PM_FACE][h->cell], x, uv, &a->in, a->p, a->n);
+      }
       poly_in[0] = a->in;
       /* inside_exact searches the curves within its band of the foot, which is within
        * a->d + |x - g| of the centroid: when they are farther, its verdict is poly_in. */
@@ -848,40 +930,48 @@ typedef struct mblock {
   int64_t first;  /* global index of the block's first sample */
 } mblock;
 
-/* Evaluate a mesh-side sample at parameters par (triangle: barycentric (s, t) of vertices 1 and
- * 2; segment: t in [0, 1]). Returns the distance, NAN outside the element; fills x and weight
- * is left to the caller. */
-static double mesh_eval(const dctx *c, int kind, int32_t e, const double par[2], double x[3],
-                        int *fallback) {
+/* The point x of a mesh-side sample at parameters par (triangle: barycentric (s, t) of vertices
+ * 1 and 2; segment: t in [0, 1]) and its hint. Returns 0 outside the element. */
+static int mesh_point(const dctx *c, int kind, int32_t e, const double par[2], double x[3],
+                      hint *h) {
   const pm_mesh *me = c->mesh;
-  *fallback = 0;
   if (kind == S_TRI) {
     double s = par[0], t = par[1];
-    if (!(s >= 0 && t >= 0 && s + t <= 1)) return NAN;
+    if (!(s >= 0 && t >= 0 && s + t <= 1)) return 0;
     const int32_t *v = &me->tri[3 * (size_t)e];
     const double w[3] = {1 - s - t, s, t};
     pm_v3_zero(x);
     for (int k = 0; k < 3; ++k) pm_v3_axpy(x, x, w[k], &me->xyz[3 * (size_t)v[k]]);
     double np[3][2];
-    hint h = {-1, {0, 0}, e};
+    *h = (hint){-1, {0, 0}, e};
     int32_t f = tri_hint_nodes(c, e, np);
     if (f >= 0) {
-      h.cell = f;
-      for (int q = 0; q < 2; ++q) h.par[q] = w[0] * np[0][q] + w[1] * np[1][q] + w[2] * np[2][q];
+      h->cell = f;
+      for (int q = 0; q < 2; ++q) h->par[q] = w[0] * np[0][q] + w[1] * np[1][q] + w[2] * np[2][q];
     }
-    return model_dist(c, PART_SURF, x, &h, fallback);
+    return 1;
   }
   double t = par[0];
-  if (!(t >= 0 && t <= 1)) return NAN;
+  if (!(t >= 0 && t <= 1)) return 0;
   int32_t sg = c->wire_seg[e];
   const double *a = &me->xyz[3 * (size_t)me->seg[2 * (size_t)sg]],
                *b = &me->xyz[3 * (size_t)me->seg[2 * (size_t)sg + 1]];
   for (int k = 0; k < 3; ++k) x[k] = (1 - t) * a[k] + t * b[k];
   double np[2];
-  hint h = {-1, {0, 0}, -1};
+  *h = (hint){-1, {0, 0}, -1};
   int32_t cu = seg_hint_nodes(c, sg, np);
-  if (cu >= 0 && c->dangling[cu]) h.cell = cu, h.par[0] = (1 - t) * np[0] + t * np[1];
-  return model_dist(c, PART_WIRE, x, &h, fallback);
+  if (cu >= 0 && c->dangling[cu]) h->cell = cu, h->par[0] = (1 - t) * np[0] + t * np[1];
+  return 1;
+}
+
+/* The distance of a mesh-side sample (mesh_point) to the model, NAN outside the element; fills x.
+ * The weight is left to the caller. */
+static double mesh_eval(const dctx *c, int kind, int32_t e, const double par[2], double x[3],
+                        int *fallback) {
+  hint h;
+  *fallback = 0;
+  if (!mesh_point(c, kind, e, par, x, &h)) return NAN;
+  return model_dist(c, kind == S_TRI ? PART_SURF : PART_WIRE, x, &h, NULL, fallback);
 }
 
 /* Evaluate a model-side sample at parameters par of block b's cell: NAN outside the cell. For
@@ -1858,9 +1948,11 @@ static pm_status dist_buffers(dist_state *r, pm_error *err) {
   return PM_OK;
 }
 
-/* Evaluate mesh-side samples s0 .. s0 + n - 1 into the chunk buffers, in parallel: the lattice
- * points of the triangles, then level + 1 points per wire segment. A point on an edge between
- * two faces is measured through a triangle of each and keeps the smaller distance (lattice). */
+/* Evaluate mesh-side samples s0 .. s0 + n - 1 into the chunk buffers, in parallel, FOOT_BATCH
+ * at a time: the lattice points of the triangles, then level + 1 points per wire segment. The
+ * feet from the hints of a batch are searched a face at a time (face_feet); the rest of each
+ * sample's distance follows one by one (model_dist). A point on an edge between two faces is
+ * measured through a triangle of each and keeps the smaller distance (lattice). */
 static void mesh_chunk_eval(dist_state *r, int64_t s0, int64_t n) {
   const dctx *c = &r->c;
   const pm_mesh *mesh = c->mesh;
@@ -1868,34 +1960,68 @@ static void mesh_chunk_eval(dist_state *r, int64_t s0, int64_t n) {
   const int64_t ntri_s = r->ntri_s;
   double *dres = r->dres, *wres = r->wres, *rres = r->rres, *xres = r->xres;
   int *fres = r->fres;
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t k = 0; k < n; ++k) {
-    int64_t sidx = s0 + k;
-    int kind;
-    int32_t e;
-    double par[2], w;
-    if (sidx < ntri_s) {
-      kind = S_TRI, e = lat->tri[sidx];
-      par[0] = lat->par[2 * sidx], par[1] = lat->par[2 * sidx + 1];
-      w = lat->w[sidx];
-    } else {
-      int64_t q = sidx - ntri_s;
-      kind = S_SEG, e = (int32_t)(q / c->npt_seg);
-      par[0] = (double)(q % c->npt_seg) / c->level, par[1] = 0;
-      const int32_t *v = &mesh->seg[2 * (size_t)c->wire_seg[e]];
-      w = pm_v3_dist(&mesh->xyz[3 * (size_t)v[0]], &mesh->xyz[3 * (size_t)v[1]]) / c->npt_seg;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t b0 = 0; b0 < n; b0 += FOOT_BATCH) {
+    const int32_t nb = n - b0 < FOOT_BATCH ? (int32_t)(n - b0) : FOOT_BATCH;
+    hint h[FOOT_BATCH];
+    fcand pre[FOOT_BATCH];
+    int kind[FOOT_BATCH], state[FOOT_BATCH]; /* state: 0 outside, 1 no foot yet, 2 foot in pre */
+    for (int32_t j = 0; j < nb; ++j) {
+      const int64_t k = b0 + j, sidx = s0 + k;
+      int32_t e;
+      double par[2], w;
+      if (sidx < ntri_s) {
+        kind[j] = S_TRI, e = lat->tri[sidx];
+        par[0] = lat->par[2 * sidx], par[1] = lat->par[2 * sidx + 1];
+        w = lat->w[sidx];
+      } else {
+        int64_t q = sidx - ntri_s;
+        kind[j] = S_SEG, e = (int32_t)(q / c->npt_seg);
+        par[0] = (double)(q % c->npt_seg) / c->level, par[1] = 0;
+        const int32_t *v = &mesh->seg[2 * (size_t)c->wire_seg[e]];
+        w = pm_v3_dist(&mesh->xyz[3 * (size_t)v[0]], &mesh->xyz[3 * (size_t)v[1]]) / c->npt_seg;
+      }
+      wres[k] = w;
+      state[j] = mesh_point(c, kind[j], e, par, &xres[3 * k], &h[j]);
     }
-    double *x = &xres[3 * k];
-    dres[k] = mesh_eval(c, kind, e, par, x, &fres[k]);
-    if (kind == S_TRI && lat->alt[sidx] >= 0) {
-      double x2[3];
-      int f2;
-      double d2 = mesh_eval(c, kind, lat->alt[sidx], &lat->apar[2 * sidx], x2, &f2);
-      if (d2 < dres[k] || !isfinite(dres[k])) dres[k] = d2, fres[k] = f2;
+    /* the hints' feet, a face at a time */
+    for (int32_t j = 0; j < nb; ++j) {
+      if (state[j] != 1 || kind[j] != S_TRI || h[j].cell < 0) continue;
+      const int32_t f = h[j].cell;
+      int32_t idx[FOOT_BATCH], m = 0;
+      double x[3 * FOOT_BATCH], uv[2 * FOOT_BATCH], d[FOOT_BATCH], foot[3 * FOOT_BATCH],
+          nrm[3 * FOOT_BATCH];
+      int in[FOOT_BATCH];
+      for (int32_t i = j; i < nb; ++i) {
+        if (state[i] != 1 || kind[i] != S_TRI || h[i].cell != f) continue;
+        pm_v3_copy(x + 3 * m, &xres[3 * (b0 + i)]);
+        uv[2 * m] = h[i].par[0], uv[2 * m + 1] = h[i].par[1];
+        idx[m++] = i;
+      }
+      face_feet(&c->m->cells[PM_FACE][f], m, x, uv, d, in, foot, nrm);
+      for (int32_t q = 0; q < m; ++q) {
+        fcand *a = &pre[idx[q]];
+        a->f = f, a->d = d[q], a->in = in[q];
+        pm_v3_copy(a->p, foot + 3 * q), pm_v3_copy(a->n, nrm + 3 * q);
+        state[idx[q]] = 2;
+      }
     }
-    wres[k] = w;
-    double sz = size_at(c, x);
-    rres[k] = sz > 0 ? dres[k] / sz : 0;
+    for (int32_t j = 0; j < nb; ++j) {
+      const int64_t k = b0 + j, sidx = s0 + k;
+      double *x = &xres[3 * k];
+      fres[k] = 0;
+      dres[k] = state[j] ? model_dist(c, kind[j] == S_TRI ? PART_SURF : PART_WIRE, x, &h[j],
+                                      state[j] == 2 ? &pre[j] : NULL, &fres[k])
+                         : NAN;
+      if (kind[j] == S_TRI && lat->alt[sidx] >= 0) {
+        double x2[3];
+        int f2;
+        double d2 = mesh_eval(c, S_TRI, lat->alt[sidx], &lat->apar[2 * sidx], x2, &f2);
+        if (d2 < dres[k] || !isfinite(dres[k])) dres[k] = d2, fres[k] = f2;
+      }
+      double sz = size_at(c, x);
+      rres[k] = sz > 0 ? dres[k] / sz : 0;
+    }
   }
 }
 
