@@ -173,6 +173,34 @@ static void triangle_across_a_vertex_gap_forces(void **state) {
   pm_model_destroy(m);
 }
 
+/* robust/step__U_Joint_2.stp: face 38 is a lens between curves 152 and 154, which leave vertex
+ * 124 tangent to each other (0.19 degrees apart 0.27 from it); the vertex is the image of a side
+ * of the face's (u, v) box that collapses to a point (|Sv| = 7e-17 there). bubble's triangle on
+ * vertex 124 and two nodes of curve 154 (0.08 degrees at the vertex) lies in that corner, its
+ * bisector 1e-5 radians outside the curve's chord: forced. Read with the normal at the vertex,
+ * the corner came out as the 359.8-degree complement, and by the bisector alone the triangle
+ * outside the lens. */
+static void triangle_in_a_cusp_at_a_pole_forces(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  char path[512];
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_input_open(pm_test_cad("robust/step__U_Joint_2.stp", path, sizeof path), &m,
+                             NULL, &e),
+               e);
+  const int dim[3] = {PM_CURVE, PM_CURVE, PM_VERTEX};
+  const int32_t cell[3] = {154, 154, 124};
+  const double fan[3][3] = {{-0.2526697708152376, 15.87298796672555, 0.0003892167476541254},
+                            {-0.297299206297451, 15.87221406508532, 0.0005389879927463097},
+                            {9.720312933465121e-16, 15.875, 0}};
+  pm_needles n = classify_xyz(m, fan, dim, cell, 38);
+  assert_int_equal(n.count, 1);
+  assert_int_equal(n.corner, 1);
+  assert_int_equal(n.unforced, 0);
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(strip_below_the_floor_forces),
@@ -181,6 +209,7 @@ int main(void) {
       cmocka_unit_test(gap_between_curve_and_face_forces),
       cmocka_unit_test(vertex_missed_by_its_curve_forces),
       cmocka_unit_test(triangle_across_a_vertex_gap_forces),
+      cmocka_unit_test(triangle_in_a_cusp_at_a_pole_forces),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -51,6 +51,9 @@ static void point_at_distance(const pm_cell *c, int end, double L, double out[3]
   pm_v3_copy(out, p.p);
 }
 
+/* |Su| below this share of |Sv|, or the reverse: the parametrization collapses there. */
+#define POLE_RATIO 1e-6
+
 /* A boundary curve leaving a vertex, seen from the vertex. */
 typedef struct ray {
   double angle;  /* about the normal, from the first ray */
@@ -73,15 +76,25 @@ static int ray_cmp(const void *a, const void *b) {
  * Returns the angle of the inside wedge holding the triangle, or -1 (no corner there: fewer
  * than two rays, a pole, the triangle in an outside wedge). */
 static double corner_angle_at(const pm_cell *f, int32_t v, const double P[3], const double Q[3],
-                              const double R[3]) {
+                              const double R[3], double sliver) {
   const pm_model *m = f->model;
   double L = 0.5 * (pm_v3_dist(P, Q) + pm_v3_dist(P, R));
   if (!(L > 0)) return -1;
-  /* The normal: from the face at v's position (the foot of P). */
+  /* The normal: from the face at v's position (the foot of P). Where v is the image of a side
+   * of the (u, v) box that collapses to a point (|Sv| ~ 0 against |Su|: the tip of a lens-shaped
+   * face, robust/step__U_Joint_2.stp), Su x Sv there points wherever round-off sends it, and
+   * the normal is taken at the foot of the triangle's centroid instead, inside the face. */
   double uv[2], foot[3];
   if (pm_cell_project(f, P, NULL, uv, foot, NULL, NULL) != PM_OK) return -1;
   pm_face_point fp;
   pm_face_eval(f, uv, 1, &fp);
+  const double lu = pm_v3_norm(fp.su), lv = pm_v3_norm(fp.sv);
+  if (!(lu > POLE_RATIO * lv && lv > POLE_RATIO * lu)) {
+    double g[3];
+    for (int k = 0; k < 3; ++k) g[k] = (P[k] + Q[k] + R[k]) / 3;
+    if (pm_cell_project(f, g, uv, uv, foot, NULL, NULL) != PM_OK) return -1;
+    pm_face_eval(f, uv, 1, &fp);
+  }
   double n[3];
   pm_v3_cross(n, fp.su, fp.sv);
   double nn = pm_v3_norm(n);
@@ -124,7 +137,28 @@ static double corner_angle_at(const pm_cell *f, int32_t v, const double P[3], co
   for (int i = 0; i < nr; ++i) {
     double a = rays[i].angle, b = i + 1 < nr ? rays[i + 1].angle : rays[0].angle + 2 * M_PI;
     double ph = phi < a ? phi + 2 * M_PI : phi;
-    if (ph >= a && ph <= b) return rays[i].outgoing ? b - a : -1;
+    if (ph >= a && ph <= b) {
+      if (rays[i].outgoing) return b - a;
+      break;
+    }
+  }
+  /* A triangle whose own angle at v is below `sliver` and overlaps an inside wedge below it
+   * fills that corner, though its bisector may lie just outside: a triangle on nodes of one of
+   * the corner's curves, in a cusp where the curve bows towards the other (the chords from v
+   * to its nodes then lie outside the curve by less than the wedge is wide:
+   * robust/step__U_Joint_2.stp, two curves tangent at their vertex, 0.14 degrees apart at
+   * 0.2 from it). */
+  double tq[3], tr[3];
+  tangential(tq, e1, n), tangential(tr, e2, n);
+  if (!(pm_v3_norm(tq) > 0 && pm_v3_norm(tr) > 0)) return -1;
+  double lo = angle_about(first, tq, n), w = angle_about(tq, tr, n);
+  if (w > M_PI) lo = angle_about(first, tr, n), w = 2 * M_PI - w;
+  if (!(w < sliver)) return -1;
+  for (int i = 0; i < nr; ++i) {
+    double a = rays[i].angle, b = i + 1 < nr ? rays[i + 1].angle : rays[0].angle + 2 * M_PI;
+    if (!rays[i].outgoing || !(b - a < sliver)) continue;
+    double l = lo < a ? lo + 2 * M_PI : lo; /* the arc [l, l + w] against [a, b] */
+    if (l < b || l + w > a + 2 * M_PI) return b - a;
   }
   return -1;
 }
@@ -286,7 +320,8 @@ pm_status pm_needles_classify(const pm_mesh *mesh, const pm_model *model, double
         const pm_cell *fc = &model->cells[PM_FACE][f];
         for (int j = 0; j < 3 && k == PM_NEEDLE_UNFORCED; ++j) {
           if (mesh->node_dim[v[j]] != PM_VERTEX) continue;
-          double a = corner_angle_at(fc, mesh->node_cell[v[j]], P[j], P[(j + 1) % 3], P[(j + 2) % 3]);
+          double a = corner_angle_at(fc, mesh->node_cell[v[j]], P[j], P[(j + 1) % 3], P[(j + 2) % 3],
+                                     rad);
           if (a >= 0 && a < rad) k = PM_NEEDLE_CORNER;
         }
         if (k == PM_NEEDLE_UNFORCED) {
