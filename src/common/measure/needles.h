@@ -7,7 +7,11 @@
  *     leaving the vertex, seen at the triangle's size (the chords to their points at that
  *     distance, in the face's tangent plane), inside the face: a sharp corner, or a cusp where
  *     two curves meet tangentially. Every triangle that small in such a corner has an angle
- *     below the limit at the vertex, whatever the mesher does;
+ *     below the limit at the vertex, whatever the mesher does. A triangle whose own angle at
+ *     the vertex is below the limit and overlaps such a corner counts too (its bisector may
+ *     lie a hair outside: nodes on a curve of the corner that bows towards the other). Where
+ *     the vertex is the image of a collapsed side of the face's (u, v) box, the face's normal
+ *     is taken at the triangle's centroid, not at the vertex;
  *   - feature: its shortest edge is shorter than the model's feature floor
  *     (PM_FEATURE_FLOOR x the model's bounding-box diagonal) and joins nodes on two different
  *     model cells of lower dimension than the face (two curves, a curve and a vertex): a sliver
