@@ -88,6 +88,15 @@ static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x >
  * 6 times cheaper per point than one call each). */
 #define FOOT_BATCH 64
 
+/* A foot on a face: the face, the distance d to it, the foot p, Su x Sv there (n), and whether
+ * its (u, v) lies in the trimmed region by pm_face_inside (only then is p known to be a point of
+ * the model). */
+typedef struct fcand {
+  int32_t f;
+  double d, p[3], n[3];
+  int in;
+} fcand;
+
 /* One search of face_feet: the current point (uv, fp, d) and, while a step is tried, the trial
  * parameters uvn at lam times the Gauss-Newton step dpar. */
 typedef struct foot_search {
@@ -161,12 +170,9 @@ static void foot_advance(const pm_cell *f, const double x[3], double tol, foot_s
   foot_trial(f, s);
 }
 
-/* The feet of the n <= FOOT_BATCH points x on face f, each from its uv (in place), by
- * Gauss-Newton iterations: d[i] = |x_i - S(uv_i)|; inside[i] says whether the final uv lies in
- * the trimmed region by pm_face_inside (only then is S(uv) known to be a point of the model);
- * foot and nrm (may be NULL) receive S(uv) and Su x Sv there. */
-static void face_feet(const pm_cell *f, int32_t n, const double *x, double *uv, double *d,
-                      int *inside, double *foot, double *nrm) {
+/* The feet out[i] of the n <= FOOT_BATCH points x_i on face f, each from uv_i, by Gauss-Newton
+ * iterations. */
+static void face_feet(const pm_cell *f, int32_t n, const double *x, const double *uv, fcand *out) {
   const double tol = FOOT_STEP_TOL * f->model->diagonal;
   foot_search s[FOOT_BATCH];
   pm_face_point at[FOOT_BATCH];
@@ -191,20 +197,15 @@ static void face_feet(const pm_cell *f, int32_t n, const double *x, double *uv, 
   }
   for (int32_t i = 0; i < n; ++i) {
     pm_cell_wrap(f, s[i].uv);
-    uv[2 * i] = s[i].uv[0], uv[2 * i + 1] = s[i].uv[1];
-    d[i] = s[i].d;
-    inside[i] = pm_face_inside(f, s[i].uv);
-    if (foot) pm_v3_copy(foot + 3 * i, s[i].fp.p);
-    if (nrm) pm_v3_cross(nrm + 3 * i, s[i].fp.su, s[i].fp.sv);
+    out[i].f = f->index, out[i].d = s[i].d, out[i].in = pm_face_inside(f, s[i].uv);
+    pm_v3_copy(out[i].p, s[i].fp.p);
+    pm_v3_cross(out[i].n, s[i].fp.su, s[i].fp.sv);
   }
 }
 
 /* The foot of one point (face_feet of one). */
-static double face_foot(const pm_cell *f, const double x[3], double uv[2], int *inside,
-                        double foot[3], double nrm[3]) {
-  double d;
-  face_feet(f, 1, x, uv, &d, inside, foot, nrm);
-  return d;
+static void face_foot(const pm_cell *f, const double x[3], const double uv[2], fcand *out) {
+  face_feet(f, 1, x, uv, out);
 }
 
 /* The foot of x on curve c from t (in place); every C(t) with t in range is a model point. *at
@@ -702,13 +703,6 @@ typedef struct hint {
   int32_t tri;    /* the mesh triangle the point lies in (its neighbourhood bounds), or -1 */
 } hint;
 
-/* A face candidate of model_dist. */
-typedef struct fcand {
-  int32_t f;
-  double d, p[3], n[3];
-  int in;
-} fcand;
-
 /* The trimming polylines cut the corners of curved boundaries (by up to 2e-4 of the parameter
  * box, trim.c): next to a convex piece of boundary the polyline region misses a sliver of the
  * face, next to a concave piece (a hole) it takes in a sliver outside the face. A point of the
@@ -777,13 +771,10 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
     double reach = INFINITY;
     if (h && h->cell >= 0) {
       fcand *a = &fc[nf++];
-      if (pre) {
+      if (pre)
         *a = *pre;
-      } else {
-        double uv[2] = {h->par[0], h->par[1]};
-        a->f = h->cell;
-        a->d = face_foot(&m->cells[PM_FACE][h->cell], x, uv, &a->in, a->p, a->n);
-      }
+      else
+        face_foot(&m->cells[PM_FACE][h->cell], x, h->par, a);
       poly_in[0] = a->in;
       /* inside_exact searches the curves within its band of the foot, which is within
        * a->d + |x - g| of the centroid: when they are farther, its verdict is poly_in. */
@@ -816,8 +807,7 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
           uv[0] += hit.bary[k] * c->rf.uv.v[2 * (size_t)v[k]],
               uv[1] += hit.bary[k] * c->rf.uv.v[2 * (size_t)v[k] + 1];
         fcand *b = &fc[nf++];
-        b->f = f;
-        b->d = face_foot(&m->cells[PM_FACE][f], x, uv, &b->in, b->p, b->n);
+        face_foot(&m->cells[PM_FACE][f], x, uv, b);
         b->in = inside_exact(c, b->f, b->in, b->p, b->n);
       }
     }
@@ -1989,22 +1979,16 @@ static void mesh_chunk_eval(dist_state *r, int64_t s0, int64_t n) {
       if (state[j] != 1 || kind[j] != S_TRI || h[j].cell < 0) continue;
       const int32_t f = h[j].cell;
       int32_t idx[FOOT_BATCH], m = 0;
-      double x[3 * FOOT_BATCH], uv[2 * FOOT_BATCH], d[FOOT_BATCH], foot[3 * FOOT_BATCH],
-          nrm[3 * FOOT_BATCH];
-      int in[FOOT_BATCH];
+      double x[3 * FOOT_BATCH], uv[2 * FOOT_BATCH];
+      fcand feet[FOOT_BATCH];
       for (int32_t i = j; i < nb; ++i) {
         if (state[i] != 1 || kind[i] != S_TRI || h[i].cell != f) continue;
         pm_v3_copy(x + 3 * m, &xres[3 * (b0 + i)]);
         uv[2 * m] = h[i].par[0], uv[2 * m + 1] = h[i].par[1];
         idx[m++] = i;
       }
-      face_feet(&c->m->cells[PM_FACE][f], m, x, uv, d, in, foot, nrm);
-      for (int32_t q = 0; q < m; ++q) {
-        fcand *a = &pre[idx[q]];
-        a->f = f, a->d = d[q], a->in = in[q];
-        pm_v3_copy(a->p, foot + 3 * q), pm_v3_copy(a->n, nrm + 3 * q);
-        state[idx[q]] = 2;
-      }
+      face_feet(&c->m->cells[PM_FACE][f], m, x, uv, feet);
+      for (int32_t q = 0; q < m; ++q) pre[idx[q]] = feet[q], state[idx[q]] = 2;
     }
     for (int32_t j = 0; j < nb; ++j) {
       const int64_t k = b0 + j, sidx = s0 + k;
