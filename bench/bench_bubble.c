@@ -6,7 +6,9 @@
  *                [--cad FILE] [--dump TRIS.dat] [--worst RR] [--extra] [--trace TRACE.csv]
  * Diagnostics: --dump writes the last mesh's triangles (x y radius_ratio, for gnuplot), --worst
  * lists the triangles below a radius ratio, --extra prints the run's extra statistics, --trace
- * writes the last run's trace.
+ * writes the last run's trace. --case NAME restricts planar, compare and timing to the input of
+ * that name (compare and timing: qi1..qi4, shimada, sphere, torus, synth_torus, t20_component8,
+ * wrench).
  * With no section named, all three run. Prints figures; never a timed test.
  */
 #include <math.h>
@@ -642,9 +644,11 @@ static void pair_header(const char *what) {
   printf("%-15s %-39s | %-39s |\n", "", "bubble (defect: triangles at lattice defects)", "gmsh-frontal");
 }
 
-static void section_compare(const bub_params *p, int big) {
+/* only: the input of that name alone (NULL: all). */
+static void section_compare(const bub_params *p, int big, const char *only) {
   pair_header("quality");
   for (int k = 0; k < NCOMPARE; ++k) {
+    if (only && strcmp(only, compare_inputs[k].name) != 0) continue;
     pm_model *m = NULL;
     pm_sizing *size = NULL;
     pm_error e = {0};
@@ -667,7 +671,7 @@ static void section_compare(const bub_params *p, int big) {
   if (!big) return;
   pair_header("time at 2e5 (qi1 --size 0.0063) and 1e5 nodes (CAD)");
   for (int k = 0; k < NCOMPARE; ++k) {
-    if (compare_inputs[k].big <= 0) continue;
+    if (compare_inputs[k].big <= 0 || (only && strcmp(only, compare_inputs[k].name) != 0)) continue;
     pm_model *m = NULL;
     pm_sizing *size = NULL, *sc = NULL;
     pm_error e = {0};
@@ -839,7 +843,7 @@ int main(int argc, char **argv) {
   printf("bench_bubble: packmesh %s\n", pm_version());
   if (want_planar) section_planar(&p, threads, only_case);
   if (want_tp) section_throughput(&p, opt_bspline);
-  if (want_cmp) section_compare(&p, want_big);
+  if (want_cmp) section_compare(&p, want_big, only_case);
   if (want_million) section_million(&p);
   if (want_accel) section_accel(&p, threads, want_accel);
   if (want_cad) section_cad(&p, threads, only_cad);
