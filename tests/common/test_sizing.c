@@ -279,6 +279,51 @@ static void sampled_triangles(void **state) {
   pm_mesh_destroy(m);
 }
 
+/* A sample mesh graded over seven orders of magnitude: a quarter disk of rings at radii
+ * 10^(-7 + 7 k / M) around a fan at the centre, its triangles about as wide as long at every
+ * scale. Every point inside gets the linear interpolation of its own element, wherever in the
+ * grading it lies, and a point just above an element (within its band) the value below it. The
+ * bins are filed on the levels 2^-17 .. 2^0 here, the finest clamped by the span. */
+static void sampled_graded(void **state) {
+  (void)state;
+  enum { M = 80, A = 8 };
+  const double q = pow(10, 7.0 / M);
+  pm_mesh *m = pm_mesh_create();
+  assert_non_null(m);
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_mesh_add_node(m, (double[3]){0, 0, 0}, -1, -1, NULL, NULL, &e), e);
+  for (int k = 0; k <= M; ++k)
+    for (int a = 0; a < A; ++a) {
+      const double r = pow(10, -7 + 7.0 * k / M), th = 0.5 * M_PI * a / (A - 1);
+      PM_ASSERT_OK(pm_mesh_add_node(m, (double[3]){r * cos(th), r * sin(th), 0}, -1, -1, NULL, NULL, &e), e);
+    }
+  for (int a = 0; a + 1 < A; ++a) PM_ASSERT_OK(pm_mesh_add_tri(m, 0, 1 + a, 2 + a, -1, &e), e);
+  for (int k = 0; k < M; ++k)
+    for (int a = 0; a + 1 < A; ++a) {
+      const int32_t i = 1 + k * A + a, j = i + A;
+      PM_ASSERT_OK(pm_mesh_add_tri(m, i, j, j + 1, -1, &e), e);
+      PM_ASSERT_OK(pm_mesh_add_tri(m, i, j + 1, i + 1, -1, &e), e);
+    }
+  double *val = malloc(sizeof(double) * (size_t)m->nnode);
+  for (int32_t i = 0; i < m->nnode; ++i) val[i] = lin2(m->xyz[3 * i], m->xyz[3 * i + 1]);
+  pm_sizing *s = NULL;
+  PM_ASSERT_OK(pm_sizing_sampled(m, val, &s, &e), e);
+  pm_rng g;
+  pm_rng_init(&g, 11, 0);
+  for (int k = 0; k < 5000; ++k) {
+    const double r = pow(10, -7 * pm_rng_uniform(&g)), th = 0.5 * M_PI * pm_rng_uniform(&g);
+    const double x = r * cos(th), y = r * sin(th);
+    /* inside the disk of the last ring's chords */
+    if (r > cos(0.25 * M_PI / (A - 1))) continue;
+    PM_ASSERT_NEAR(eval3(s, x, y, 0), lin2(x, y), 1e-13);
+    /* above the point by a twentieth of the ring spacing there (inside the element's band) */
+    PM_ASSERT_NEAR(eval3(s, x, y, 0.05 * r * (q - 1) / q), lin2(x, y), 1e-13);
+  }
+  pm_sizing_destroy(s);
+  free(val);
+  pm_mesh_destroy(m);
+}
+
 /* The unit cube as 6 tets around the diagonal (0,0,0)-(1,1,1), refined once by cutting it into 8
  * cubes. */
 static void sampled_tets(void **state) {
@@ -444,6 +489,7 @@ int main(void) {
       cmocka_unit_test(callback_field),
       cmocka_unit_test(sampled_triangles),
       cmocka_unit_test(sampled_tets),
+      cmocka_unit_test(sampled_graded),
       cmocka_unit_test(sampled_nodes_only_and_errors),
       cmocka_unit_test(concurrent_evaluation),
       cmocka_unit_test(check_against_model),
