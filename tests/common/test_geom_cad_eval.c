@@ -522,6 +522,50 @@ static void bspline_projection_matches_gmsh(void **state) {
   pm_model_destroy(m);
 }
 
+/* A pcurve that strays from its curve: on fusee.stp, face 84's pcurve of curve 413 (indices) is a
+ * straight line in (u, v) whose image passes up to 0.079 from the curve, which itself lies on the
+ * surface within 4.2e-4. The use is taken by projection, so the face's trimming polyline follows
+ * the curve; no other polyline point of the model strays much farther than its curve lies from
+ * the surface (2.1 times its gap beyond twice the floor here; face 84's points are within 4.2e-4
+ * of curve 413, 0.079 before the check). */
+static void stray_pcurve_is_projected(void **state) {
+  (void)state;
+  CAD_REQUIRE();
+  pm_model *m = cad_load_file("fusee.stp");
+  assert_non_null(strstr(pm_model_healed(m), "pcurve strays from the curve"));
+  double worst413 = 0, worst = 0;
+  int32_t on413 = 0;
+  for (int32_t i = 0; i < m->count[PM_FACE]; ++i) {
+    const pm_cell *f = pm_model_cell(m, PM_FACE, i);
+    for (int32_t l = 0; l < f->nloop; ++l) {
+      const pm_loop *L = &f->loop[l];
+      for (int32_t k = 0; k < L->npts; ++k) {
+        const pm_use *u = &L->use[L->pt_use[k]];
+        const pm_cell *c = pm_model_cell(m, PM_CURVE, u->cell);
+        if (c->degenerate) continue;
+        pm_curve_point cp;
+        pm_face_point fp;
+        pm_curve_eval(c, L->pt_t[k], 0, &cp);
+        pm_face_eval(f, &L->uv[2 * k], 0, &fp);
+        const double d = pm_v3_dist(cp.p, fp.p);
+        /* beyond twice the floor (a use is checked at 31 points: a bump narrower than their
+         * spacing may pass), a point strays no more than a few times the curve's own distance
+         * from the surface (a CAD gap: the pcurve then maps to the nearest surface point) */
+        double w[2];
+        const double gap = sqrt(pm_face_project_from(f, cp.p, &L->uv[2 * k], w));
+        worst = fmax(worst, (d - 2 * PM_FEATURE_FLOOR * m->diagonal) / fmax(gap, 1e-12));
+        if (i == 84 && u->cell == 413) worst413 = fmax(worst413, d), ++on413;
+      }
+    }
+  }
+  assert_true(on413 >= 8);
+  if (!(worst413 < 5e-4)) fail_msg("face 84, curve 413: the polyline strays %g from the curve", worst413);
+  if (!(worst < 8)) fail_msg("a polyline point strays %g times its curve's gap from its curve", worst);
+  printf("fusee.stp: polyline points stray at most twice the floor plus %.3g times their curves' "
+         "gaps (face 84, curve 413: %.3g)\n", worst, worst413);
+  pm_model_destroy(m);
+}
+
 /* Curves: C(t) projects back to t's point on lines, circles (across the closing point), ellipses
  * and B-splines. */
 static void curve_projection_round_trips(void **state) {
@@ -565,6 +609,7 @@ int main(void) {
       cmocka_unit_test(projection_round_trips),
       cmocka_unit_test(bspline_projection_matches_gmsh),
       cmocka_unit_test(curve_projection_round_trips),
+      cmocka_unit_test(stray_pcurve_is_projected),
   };
   int rc = cmocka_run_group_tests(tests, NULL, NULL);
   pm_gmsh_shutdown();

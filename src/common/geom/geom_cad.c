@@ -74,7 +74,8 @@ static void cad_destroy_impl(pm_model *m) {
     cad_leave(&g);
   }
   for (int d = 0; d < 4; ++d) {
-    for (int32_t i = 0; cm->cells[d] && i < m->count[d]; ++i) free(cm->cells[d][i].grid);
+    for (int32_t i = 0; cm->cells[d] && i < m->count[d]; ++i)
+      free(cm->cells[d][i].grid), free(cm->cells[d][i].reproj);
     free(cm->cells[d]);
   }
   free(cm);
@@ -438,7 +439,13 @@ pm_status pm_cad_load(const char *path, pm_model **out, pm_error *err) {
   double t0 = pm_seconds();
   s = cad_build(gname, path, &m, err);
   if (!s) {
-    snprintf(m->heal, sizeof m->heal, "%s", healed);
+    const cad_model *cm = m->impl;
+    if (cm->reprojected > 0)
+      snprintf(m->heal, sizeof m->heal, "%s%sboundary curves whose pcurve strays from the curve "
+               "(by up to %.3g), taken by projection onto the face: %d",
+               healed, healed[0] ? "; " : "", cm->reproj_worst, (int)cm->reprojected);
+    else
+      snprintf(m->heal, sizeof m->heal, "%s", healed);
     m->time_build = pm_seconds() - t0;
   }
   /* On failure cad_build released the model, which removed the gmsh model. */

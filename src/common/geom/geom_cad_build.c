@@ -958,6 +958,7 @@ pm_status cad_build(const char *gname, const char *label, pm_model **out, pm_err
   }
   if (!s) s = embed_by_adjacency(m, tl, err);
   if (!s) s = cad_build_grids(m, err);
+  if (!s) s = cad_check_pcurves(m, PM_FEATURE_FLOOR * diag, err);
   if (!s) s = pm_model_finish(m, err);
   if (!s) s = orient_volumes(m, err);
 done:

@@ -309,6 +309,87 @@ pm_status cad_build_grids(pm_model *m, pm_error *err) {
   return PM_OK;
 }
 
+/* ---- pcurves off their curves ------------------------------------------------------------
+ *
+ * A boundary curve's pcurve on a face should map onto the curve: S(p(t)) = C(t) to within the
+ * file's tolerance. Some files carry pcurves that do not (an edge not "same parameter" in
+ * OpenCASCADE's terms): fusee.stp's curve 413 lies on face 84's surface within 4e-4, but the
+ * face's pcurve for it is a straight line in (u, v) whose image strays up to 0.079 from it. The
+ * face's trimming polyline then cuts a band that wide off the face, no particle can enter it, and
+ * the connection fills it with needles between the curve's nodes and the face's first row (bubble:
+ * 4 unforced needles there, the face's nodes 0.1 from a curve spaced 0.017). gmsh has the same
+ * check behind Geometry.ReparamOnFaceRobust (off by default); here it runs at load, once per use:
+ * at PCURVE_SAMPLES interior parameters the pcurve's point is compared with the curve's, and a
+ * use is marked when some point strays more than the feature floor while the curve's own point
+ * lies on the surface (its projection is at most a quarter as far). A marked use's (u, v) at t
+ * is the curve's point projected onto the surface by Newton's iteration from the pcurve's
+ * point, kept on the pcurve's side of a seam, and only when the projection is the nearer. */
+#define PCURVE_SAMPLES 31
+
+static int reprojected(const cad_cell *cc, const pm_use *use) {
+  const int32_t key = 2 * use->cell + (use->side ? 1 : 0);
+  for (int32_t k = 0; k < cc->nreproj; ++k)
+    if (cc->reproj[k] == key) return 1;
+  return 0;
+}
+
+/* uv := the projection of C(t) onto face f from uv when that is nearer C(t) than S(uv); the
+ * squared distances before and after into d2_pc, d2_proj when not NULL. */
+static void onto_surface(const pm_cell *f, const pm_cell *curve, double t, double uv[2],
+                         double *d2_pc, double *d2_proj) {
+  pm_curve_point cp;
+  pm_face_point fp;
+  pm_curve_eval(curve, t, 0, &cp);
+  pm_face_eval(f, uv, 0, &fp);
+  const double before = pm_v3_dist2(fp.p, cp.p);
+  double w[2];
+  const double after = pm_face_project_from(f, cp.p, uv, w);
+  for (int k = 0; k < 2; ++k)
+    if (f->periodic[k] && f->period[k] > 0) w[k] += f->period[k] * nearbyint((uv[k] - w[k]) / f->period[k]);
+  if (d2_pc) *d2_pc = before;
+  if (d2_proj) *d2_proj = after;
+  if (after < before) uv[0] = w[0], uv[1] = w[1];
+}
+
+static void face_curve_uv(const pm_cell *self, const pm_use *use, double t, double uv[2]);
+
+pm_status cad_check_pcurves(pm_model *m, double tol, pm_error *err) {
+  cad_model *cm = m->impl;
+  cm->reprojected = 0, cm->reproj_worst = 0;
+  for (int32_t i = 0; i < m->count[PM_FACE]; ++i) {
+    pm_cell *f = &m->cells[PM_FACE][i];
+    cad_cell *fc = f->impl;
+    for (int32_t l = 0; l < f->nloop; ++l)
+      for (int32_t u = 0; u < f->loop[l].nuse; ++u) {
+        const pm_use *use = &f->loop[l].use[u];
+        const pm_cell *c = &m->cells[PM_CURVE][use->cell];
+        const cad_cell *ccv = c->impl;
+        if (c->degenerate || ccv->synthetic || reprojected(fc, use)) continue;
+        double worst = 0;
+        for (int k = 1; k <= PCURVE_SAMPLES; ++k) {
+          const double t = c->lo[0] + (c->hi[0] - c->lo[0]) * k / (PCURVE_SAMPLES + 1);
+          double uv[2], d2_pc, d2_proj;
+          pm_curve_point cp;
+          pm_face_point fp;
+          face_curve_uv(f, use, t, uv);
+          pm_curve_eval(c, t, 0, &cp);
+          pm_face_eval(f, uv, 0, &fp);
+          if (!(pm_v3_dist2(fp.p, cp.p) > tol * tol)) continue;
+          onto_surface(f, c, t, uv, &d2_pc, &d2_proj);
+          if (d2_proj <= d2_pc / 16) worst = fmax(worst, sqrt(d2_pc));
+        }
+        if (!(worst > 0)) continue;
+        int32_t *r = realloc(fc->reproj, sizeof(int32_t) * ((size_t)fc->nreproj + 1));
+        if (!r) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+        fc->reproj = r;
+        fc->reproj[fc->nreproj++] = 2 * use->cell + (use->side ? 1 : 0);
+        cm->reprojected++;
+        cm->reproj_worst = fmax(cm->reproj_worst, worst);
+      }
+  }
+  return PM_OK;
+}
+
 static void face_curve_uv(const pm_cell *self, const pm_use *use, double t, double uv[2]) {
   const cad_cell *cc = self->impl;
   const pm_cell *curve = &self->model->cells[PM_CURVE][use->cell];
@@ -334,6 +415,7 @@ static void face_curve_uv(const pm_cell *self, const pm_use *use, double t, doub
   if (!ierr && n == 2 && r && isfinite(r[0]) && isfinite(r[1])) {
     uv[0] = r[0], uv[1] = r[1];
     gmshFree(r);
+    if (cc->nreproj && reprojected(cc, use)) onto_surface(self, curve, t, uv, NULL, NULL);
     return;
   }
   if (r) gmshFree(r);

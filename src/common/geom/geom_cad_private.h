@@ -58,12 +58,19 @@ typedef struct cad_cell {
    * nearest of them instead of calling gmshModelGetParametrization (see cad_build_grids). */
   double *grid;
   int32_t gn[2];
+  /* Faces: the boundary-curve uses whose pcurve strays from the curve (cad_check_pcurves), as
+   * keys 2 x curve index + side, owned; their (u, v) are the curve's points projected onto the
+   * surface from the pcurve's. */
+  int32_t *reproj;
+  int32_t nreproj;
 } cad_cell;
 
 struct cad_model {
   char gname[64];       /* the gmsh model that holds the shapes */
   cad_cell *cells[4];   /* [count[d]] owned, parallel to the pm_model's cells */
   atomic_long failures; /* gmsh evaluations replaced by the fallback output */
+  int32_t reprojected;  /* boundary-curve uses marked by cad_check_pcurves */
+  double reproj_worst;  /* the largest distance of their pcurves from their curves */
 };
 
 /* Lock gmsh and make cm's gmsh model current, remembering the previous current model. Returns 0,
@@ -114,6 +121,11 @@ pm_status cad_attach(pm_model *m, const char *gname, pm_error *err);
 
 /* Sample the projection grids of the gmsh-evaluated faces and curves of m. */
 pm_status cad_build_grids(pm_model *m, pm_error *err);
+
+/* Mark the boundary-curve uses of m's faces whose pcurve strays from the curve by more than tol
+ * in 3D where the curve itself lies on the surface (see geom_cad_eval.c); counts them in the
+ * cad_model. Runs before the trimming polylines are made (pm_model_finish). */
+pm_status cad_check_pcurves(pm_model *m, double tol, pm_error *err);
 
 /* Create a fresh uniquely named gmsh model ("pm_cad_<n>") and make it current inside `scope`
  * (gmsh locked by the caller). */
