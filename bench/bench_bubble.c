@@ -516,6 +516,13 @@ static struct {
   int have_tp, have_big;
 } fig;
 
+#define SCALE_PAIRS 5
+
+static int cmp_double(const void *a, const void *b) {
+  const double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
 static void section_throughput(const bub_params *p, const char *cad) {
   printf("\nthroughput: RK4 bubble-steps per second (a bubble-step: one bubble, one RK4 step)\n");
   pm_model *sq = NULL, *torus = NULL, *bs = NULL;
@@ -539,13 +546,26 @@ static void section_throughput(const bub_params *p, const char *cad) {
       int64_t n = k ? 1000000 : 100000;
       rate r1 = step_rate(sq, n, 1, p), r2 = step_rate(sq, n, 2, p);
       *(k ? &fig.plane1e6 : &fig.plane1e5) = r1.cpu;
-      if (!k) fig.scale2 = r2.wall / r1.wall;
       snprintf(note, sizeof note, "target >= 2.5e6 per core: %s (list builds %lld)",
                r1.cpu >= 2.5e6 ? "met" : "MISSED", (long long)r1.builds);
       print_rate(k ? "bubble step, plane, 1e6" : "bubble step, plane, 1e5", 1, &r1, note);
-      snprintf(note, sizeof note, "x %.2f of one thread (target >= 1.8: %s)", r2.wall / r1.wall,
-               r2.wall / r1.wall >= 1.8 ? "met" : "MISSED");
+      snprintf(note, sizeof note, "x %.2f of one thread", r2.wall / r1.wall);
       print_rate(k ? "bubble step, plane, 1e6" : "bubble step, plane, 1e5", 2, &r2, note);
+      if (k) continue;
+      /* The target's ratio: a single pair moves with the machine's load from one run to the
+       * next (1.41 to 2.39 in pairs minutes apart on a shared two-core machine), so it is the
+       * median of SCALE_PAIRS pairs, one thread then two, alternating. */
+      double ratio[SCALE_PAIRS];
+      ratio[0] = r2.wall / r1.wall;
+      for (int q = 1; q < SCALE_PAIRS; ++q) {
+        rate a = step_rate(sq, n, 1, p), b = step_rate(sq, n, 2, p);
+        ratio[q] = b.wall / a.wall;
+      }
+      qsort(ratio, SCALE_PAIRS, sizeof(double), cmp_double);
+      fig.scale2 = ratio[SCALE_PAIRS / 2];
+      printf("  two threads / one thread, plane, 1e5, %d alternating pairs:", SCALE_PAIRS);
+      for (int q = 0; q < SCALE_PAIRS; ++q) printf(" %.2f", ratio[q]);
+      printf("; median %.2f (target >= 1.8: %s)\n", fig.scale2, fig.scale2 >= 1.8 ? "met" : "MISSED");
     }
   }
   if (pm_case_open("torus", &torus, NULL, &e) == PM_OK) {
@@ -781,7 +801,7 @@ static void section_done(void) {
     printf("  %-62s %10.3g  >= 2.5e6   %s  (bare arithmetic %.3g)\n", "RK4 bubble-steps / core-second, plane, 1e5 bubbles", fig.plane1e5, verdict(fig.plane1e5 >= 2.5e6), fig.bare1e5);
     printf("  %-62s %10.3g  >= 2.5e6   %s  (bare arithmetic %.3g)\n", "RK4 bubble-steps / core-second, plane, 1e6 bubbles", fig.plane1e6, verdict(fig.plane1e6 >= 2.5e6), fig.bare1e6);
     printf("  %-62s %10.3g  >= 1e6     %s\n", "RK4 bubble-steps / core-second, B-spline faces (t20_component8)", fig.bspline, verdict(fig.bspline >= 1e6));
-    printf("  %-62s %10.2f  >= 1.8     %s\n", "two threads / one thread (plane, 1e5, wall clock)", fig.scale2, verdict(fig.scale2 >= 1.8));
+    printf("  %-62s %10.2f  >= 1.8     %s\n", "two threads / one thread (plane, 1e5, wall, median of 5 pairs)", fig.scale2, verdict(fig.scale2 >= 1.8));
   }
   if (fig.have_big)
     printf("  %-62s %10.2f  <= 60      %s  (gmsh-frontal %.2f s; %d and %d nodes)\n", "qi1 --size 0.00314 on 2 threads, seconds", fig.big_bub, verdict(fig.big_bub <= 60), fig.big_gmsh, fig.big_bub_n, fig.big_gmsh_n);
