@@ -465,7 +465,7 @@ static int32_t colour_particles(const psys_sys *s, int32_t *colour) {
     for (int32_t q = 0; q < l->n && l->ids[q] < i; ++q) {
       const int32_t j = l->ids[q];
       const int32_t c = colour[j];
-      if (c < 0) continue;
+      if (c < 0 || stamp[c] == i) continue; /* (a colour already taken needs no distance) */
       const double *xj = &s->xs[4 * j];
       const double r = reach * (xi[3] > xj[3] ? xi[3] : xj[3]);
       if (psys_d2(xi, xj) < r * r) stamp[c] = i;
