@@ -49,7 +49,7 @@
 #define SAMPLE_TOL 0.1
 /* Nodes averaged by the inverse-distance fallback. */
 #define SAMPLE_K 8
-/* Bin keys: 6 bits of level (relative to lev_base) and 19 bits per axis. */
+/* Bin keys: 6 bits of level (relative to the finest level filed) and 19 bits per axis. */
 #define BIN_LEVELS 64
 #define BIN_AXIS_BITS 19
 #define BIN_AXIS_MAX ((int64_t)1 << BIN_AXIS_BITS)
@@ -69,8 +69,8 @@ struct sz_sampled {
   /* The element bins (step 1; element e < ntri is triangle e, else tet e - ntri). */
   double *box;         /* [6 nel] lo, hi of the box widened by tol; NaN: degenerate, never filed */
   double origin[3];    /* bin (l, i, j, k) is origin + 2^l [i, i + 1) x [j, j + 1) x [k, k + 1) */
-  int32_t lev_base;    /* the coarsest level used is lev_base + nlev - 1 */
-  int32_t nlev;        /* levels in use, listed in lev[] (ascending, relative to lev_base) */
+  int32_t nlev;        /* levels in use, listed in lev[] (ascending, relative to the finest
+                          level filed; lev_scale holds 2^-l of each) */
   int8_t lev[BIN_LEVELS];
   double lev_scale[BIN_LEVELS]; /* 2^-l of each listed level */
   pm_keyindex bins;    /* key -> bin */
@@ -373,7 +373,6 @@ static pm_status file_elements(sz_sampled *s, int32_t nel, pm_error *err) {
   if (lmin < floor_lev) lmin = floor_lev;
   if (lmax < lmin) lmax = lmin;
   if (lmin < lmax - (BIN_LEVELS - 1)) lmin = lmax - (BIN_LEVELS - 1);
-  s->lev_base = lmin;
   uint8_t used[BIN_LEVELS] = {0};
   for (int32_t e = 0; e < nel; ++e)
     if (level[e] != INT32_MIN) {
@@ -389,18 +388,26 @@ static pm_status file_elements(sz_sampled *s, int32_t nel, pm_error *err) {
       s->lev_scale[s->nlev] = ldexp(1.0, -(lmin + q));
       s->nlev++;
     }
-  /* Two passes: number the bins and count their elements, then fill. */
+  /* Two passes: number the bins and count their elements, then fill. The table and the counts
+   * grow with the bins found (neighbouring elements share most of theirs), not with 8 per
+   * element. */
   pm_status st = PM_OK;
-  int32_t nbin = 0;
+  int32_t nbin = 0, cap = 0;
   int32_t *count = NULL;
-  if (!pm_keyindex_reserve(&s->bins, 8 * nfiled) ||
-      !(count = calloc((size_t)8 * nfiled + 1, sizeof(int32_t)))) {
-    st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory for the element bins");
-    goto out;
-  }
   for (int pass = 0; pass < 2 && !st; ++pass) {
-    for (int32_t e = 0; e < nel; ++e) {
+    for (int32_t e = 0; e < nel && !st; ++e) {
       if (level[e] == INT32_MIN) continue;
+      if (pass == 0 && nbin + 8 > cap) {
+        const int32_t nc = cap ? 2 * cap : 1024;
+        int32_t *ncount = realloc(count, sizeof(int32_t) * (size_t)nc);
+        if (!ncount || !pm_keyindex_reserve(&s->bins, nc)) {
+          if (ncount) count = ncount;
+          st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory for the element bins");
+          break;
+        }
+        memset(ncount + cap, 0, sizeof(int32_t) * (size_t)(nc - cap));
+        count = ncount, cap = nc;
+      }
       uint64_t keys[8];
       const int32_t nk = box_keys(s, slot[level[e] - lmin], s->box + 6 * e, keys);
       for (int32_t a = 0; a < nk; ++a) {
@@ -413,6 +420,7 @@ static pm_status file_elements(sz_sampled *s, int32_t nel, pm_error *err) {
         }
       }
     }
+    if (st) break;
     if (pass == 0) {
       s->bin_off = malloc(sizeof(int32_t) * ((size_t)nbin + 1));
       int64_t total = 0;
@@ -426,7 +434,6 @@ static pm_status file_elements(sz_sampled *s, int32_t nel, pm_error *err) {
       for (int32_t b = 0; b < nbin; ++b) s->bin_off[b + 1] = s->bin_off[b] + count[b], count[b] = 0;
     }
   }
-out:
   free(count), free(level);
   return st;
 }
