@@ -91,16 +91,21 @@ static int32_t folded(const pm_model *m, const pm_mesh *mesh, int32_t f) {
   return n;
 }
 
+/* The use of curve index c in face fc's loops. */
+static const pm_use *use_of(const pm_cell *fc, int32_t c) {
+  for (int32_t l = 0; l < fc->nloop; ++l)
+    for (int32_t k = 0; k < fc->loop[l].nuse; ++k)
+      if (fc->loop[l].use[k].cell == c) return &fc->loop[l].use[k];
+  return NULL;
+}
+
 /* Face nodes on the (u, v) trace of curve `tag` in face f: at each segment's middle, a hundredth
  * of the segment's (u, v) length inside the face. Returns how many. */
 static int32_t trace_nodes(const pm_model *m, pm_mesh *mesh, int32_t f, int tag) {
   const pm_cell *fc = &m->cells[PM_FACE][f];
   int32_t c = cell_of_tag(m, PM_CURVE, tag);
   assert_true(c >= 0);
-  const pm_use *use = NULL;
-  for (int32_t l = 0; l < fc->nloop && !use; ++l)
-    for (int32_t k = 0; k < fc->loop[l].nuse; ++k)
-      if (fc->loop[l].use[k].cell == c) use = &fc->loop[l].use[k];
+  const pm_use *use = use_of(fc, c);
   assert_non_null(use);
   const pm_cell *cv = &m->cells[PM_CURVE][c];
   double *t = malloc(sizeof(double) * ((size_t)mesh->nnode + 2));
@@ -151,10 +156,7 @@ static void trace_nodes_kept(void **state) {
   /* curve 418's trace is the curve's, to the curve's own distance from the surface (0.0011) */
   {
     const pm_cell *fc = &m->cells[PM_FACE][f], *cv = &m->cells[PM_CURVE][cell_of_tag(m, PM_CURVE, 418)];
-    const pm_use *use = NULL;
-    for (int32_t l = 0; l < fc->nloop && !use; ++l)
-      for (int32_t k = 0; k < fc->loop[l].nuse; ++k)
-        if (fc->loop[l].use[k].cell == cv->index) use = &fc->loop[l].use[k];
+    const pm_use *use = use_of(fc, cv->index);
     assert_non_null(use);
     double worst = 0;
     for (int k = 0; k <= 40; ++k) {

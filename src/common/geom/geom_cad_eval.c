@@ -333,22 +333,23 @@ static int reprojected(const cad_cell *cc, const pm_use *use) {
   return 0;
 }
 
-/* uv := the projection of C(t) onto face f from uv when that is nearer C(t) than S(uv); the
- * squared distances before and after into d2_pc, d2_proj when not NULL. */
-static void onto_surface(const pm_cell *f, const pm_cell *curve, double t, double uv[2],
-                         double *d2_pc, double *d2_proj) {
+/* The projection of point p onto face f's surface from uv, into w, kept on uv's side of a seam;
+ * returns its squared distance. */
+static double project_near(const pm_cell *f, const double p[3], const double uv[2], double w[2]) {
+  const double d2 = pm_face_project_from(f, p, uv, w);
+  for (int k = 0; k < 2; ++k)
+    if (f->periodic[k] && f->period[k] > 0) w[k] += f->period[k] * nearbyint((uv[k] - w[k]) / f->period[k]);
+  return d2;
+}
+
+/* uv (the pcurve's point of C(t)) := the projection of C(t) onto face f, when that is nearer. */
+static void onto_surface(const pm_cell *f, const pm_cell *curve, double t, double uv[2]) {
   pm_curve_point cp;
   pm_face_point fp;
   pm_curve_eval(curve, t, 0, &cp);
   pm_face_eval(f, uv, 0, &fp);
-  const double before = pm_v3_dist2(fp.p, cp.p);
   double w[2];
-  const double after = pm_face_project_from(f, cp.p, uv, w);
-  for (int k = 0; k < 2; ++k)
-    if (f->periodic[k] && f->period[k] > 0) w[k] += f->period[k] * nearbyint((uv[k] - w[k]) / f->period[k]);
-  if (d2_pc) *d2_pc = before;
-  if (d2_proj) *d2_proj = after;
-  if (after < before) uv[0] = w[0], uv[1] = w[1];
+  if (project_near(f, cp.p, uv, w) < pm_v3_dist2(fp.p, cp.p)) uv[0] = w[0], uv[1] = w[1];
 }
 
 static void face_curve_uv(const pm_cell *self, const pm_use *use, double t, double uv[2]);
@@ -368,15 +369,15 @@ pm_status cad_check_pcurves(pm_model *m, double tol, pm_error *err) {
         double worst = 0;
         for (int k = 1; k <= PCURVE_SAMPLES; ++k) {
           const double t = c->lo[0] + (c->hi[0] - c->lo[0]) * k / (PCURVE_SAMPLES + 1);
-          double uv[2], d2_pc, d2_proj;
+          double uv[2], w[2];
           pm_curve_point cp;
           pm_face_point fp;
           face_curve_uv(f, use, t, uv);
           pm_curve_eval(c, t, 0, &cp);
           pm_face_eval(f, uv, 0, &fp);
-          if (!(pm_v3_dist2(fp.p, cp.p) > tol * tol)) continue;
-          onto_surface(f, c, t, uv, &d2_pc, &d2_proj);
-          if (d2_proj <= d2_pc / 16) worst = fmax(worst, sqrt(d2_pc));
+          const double d2_pc = pm_v3_dist2(fp.p, cp.p);
+          if (!(d2_pc > tol * tol)) continue;
+          if (project_near(f, cp.p, uv, w) <= d2_pc / 16) worst = fmax(worst, sqrt(d2_pc));
         }
         if (!(worst > 0)) continue;
         int32_t *r = realloc(fc->reproj, sizeof(int32_t) * ((size_t)fc->nreproj + 1));
@@ -415,7 +416,7 @@ static void face_curve_uv(const pm_cell *self, const pm_use *use, double t, doub
   if (!ierr && n == 2 && r && isfinite(r[0]) && isfinite(r[1])) {
     uv[0] = r[0], uv[1] = r[1];
     gmshFree(r);
-    if (cc->nreproj && reprojected(cc, use)) onto_surface(self, curve, t, uv, NULL, NULL);
+    if (cc->nreproj && reprojected(cc, use)) onto_surface(self, curve, t, uv);
     return;
   }
   if (r) gmshFree(r);
