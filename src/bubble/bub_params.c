@@ -171,6 +171,10 @@ static const pm_param_desc desc[] = {
      "(u, v) -- a pcurve off its curve, a chord sagging inside a coarse arc (0: keep every node, "
      "as the papers do)",
      "our addition (connect.c, step 1b)", NULL},
+    {"smooth", PM_PARAM_INT, F(smooth), 4, 0, 100, PM_RANGE_CLOSED, "sweeps",
+     "connection: sweeps of smart Laplacian smoothing of each face's interior nodes after the "
+     "flips, each move kept only when its ring's R/l_min improves (0: the nodes as placed)",
+     "our addition (connect/face_smooth.h); differs from the papers (0)", NULL},
     /* output */
     {"frame_every", PM_PARAM_INT, F(frame_every), 10, 1, 1000000, PM_RANGE_CLOSED, "steps",
      "--frames: one snapshot every this many steps", "-", NULL},

@@ -188,6 +188,8 @@ typedef struct bub_params {
   int drop_crossed; /* 1: face nodes beyond a boundary segment in 3D but inside it in (u, v) are
                        dropped before the connection (connect.c, step 1b); 0: every node is kept,
                        as in the papers; default 1 (our addition) */
+  int smooth;       /* connection: sweeps of interior-node smoothing per face (face_smooth.h;
+                       our addition); 0 = the nodes as placed, as in the papers; 4 */
   /* ---- output ---- */
   int frame_every;  /* --frames: a snapshot every this many steps; [1, 1e6], default 10 */
 } bub_params;

@@ -55,7 +55,8 @@ typedef struct psys_params {
   double lambda_max;    /* cap of lambda_i; 1 */
   double lambda_grow;   /* lambda_i is multiplied by this after an accepted step (the paper
                            only divides by 10); 2 */
-  int pair_sigma;       /* sigma_ij of a pair: 0 max(sigma_i, sigma_j) (eq. 1), 1 their mean; 0 */
+  int pair_sigma;       /* sigma_ij of a pair: 0 max(sigma_i, sigma_j) (eq. 1), 1 their mean
+                           (our default: psys_energy.c); 1 */
   double step_max;      /* longest world-space step, in units of sigma_i; 0.5 */
   double frame_tol;     /* faces evaluated by gmsh: a particle keeps the surface derivatives of
                            its last frame until it has moved this many sigma from it; 0.05
@@ -81,7 +82,7 @@ typedef struct psys_params {
   double anneal_off;    /* population control stops when a falls below this; 0.02 */
   double move_tol;      /* a phase ends when population control is off and the mean move is
                            below this many sigma; 2e-3 */
-  double move_tol_faces; /* phase 3's move_tol (the faces); 0: move_tol */
+  double move_tol_faces; /* phase 3's move_tol (the faces); 0: move_tol; 1e-3 */
   int max_iter;         /* iteration cap per phase; 1500 */
   int hold_sigma;       /* 1: phase 3 holds sigma once population control is off; 1 */
   int hungry_curves;    /* 1: hungry curve particles also keep population control on; 0 */
@@ -99,6 +100,8 @@ typedef struct psys_params {
                            (connect.c; our addition); on */
   int drop_crossed;     /* connection: face nodes beyond a boundary segment in 3D but inside it
                            in (u, v) dropped (connect.c, step 1b; our addition); on */
+  int smooth;           /* connection: sweeps of interior-node smoothing per face
+                           (face_smooth.h; our addition); 0 = the paper's nodes as placed; 4 */
   double tet_radius_edge; /* --volume: TetGen radius-edge bound (-q); 1.5 */
 } psys_params;
 

@@ -42,7 +42,13 @@
  * with 1e-4 after 1181; lattice defects 22% -> 12% -> 10% of the triangles), but on the graded
  * inferred field of t20_component8.step it moves the median from 0.659 to 0.656 (1e-3, 95
  * iterations) and 0.655 (5e-4, 150), and on case:qi1 --size 0.05, filled by the bootstrap fronts,
- * from 0.5878 to 0.5895 (3e-4): the default stays move_tol.
+ * from 0.5878 to 0.5895 (3e-4). With the pairs' mean sigma (pair_sigma = 1) and the
+ * connection's smoothing (smooth = 4) the longer relaxation pays on the graded fields too
+ * (median R / l_min at move_tol 2e-3 -> 1e-3, iterations of all phases: wrench.stp 0.6085 ->
+ * 0.6027, 168 -> 282; table.brep 0.6109 -> 0.6047, 116 -> 178; t20_component8.step 0.6346 ->
+ * 0.6322; bearing.iges 0.6307 -> 0.6290; synth_torus.brep 0.6024 -> 0.5981; crack.brep 0.6154
+ * -> 0.6183 the one loss of ten; 5e-4 gains another 0.001 to 0.004 for about twice the
+ * iterations again): phase 3 ends at move_tol_faces = 1e-3 by default.
  * Phase 3 holds sigma once population control is off (hold_sigma = 1, the default; 0 keeps
  * updating it). The field was inferred while the particles moved, and the count followed it; with
  * the count fixed, what is left is relaxing the packing in that field. Updated further, the field

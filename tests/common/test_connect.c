@@ -7,6 +7,8 @@
 #include <string.h>
 
 #include "common/connect/connect.h"
+#include "common/base/vec3.h"
+#include "common/connect/face_smooth.h"
 #include "common/geom/geom_analytic.h"
 #include "common/geom/geom_cad.h"
 #include "common/input/cases.h"
@@ -318,6 +320,100 @@ static void pole_fans_on_even_nodes(void **state) {
   pm_model_destroy(m);
 }
 
+/* face_smooth.h on a hexagonal fan of a planar face: the centre node, pushed off the middle,
+ * goes to the centroid of its ring in one sweep (the Laplacian step is taken whole when it
+ * improves the ring), the ring's nodes stay, and a second sweep has nothing left to do. */
+static void smooth_fan_recentres(void **state) {
+  (void)state;
+  pm_model *m = square_with_hole(0);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  double xyz[3 * 7], uv[2 * 7], nrm[3 * 7];
+  const uint8_t movable[7] = {1, 0, 0, 0, 0, 0, 0};
+  int32_t tri[3 * 6];
+  uv[0] = 0.2, uv[1] = -0.1;
+  for (int k = 0; k < 6; ++k) {
+    uv[2 * (k + 1)] = 0.5 * cos(k * M_PI / 3);
+    uv[2 * (k + 1) + 1] = 0.5 * sin(k * M_PI / 3);
+    tri[3 * k] = 0, tri[3 * k + 1] = 1 + k, tri[3 * k + 2] = 1 + (k + 1) % 6;
+  }
+  for (int v = 0; v < 7; ++v) {
+    pm_face_point fp;
+    pm_face_eval(f, &uv[2 * v], 1, &fp);
+    memcpy(&xyz[3 * v], fp.p, sizeof fp.p);
+    pm_v3_cross(&nrm[3 * v], fp.su, fp.sv);
+    pm_v3_scale(&nrm[3 * v], &nrm[3 * v], 1 / pm_v3_norm(&nrm[3 * v]));
+  }
+  double ring[3 * 6];
+  memcpy(ring, &xyz[3], sizeof ring);
+  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri), 1);
+  PM_ASSERT_NEAR(xyz[0], 0, 1e-12);
+  PM_ASSERT_NEAR(xyz[1], 0, 1e-12);
+  PM_ASSERT_NEAR(uv[0], 0, 1e-12);
+  PM_ASSERT_NEAR(uv[1], 0, 1e-12);
+  assert_memory_equal(ring, &xyz[3], sizeof ring);
+  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri), 0);
+  pm_model_destroy(m);
+}
+
+/* The connection's smoothing (smooth > 0) on curved faces: the same nodes and as many
+ * triangles, vertex and curve nodes where they were, face nodes moved along their face (each at
+ * S(u, v) of its new parameters), a valid mesh whose mean R / l_min is lower than without it, and
+ * the same mesh from the same nodes. */
+static void smoothing_on_curved_faces(void **state) {
+  (void)state;
+  const char *cases[] = {"sphere", "torus", "cylinder"};
+  for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+    pm_model *m = NULL;
+    pm_error e = {0};
+    PM_ASSERT_OK(pm_case_open(cases[k], &m, NULL, &e), e);
+    pm_mesh *plain = grid_nodes(m, 24), *smooth = grid_nodes(m, 24), *again = grid_nodes(m, 24);
+    pm_connect_params p;
+    pm_connect_params_init(&p);
+    PM_ASSERT_OK(pm_connect(m, plain, &p, NULL, &e), e);
+    p.smooth = 4;
+    pm_connect_report rep;
+    PM_ASSERT_OK(pm_connect(m, smooth, &p, &rep, &e), e);
+    PM_ASSERT_OK(pm_connect(m, again, &p, NULL, &e), e);
+    pm_check_report r = {0};
+    check_valid(smooth, m, &r);
+    pm_check_report_clear(&r);
+    assert_int_equal(smooth->nnode, plain->nnode);
+    assert_int_equal(smooth->ntri, plain->ntri);
+    assert_true(rep.smooth_moves > 0);
+    int32_t moved = 0;
+    for (int32_t i = 0; i < smooth->nnode; ++i) {
+      const double *x = &smooth->xyz[3 * i];
+      int same = memcmp(x, &plain->xyz[3 * i], 3 * sizeof(double)) == 0;
+      if (smooth->node_dim[i] != PM_FACE) {
+        assert_true(same);
+        continue;
+      }
+      moved += !same;
+      double s[3];
+      pm_cell_point(pm_model_cell(m, PM_FACE, smooth->node_cell[i]), &smooth->node_par[2 * i], s);
+      assert_true(pm_v3_dist2(s, x) < 1e-20);
+    }
+    double sum[2] = {0, 0};
+    pm_mesh *ms[2] = {plain, smooth};
+    for (int w = 0; w < 2; ++w)
+      for (int32_t t = 0; t < ms[w]->ntri; ++t) {
+        pm_tri_measure q;
+        const int32_t *v = &ms[w]->tri[3 * t];
+        pm_tri_measure_eval(&ms[w]->xyz[3 * v[0]], &ms[w]->xyz[3 * v[1]], &ms[w]->xyz[3 * v[2]], &q);
+        sum[w] += q.aspect_ratio;
+      }
+    print_message("%s: %d of %d nodes moved (%d moves), mean R/l_min %.4f -> %.4f\n", cases[k],
+                  moved, smooth->nnode, rep.smooth_moves, sum[0] / plain->ntri,
+                  sum[1] / smooth->ntri);
+    assert_true(moved > smooth->nnode / 4);
+    assert_true(sum[1] / smooth->ntri < sum[0] / plain->ntri - 0.01);
+    assert_memory_equal(again->xyz, smooth->xyz, sizeof(double) * 3 * (size_t)smooth->nnode);
+    assert_memory_equal(again->tri, smooth->tri, sizeof(int32_t) * 3 * (size_t)smooth->ntri);
+    pm_mesh_destroy(plain), pm_mesh_destroy(smooth), pm_mesh_destroy(again);
+    pm_model_destroy(m);
+  }
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(planar_square),
@@ -325,6 +421,8 @@ int main(void) {
       cmocka_unit_test(bad_nodes_rejected),
       cmocka_unit_test(curved_faces_flip_and_close),
       cmocka_unit_test(pole_fans_on_even_nodes),
+      cmocka_unit_test(smooth_fan_recentres),
+      cmocka_unit_test(smoothing_on_curved_faces),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -60,6 +60,7 @@ static void particle_energy_gradient_hessian(void **state) {
   (void)state;
   pm_model *m = psys_test_square(4);
   psys_sys *s = psys_test_system(m, NULL, 1);
+  s->p.pair_sigma = 0; /* eq. 1's max, as the sum below */
   pm_error e = {0};
   pm_rng r;
   pm_rng_init(&r, 11, 0);
@@ -105,8 +106,9 @@ static void particle_energy_gradient_hessian(void **state) {
   pm_model_destroy(m);
 }
 
-/* pair_sigma: sigma_ij is max(sigma_i, sigma_j) by default (eq. 1) and their mean with
- * pair_sigma = 1; a pair beyond the mean and within the max interacts only by default. */
+/* pair_sigma: sigma_ij is max(sigma_i, sigma_j) with pair_sigma = 0 (eq. 1) and their mean with
+ * pair_sigma = 1 (the default); a pair beyond the mean and within the max interacts only with
+ * eq. 1's max. */
 static void pair_sigma_choice(void **state) {
   (void)state;
   pm_model *m = psys_test_square(4);

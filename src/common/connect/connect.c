@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "common/backends/cdt_cgal.h"
+#include "common/connect/face_smooth.h"
 #include "common/base/clock.h"
 #include "common/mesh/mesh_topo.h"
 #include "common/base/hash.h"
@@ -27,6 +28,7 @@ void pm_connect_params_init(pm_connect_params *p) {
   p->max_nodes = 0;
   p->check_surface = 1;
   p->recovery_points = 1;
+  p->smooth = 0;
 }
 
 /* ---- nodes grouped by cell --------------------------------------------------------------- */
@@ -481,6 +483,10 @@ typedef struct face_out {
                      caller appends them to the mesh */
   int32_t vbase;
   double *new_xyz, *new_uv; /* [3*nnew], [2*nnew] */
+  int32_t nmoved;  /* interior nodes the smoothing moved (face_smooth.h): their mesh ids, */
+  int32_t *moved;  /* new positions and parameters, written to the mesh by the caller */
+  double *moved_xyz, *moved_uv; /* [3*nmoved], [2*nmoved] */
+  int32_t smooth_moves; /* accepted moves over all sweeps */
   pm_status status;
   pm_error err;
 } face_out;
@@ -976,7 +982,7 @@ static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face
         inq[re[k]] = 1;
       }
   }
-  out->flips = (int32_t)flips;
+  out->flips += (int32_t)flips;
   free(queue), free(inq), free(edges.key);
 }
 
@@ -1115,6 +1121,58 @@ static int is_pole(const face_work *w, int32_t node) {
   for (int32_t k = 0; k < w->npole; ++k)
     if (w->pole[k] == node) return 1;
   return 0;
+}
+
+/* Step 2, `smooth`: p->smooth sweeps of face_smooth.h over the face's interior nodes, each
+ * followed by the 3D flips again (the moves change which balls are empty). Only nodes that lie
+ * on this face alone move -- not a curve's, a vertex's, a pole's or one the repair added -- so
+ * faces stay independent and the caller writes the moves into the mesh in face order. */
+static pm_status smooth_face(const pm_cell *f, const pm_mesh *mesh, const pm_connect_params *p,
+                             face_work *w, face_out *out, pm_error *err) {
+  int32_t nv = w->nloc;
+  double *uv = malloc(sizeof(double) * 2 * (size_t)(nv ? nv : 1));
+  uint8_t *movable = calloc((size_t)(nv ? nv : 1), 1);
+  int32_t *npoint = calloc((size_t)(nv ? nv : 1), sizeof(int32_t));
+  if (!uv || !movable || !npoint) goto nomem;
+  for (int32_t q = w->np - 1; q >= 0; --q) {
+    int32_t l = w->loc[q];
+    npoint[l]++;
+    uv[2 * l] = w->uv[2 * q], uv[2 * l + 1] = w->uv[2 * q + 1];
+  }
+  int32_t nmov = 0;
+  for (int32_t l = 0; l < nv; ++l) {
+    int32_t g = w->gnode[l];
+    movable[l] = g < mesh->nnode && mesh->node_dim[g] == PM_FACE && npoint[l] == 1 &&
+                 !is_pole(w, g) && pm_v3_dot(&w->nrm[3 * l], &w->nrm[3 * l]) > 0;
+    nmov += movable[l];
+  }
+  if (nmov > 0) {
+    for (int k = 0; k < p->smooth; ++k) {
+      int32_t n = pm_face_smooth_sweep(f, nv, w->lxyz, uv, w->nrm, movable, w->ntri, w->tri);
+      if (n < 0) goto nomem;
+      out->smooth_moves += n;
+      if (n == 0) break;
+      if (p->flips != PM_FLIP_NONE) flip_face(w, mesh, (int64_t)p->max_flips_per_tri * w->ntri, out);
+    }
+    out->moved = malloc(sizeof(int32_t) * (size_t)nmov);
+    out->moved_xyz = malloc(sizeof(double) * 3 * (size_t)nmov);
+    out->moved_uv = malloc(sizeof(double) * 2 * (size_t)nmov);
+    if (!out->moved || !out->moved_xyz || !out->moved_uv) goto nomem;
+    for (int32_t l = 0; l < nv; ++l) {
+      if (!movable[l]) continue;
+      int32_t g = w->gnode[l], k = out->nmoved;
+      if (memcmp(&w->lxyz[3 * l], &mesh->xyz[3 * (size_t)g], 3 * sizeof(double)) == 0) continue;
+      out->moved[k] = g;
+      memcpy(&out->moved_xyz[3 * k], &w->lxyz[3 * l], 3 * sizeof(double));
+      memcpy(&out->moved_uv[2 * k], &uv[2 * l], 2 * sizeof(double));
+      out->nmoved++;
+    }
+  }
+  free(uv), free(movable), free(npoint);
+  return PM_OK;
+nomem:
+  free(uv), free(movable), free(npoint);
+  return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
 }
 
 /* Take a CDT's triangles into w->tri: merged points mapped to their representative, triangles
@@ -1422,6 +1480,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
     s = build_adjacency(&w, w.nloc, err);
     if (s) goto fail;
     flip_face(&w, mesh, (int64_t)p->max_flips_per_tri * w.ntri, out);
+    if (p->smooth > 0 && (s = smooth_face(f, mesh, p, &w, out, err))) goto fail;
   }
   if (out->curved) out->asp_after = sum_aspect(&w, mesh, &out->max_after, &out->degen_after);
   out->tri = malloc(sizeof(int32_t) * 3 * (size_t)(w.ntri ? w.ntri : 1));
@@ -1618,6 +1677,7 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
     for (int32_t f = 0; f < nf; ++f) {
       if (!redo[f]) continue;
       free(fo[f].tri), free(fo[f].new_xyz), free(fo[f].new_uv);
+      free(fo[f].moved), free(fo[f].moved_xyz), free(fo[f].moved_uv);
       memset(&fo[f], 0, sizeof fo[f]);
       connect_face(m, &m->cells[PM_FACE][f], mesh, &ch, &fb, p, &fo[f]);
     }
@@ -1627,6 +1687,16 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
         s = fo[f].status;
         goto done;
       }
+    /* The smoothing's moves: each node lies on one face only, so the order does not matter. */
+    for (int32_t f = 0; f < nf; ++f) {
+      for (int32_t k = 0; k < fo[f].nmoved; ++k) {
+        int32_t g = fo[f].moved[k];
+        memcpy(&mesh->xyz[3 * (size_t)g], &fo[f].moved_xyz[3 * k], 3 * sizeof(double));
+        memcpy(&mesh->node_par[2 * (size_t)g], &fo[f].moved_uv[2 * k], 2 * sizeof(double));
+      }
+      rep.smooth_moves += fo[f].smooth_moves;
+      fo[f].nmoved = fo[f].smooth_moves = 0;
+    }
     /* The nodes the faces added, in face order (so ids do not depend on the thread count). */
     for (int32_t f = 0; f < nf; ++f) {
       if (!redo[f] || fo[f].nnew == 0) continue;
@@ -1678,7 +1748,8 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
 done:
   if (fo)
     for (int32_t f = 0; f < m->count[PM_FACE]; ++f)
-      free(fo[f].tri), free(fo[f].new_xyz), free(fo[f].new_uv);
+      free(fo[f].tri), free(fo[f].new_xyz), free(fo[f].new_uv), free(fo[f].moved),
+          free(fo[f].moved_xyz), free(fo[f].moved_uv);
   free(fo);
   free(vnode);
   free(redo);

@@ -67,6 +67,9 @@ typedef struct pm_connect_params {
                              surface triangle, Schoenhardt's prism being the classic case), let
                              TetGen add the interior points it needs for that and report them
                              (pm_connect_report.steiner) instead of failing; default 1 */
+  int smooth;             /* sweeps of interior-node smoothing per face after the 3D flips
+                             (face_smooth.h), each followed by the flips again; 0: none, the
+                             nodes stay where the method put them; default 0 */
 } pm_connect_params;
 
 /* Defaults, in one place. */
@@ -86,6 +89,7 @@ typedef struct pm_connect_report {
                                   a corner: see connect.c) */
   int32_t metric_flips;        /* parameter-space edge flips under the local metric performed */
   int32_t flips;               /* 3D edge flips performed */
+  int32_t smooth_moves;        /* accepted node moves of the smoothing, over all sweeps */
   int32_t flip_cap_hits;       /* faces where the flip cap stopped the flips */
   double aspect_before;        /* mean R/l_min of the triangles of curved faces before flips */
   double aspect_after;         /* ... and after */

@@ -1,0 +1,107 @@
+/* Relocating the interior nodes of one face's triangulation (see face_smooth.h). */
+#include "common/connect/face_smooth.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/base/vec3.h"
+
+/* R / l_min of triangle (a, b, c): R = l0 l1 l2 / (4 area), so R / l_min is the product of the
+ * two longer edges over 4 area. Returns HUGE_VAL for a degenerate triangle, and for one whose
+ * normal turns against a node's surface normal (na, nb, nc, each zero where there is none). */
+static double ring_ratio(const double *a, const double *b, const double *c, const double *na,
+                         const double *nb, const double *nc) {
+  double ab[3], bc[3], ca[3], n[3];
+  pm_v3_sub(ab, b, a), pm_v3_sub(bc, c, b), pm_v3_sub(ca, a, c);
+  pm_v3_cross(n, ab, ca);
+  pm_v3_scale(n, n, -1.0);
+  double l0 = pm_v3_dot(ab, ab), l1 = pm_v3_dot(bc, bc), l2 = pm_v3_dot(ca, ca);
+  double n2 = pm_v3_dot(n, n), lmax = fmax(l0, fmax(l1, l2));
+  if (!(n2 > 1e-20 * lmax * lmax)) return HUGE_VAL;
+  if (pm_v3_dot(n, na) < 0 || pm_v3_dot(n, nb) < 0 || pm_v3_dot(n, nc) < 0) return HUGE_VAL;
+  double lmin = fmin(l0, fmin(l1, l2));
+  /* area = |n| / 2, so 4 area = 2 |n|; the two longer edges' squared product is l0 l1 l2 / lmin. */
+  return sqrt(l0 * l1 * l2 / lmin) / (2 * sqrt(n2));
+}
+
+/* The worst and the summed R / l_min of node v's ring, with v at position p and normal pn. */
+static void ring_measure(int32_t v, const double *p, const double *pn, const double *xyz,
+                         const double *nrm, const int32_t *tri, const int32_t *ring, int32_t nring,
+                         double *worst, double *sum) {
+  *worst = 0, *sum = 0;
+  for (int32_t k = 0; k < nring; ++k) {
+    const int32_t *t = &tri[3 * ring[k]];
+    const double *P[3], *N[3];
+    for (int q = 0; q < 3; ++q) {
+      P[q] = t[q] == v ? p : &xyz[3 * t[q]];
+      N[q] = t[q] == v ? pn : &nrm[3 * t[q]];
+    }
+    double r = ring_ratio(P[0], P[1], P[2], N[0], N[1], N[2]);
+    *worst = fmax(*worst, r), *sum += r;
+  }
+}
+
+/* The point of face f nearest to `target` near (u, v) = uv0: its parameters, position and unit
+ * normal. Returns 0 when it leaves the trimmed region or the surface has no normal there. */
+static int surface_point(const pm_cell *f, const double target[3], const double uv0[2],
+                         double uv[2], double p[3], double n[3]) {
+  pm_face_project_from(f, target, uv0, uv);
+  if (!pm_face_inside(f, uv)) return 0;
+  pm_face_point fp;
+  pm_face_eval(f, uv, 1, &fp);
+  pm_v3_cross(n, fp.su, fp.sv);
+  double nn = pm_v3_norm(n);
+  if (!(nn > 1e-10 * pm_v3_norm(fp.su) * pm_v3_norm(fp.sv))) return 0;
+  pm_v3_scale(n, n, 1.0 / nn);
+  memcpy(p, fp.p, sizeof fp.p);
+  return 1;
+}
+
+int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *uv, double *nrm,
+                             const uint8_t *movable, int32_t ntri, const int32_t *tri) {
+  /* The triangles around each node, as offsets into one array (counting sort by node). */
+  int32_t *off = calloc((size_t)nv + 1, sizeof(int32_t));
+  int32_t *ring = malloc(sizeof(int32_t) * 3 * (size_t)(ntri ? ntri : 1));
+  if (!off || !ring) {
+    free(off), free(ring);
+    return -1;
+  }
+  for (int32_t i = 0; i < 3 * ntri; ++i) off[tri[i] + 1]++;
+  for (int32_t v = 0; v < nv; ++v) off[v + 1] += off[v];
+  for (int32_t t = 0; t < ntri; ++t)
+    for (int q = 0; q < 3; ++q) ring[off[tri[3 * t + q]]++] = t;
+  for (int32_t v = nv; v > 0; --v) off[v] = off[v - 1];
+  off[0] = 0;
+
+  int32_t moved = 0;
+  for (int32_t v = 0; v < nv; ++v) {
+    int32_t nring = off[v + 1] - off[v];
+    if (!movable[v] || nring < 3) continue;
+    const int32_t *rv = &ring[off[v]];
+    /* The centroid of the ring's other nodes: each neighbour of an interior node appears in two
+     * of its triangles, so the mean over triangles weighs them alike. */
+    double c[3] = {0, 0, 0};
+    for (int32_t k = 0; k < nring; ++k)
+      for (int q = 0; q < 3; ++q)
+        if (tri[3 * rv[k] + q] != v) pm_v3_add(c, c, &xyz[3 * tri[3 * rv[k] + q]]);
+    pm_v3_scale(c, c, 0.5 / nring);
+    double worst0, sum0;
+    ring_measure(v, &xyz[3 * v], &nrm[3 * v], xyz, nrm, tri, rv, nring, &worst0, &sum0);
+    for (int half = 0; half < 2; ++half) {
+      double target[3], nuv[2], p[3], n[3], worst, sum;
+      pm_v3_sub(target, c, &xyz[3 * v]);
+      pm_v3_axpy(target, &xyz[3 * v], half ? 0.5 : 1.0, target);
+      if (!surface_point(f, target, &uv[2 * v], nuv, p, n)) continue;
+      ring_measure(v, p, n, xyz, nrm, tri, rv, nring, &worst, &sum);
+      if (!(worst <= worst0 && sum < sum0)) continue;
+      memcpy(&xyz[3 * v], p, sizeof p);
+      memcpy(&nrm[3 * v], n, sizeof n);
+      memcpy(&uv[2 * v], nuv, sizeof nuv);
+      ++moved;
+      break;
+    }
+  }
+  free(off), free(ring);
+  return moved;
+}

@@ -1,0 +1,40 @@
+/* Relocating the interior nodes of one face's triangulation (connect.h, step 2, `smooth`).
+ *
+ * A node-placement method leaves its nodes where its own equilibrium put them; the connection
+ * then joins them as they are. Where two lattices meet or the size field grades, the triangles
+ * around a node are uneven even though every node is where the method wanted it. This pass moves
+ * each interior node of a face, one at a time in index order (the result depends on nothing
+ * else), towards the centroid of its neighbours (Laplacian smoothing, as gmsh's Mesh.Smoothing
+ * does), projected back onto the surface, and keeps the move only when its ring gets better:
+ * the largest R / l_min of the ring does not grow and their sum falls ("smart" Laplacian, after
+ * Freitag's acceptance test). A move is tried whole, then halved once. A node whose ring would
+ * hold a triangle that is degenerate or turned against the surface's normal stays put, and so
+ * does a node whose projected position leaves the face's trimmed region.
+ *
+ * The nodes move on the surface: each position is S(u, v) for the node's new (u, v), found by
+ * Newton projection from its old (u, v) (pm_face_project_from). Boundary nodes (curves, vertices,
+ * poles) never move, so the face's boundary and its neighbours are untouched. */
+#ifndef PM_FACE_SMOOTH_H
+#define PM_FACE_SMOOTH_H
+
+#include <stdint.h>
+
+#include "common/geom/geom.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* One face's triangulation over nv local nodes: xyz [3*nv] positions, uv [2*nv] parameters on
+ * face f (read and written for movable nodes only), nrm [3*nv] unit surface normals (zero where
+ * the surface has none; written for the nodes that move), movable [nv] 1 for a node that may move,
+ * tri [3*ntri] triangles in local nodes, oriented along nrm. One sweep over the movable nodes;
+ * returns the number of nodes moved, -1 when out of memory. */
+int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *uv, double *nrm,
+                             const uint8_t *movable, int32_t ntri, const int32_t *tri);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PM_FACE_SMOOTH_H */
