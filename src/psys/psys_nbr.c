@@ -114,10 +114,14 @@ static int admits(const psys_sys *s, const psys_vl *V, int kind, int32_t i, int3
 }
 
 /* The list radii and budgets of the current phase (see the file comment). */
+double psys_nbr_reach(const psys_params *p) {
+  return fmax(fmax(1 + p->step_max, p->sigma_grow), 1 + PSYS_BETA);
+}
+
 static void set_radii(psys_sys *s) {
   const psys_params *p = &s->p;
   psys_vl *nb = &s->nbr.nb, *gp = &s->nbr.gp;
-  const double q = fmax(fmax(1 + p->step_max, p->sigma_grow), 1 + PSYS_BETA);
+  const double q = psys_nbr_reach(p);
   nb->move = NB_MOVE, nb->grow = NB_GROW, nb->on = 1;
   nb->f = (q * (1 + NB_GROW) + 2 * NB_MOVE) * MARGIN;
   gp->move = GP_MOVE, gp->grow = GP_GROW;

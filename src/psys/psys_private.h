@@ -177,6 +177,15 @@ typedef struct psys_sys {
   /* scratch of the sigma update */
   double *target;          /* [cap] the bounds of eq. 11 before the Lipschitz closure */
   double *key;             /* [cap] the closed field */
+
+  /* the colouring of the move pass (psys_move.c), kept from pass to pass while it holds */
+  int32_t *colour;         /* [colour_cap] colour of particle i, -1 when fixed */
+  int32_t *colour_order;   /* [colour_cap] the movable particles colour by colour */
+  int32_t *colour_start;   /* [colour_cap + 1] colour c at colour_start[c] .. [c + 1] - 1 */
+  int32_t colour_cap;
+  int32_t colour_n;        /* particles coloured; 0: no colouring */
+  int32_t ncolour;
+  int64_t recolours;       /* move passes that coloured the particles again */
 } psys_sys;
 
 /* A system on model m with parameters p (copied, must have passed psys_params_check), a given
@@ -244,6 +253,10 @@ static inline double psys_d2(const double *a, const double *b) {
 /* The lists of particle i. */
 static inline const psys_list *psys_nb(const psys_sys *s, int32_t i) { return &s->nbr.nb.l[i]; }
 static inline const psys_list *psys_gp(const psys_sys *s, int32_t i) { return &s->nbr.gp.l[i]; }
+
+/* q of psys_nbr.c: the neighbour list of i holds every particle j with |x_i - x_j| < q
+ * max(sigma_i, sigma_j) (the largest reach of the lists' uses). */
+double psys_nbr_reach(const psys_params *p);
 
 pm_status psys_nbr_init(psys_sys *s, pm_error *err);
 void psys_nbr_free(psys_sys *s);
