@@ -10,6 +10,8 @@
  *   - a sliver face narrower than the default size gives no needle;
  *   - a cone whose apex has a single face node near it (a pole fan of two triangles, the same
  *     triangle twice) is connected into a valid mesh by a repair node;
+ *   - boundary chords of two curves leaving a vertex tangent to each other that cross in the
+ *     face's parameter plane are split on their curves (a crescent);
  *   - face nodes beyond the chord of a boundary segment too coarse for its arc are dropped (a
  *     quarter cone frustum);
  *   - a cylinder far taller than wide in its parameters connects without wrapping round;
@@ -383,6 +385,89 @@ static void pole_with_two_neighbours(void **state) {
   PM_ASSERT_OK(pm_mesh_check(mesh, m, &chk, &e), e);
   if (!chk.valid) fail_msg("%s", chk.nproblem ? chk.problem[0] : "invalid");
   assert_true(rep.repair_nodes >= 1);
+  assert_int_equal(rep.chord_nodes, 0); /* no chords cross: the curve nodes are left as they are */
+  pm_check_report_clear(&chk);
+  pm_mesh_destroy(mesh);
+  pm_model_destroy(m);
+}
+
+/* ---- boundary chords that cross ----------------------------------------------------------- */
+
+/* A crescent between two arcs that leave the vertex (0, 2.2) tangent to each other: arc A of the
+ * circle of radius 2.2 about the origin, arc B of the circle of radius 2.4 about (0, -0.2), each a
+ * quarter turn to the left, closed by a line between their ends; at arc length s from the vertex
+ * the crescent is about 0.019 s^2 wide (0.0016 at s = 0.29), as robust/brep__test_11551.brep's
+ * face 1 is. */
+static int crescent(void) {
+  int ierr = 0;
+  int p0 = gmshModelOccAddPoint(0, 2.2, 0, 0, -1, &ierr);
+  int ca = gmshModelOccAddPoint(0, 0, 0, 0, -1, &ierr);
+  int ea = gmshModelOccAddPoint(-2.2, 0, 0, 0, -1, &ierr);
+  int cb = gmshModelOccAddPoint(0, -0.2, 0, 0, -1, &ierr);
+  int eb = gmshModelOccAddPoint(-2.4, -0.2, 0, 0, -1, &ierr);
+  int a = gmshModelOccAddCircleArc(p0, ca, ea, -1, &ierr);
+  int b = gmshModelOccAddCircleArc(p0, cb, eb, -1, &ierr);
+  int l = gmshModelOccAddLine(ea, eb, -1, &ierr);
+  int loop[3] = {a, l, -b};
+  int w = gmshModelOccAddCurveLoop(loop, 3, -1, &ierr);
+  gmshModelOccAddPlaneSurface(&w, 1, -1, &ierr);
+  return ierr;
+}
+
+/* Nodes evenly spaced in arc length, 0.23 apart on arc A and 0.29 on arc B (none on the line): the
+ * first chord of arc B, from the vertex, sags 0.0044 below its arc, deeper than the crescent is
+ * wide, and crosses arc A's second chord. Connected, the crossing chords are split on their
+ * curves (connect.c, step 1c) and the face is triangulated; without that the triangulation of the
+ * face fails ("constraint edges ... cross away from any input point"), as psys's nodes of
+ * brep__test_11551.brep did. */
+static void crossing_chords_are_split(void **state) {
+  (void)state;
+  const char *path = write_shape("crescent", crescent);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  assert_int_equal(m->count[PM_FACE], 1);
+  assert_int_equal(m->count[PM_CURVE], 3);
+  pm_mesh *mesh = pm_mesh_create();
+  assert_non_null(mesh);
+  int arcs = 0;
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+    double mid = 0.5 * (cv->lo[0] + cv->hi[0]), len = pm_curve_length(cv, cv->lo[0], cv->hi[0]);
+    double k = pm_curve_curvature(cv, mid);
+    if (k < 0.1) continue; /* the line */
+    const double h = k > 1 / 2.3 ? 0.23 : 0.29;
+    int n = (int)(len / h);
+    for (int i = 1; i <= n; ++i) {
+      /* arc length i h from the vertex (0, 2.2), whichever end of the curve it is */
+      double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * (i * h / len), x[3], y[3];
+      pm_cell_point(cv, &cv->lo[0], y);
+      if (fabs(y[1] - 2.2) > 1e-6 || fabs(y[0]) > 1e-6) t = cv->hi[0] - (t - cv->lo[0]);
+      pm_cell_point(cv, &t, x);
+      PM_ASSERT_OK(pm_mesh_add_node(mesh, x, PM_CURVE, c, &t, NULL, &e), e);
+    }
+    ++arcs;
+  }
+  assert_int_equal(arcs, 2);
+  pm_connect_report rep;
+  PM_ASSERT_OK(pm_connect(m, mesh, NULL, &rep, &e), e);
+  pm_check_report chk = {0};
+  PM_ASSERT_OK(pm_mesh_check(mesh, m, &chk, &e), e);
+  if (!chk.valid) fail_msg("%s", chk.nproblem ? chk.problem[0] : "invalid");
+  print_message("crescent: %d curve nodes added, %d triangles\n", (int)rep.chord_nodes,
+                (int)mesh->ntri);
+  /* at least the two chords of the first crossing, and every segment where it was */
+  assert_true(rep.chord_nodes >= 2);
+  assert_true(mesh->ntri > 0);
+  /* Every triangle is counter-clockwise or clockwise alike in the plane z = 0: none folded. */
+  int pos = 0, neg = 0;
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    const double *a = &mesh->xyz[3 * mesh->tri[3 * t]], *b = &mesh->xyz[3 * mesh->tri[3 * t + 1]],
+                 *c = &mesh->xyz[3 * mesh->tri[3 * t + 2]];
+    double area2 = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+    pos += area2 > 0, neg += area2 < 0;
+  }
+  assert_true(pos == 0 || neg == 0);
   pm_check_report_clear(&chk);
   pm_mesh_destroy(mesh);
   pm_model_destroy(m);
@@ -524,6 +609,7 @@ int main(void) {
       cmocka_unit_test(faces_listed_twice_are_kept_once),
       cmocka_unit_test(sliver_face_gives_no_needle),
       cmocka_unit_test(pole_with_two_neighbours),
+      cmocka_unit_test(crossing_chords_are_split),
       cmocka_unit_test(coarse_arc_drops_nodes_beyond_its_chord),
       cmocka_unit_test(tall_cylinder_does_not_wrap),
       cmocka_unit_test(graded_cone_does_not_wrap),

@@ -453,6 +453,9 @@ typedef struct face_work {
   int32_t *node;  /* [np] mesh node of each point */
   int32_t nc, capc;
   int32_t *cons;  /* [2*nc] constraint edges between points */
+  int32_t *cons_seg; /* [nc] the chain position (chains) of each constraint's curve segment:
+                        the segment from ch->node[k] to ch->node[k + 1]; -1 along a pole */
+  pm_use *cons_use;  /* [nc] the face's use of that segment's curve (its pcurve) */
   /* the face's distinct nodes, numbered locally: points map to them (loc[p]); each has the
    * surface's unit normal at it (zero at a pole, where the surface has none) */
   int32_t nloc;
@@ -494,7 +497,8 @@ typedef struct face_out {
 static void face_work_free(face_work *w) {
   free(w->next_of_node), free(w->head);
   free(w->loc), free(w->gnode), free(w->nrm), free(w->lxyz), free(w->pole);
-  free(w->uv), free(w->xy), free(w->node), free(w->cons), free(w->tri), free(w->nbr), free(w->fixed);
+  free(w->uv), free(w->xy), free(w->node), free(w->cons), free(w->cons_seg), free(w->cons_use);
+  free(w->tri), free(w->nbr), free(w->fixed);
   memset(w, 0, sizeof *w);
 }
 
@@ -528,16 +532,27 @@ static int add_point(face_work *w, const double uv[2], int32_t node) {
   return w->np++;
 }
 
-static int add_constraint(face_work *w, int32_t a, int32_t b) {
+/* Constrain the edge between points a and b, the curve segment at chain position seg (-1: none)
+ * of the use `use` (NULL with seg -1). */
+static int add_constraint(face_work *w, int32_t a, int32_t b, int32_t seg, const pm_use *use) {
   if (a == b) return 0;
   if (w->nc == w->capc) {
     int32_t cap = w->capc ? 2 * w->capc : 256;
     int32_t *c = realloc(w->cons, sizeof(int32_t) * 2 * (size_t)cap);
     if (!c) return -1;
     w->cons = c;
+    int32_t *g = realloc(w->cons_seg, sizeof(int32_t) * (size_t)cap);
+    if (!g) return -1;
+    w->cons_seg = g;
+    pm_use *u = realloc(w->cons_use, sizeof(pm_use) * (size_t)cap);
+    if (!u) return -1;
+    w->cons_use = u;
     w->capc = cap;
   }
   w->cons[2 * w->nc] = a, w->cons[2 * w->nc + 1] = b;
+  w->cons_seg[w->nc] = seg;
+  if (use) w->cons_use[w->nc] = *use;
+  else memset(&w->cons_use[w->nc], 0, sizeof(pm_use));
   w->nc++;
   return 0;
 }
@@ -605,7 +620,7 @@ static pm_status add_pole_copies(const pm_cell *f, const pm_use *use, double tlo
     double uv[2];
     pm_face_curve_uv(f, use, t0 + (t1 - t0) * s[k], uv);
     int32_t q = add_point(w, uv, node);
-    if (q < 0 || (*prev >= 0 && add_constraint(w, *prev, q))) {
+    if (q < 0 || (*prev >= 0 && add_constraint(w, *prev, q, -1, NULL))) {
       st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
       break;
     }
@@ -617,10 +632,11 @@ static pm_status add_pole_copies(const pm_cell *f, const pm_use *use, double tlo
 }
 
 /* The points of face f: the node chains of its loops (through the pcurves of each use) as closed
- * constrained polygons, its embedded curves as open constrained chains, and its own nodes. */
+ * constrained polygons, its embedded curves as open constrained chains, and, unless
+ * boundary_only, its own nodes. Each constraint keeps its curve segment (cons_seg). */
 static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const pm_mesh *mesh,
-                                    const chains *ch, const buckets *fb, face_work *w,
-                                    pm_error *err) {
+                                    const chains *ch, const buckets *fb, int boundary_only,
+                                    face_work *w, pm_error *err) {
   w->head = malloc(sizeof(int32_t) * ((size_t)mesh->nnode + 1));
   if (!w->head) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   for (int32_t i = 0; i < mesh->nnode; ++i) w->head[i] = -1;
@@ -630,6 +646,8 @@ static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const p
   for (int32_t l = 0; l < f->nloop; ++l) {
     const pm_loop *lp = &f->loop[l];
     int32_t first = -1, prev = -1; /* the loop's first point and the last one added */
+    int32_t seg = -1; /* the curve segment that leaves prev along the loop, */
+    const pm_use *seg_use = NULL; /* and its use */
     for (int32_t k = 0; k < lp->nuse; ++k) {
       const pm_use *use = &lp->use[k];
       int32_t c = use->cell, a = ch->off[c], b = ch->off[c + 1];
@@ -637,6 +655,7 @@ static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const p
         pm_status s = add_pole_copies(f, use, ch->t[a], ch->t[b - 1], ch->node[a], mesh, fb, w,
                                       &first, &prev, err);
         if (s) return s;
+        seg = -1, seg_use = NULL;
         continue;
       }
       /* Every chain node but the last in the use's direction: the last is the next use's first. */
@@ -646,12 +665,14 @@ static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const p
         pm_face_curve_uv(f, use, ch->t[i], uv);
         int32_t p = add_point(w, uv, ch->node[i]);
         if (p < 0) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-        if (prev >= 0 && add_constraint(w, prev, p)) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+        if (prev >= 0 && add_constraint(w, prev, p, seg, seg_use))
+          return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
         if (first < 0) first = p;
         prev = p;
+        seg = use->sense >= 0 ? i : i - 1, seg_use = use;
       }
     }
-    if (prev >= 0 && prev != first && add_constraint(w, prev, first))
+    if (prev >= 0 && prev != first && add_constraint(w, prev, first, seg, seg_use))
       return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
   for (int32_t e = 0; e < f->nembed; ++e) {
@@ -664,13 +685,13 @@ static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const p
         pm_face_curve_uv(f, &use, ch->t[i], uv);
         int32_t p = add_point(w, uv, ch->node[i]);
         if (p < 0) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-        if (prev >= 0 && add_constraint(w, prev, p)) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+        if (prev >= 0 && add_constraint(w, prev, p, i - 1, &use))
+          return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
         prev = p;
       }
     }
   }
-  (void)m;
-  for (int32_t k = fb->off[f->index]; k < fb->off[f->index + 1]; ++k) {
+  for (int32_t k = fb->off[f->index]; k < fb->off[f->index + 1] && !boundary_only; ++k) {
     int32_t id = fb->ids[k];
     if (add_point(w, &mesh->node_par[2 * id], id) < 0)
       return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
@@ -729,7 +750,8 @@ static void to_local_nodes(face_work *w) {
   for (int32_t k = 0; k < w->nc; ++k) {
     int32_t a = w->loc[w->cons[2 * k]], b = w->loc[w->cons[2 * k + 1]];
     if (a == b) continue;
-    w->cons[2 * n] = a, w->cons[2 * n + 1] = b, ++n;
+    w->cons[2 * n] = a, w->cons[2 * n + 1] = b;
+    w->cons_seg[n] = w->cons_seg[k], w->cons_use[n] = w->cons_use[k], ++n;
   }
   w->nc = n;
 }
@@ -1430,7 +1452,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
   pm_error *err = &out->err;
   pm_cdt_result cdt = {0};
   out->vbase = mesh->nnode;
-  pm_status s = gather_face_points(m, f, mesh, ch, fb, &w, err);
+  pm_status s = gather_face_points(m, f, mesh, ch, fb, 0, &w, err);
   if (s) goto fail;
   if (w.np < 3) {
     s = pm_error_setf(err, PM_ERR_GEOM, "face %d has fewer than 3 nodes", f->tag);
@@ -1625,6 +1647,142 @@ static pm_status drop_crossed_nodes(const pm_model *m, pm_mesh *mesh, int32_t *v
   return s;
 }
 
+/* ---- step 1c: boundary chords that cross in a face's parameter plane ---------------------- */
+
+/* A face's boundary reaches its parameter-space triangulation as chords between consecutive
+ * curve nodes. Where the face is narrower than the node spacing -- a sliver between two curves,
+ * or two curves that leave a vertex almost tangent (brep__test_11551.brep's face 1: a circle and
+ * a curve leaving it tangentially, 0.006 apart at 0.3 from the vertex, where psys put its nodes
+ * 0.16 to 0.3 apart) -- the chord of one curve can cross a chord of the other, and no
+ * triangulation respects both (the triangulation names the pair and the face fails). One chord
+ * of such a crossing is split at its curve's middle parameter, on the curve (a new curve node,
+ * shared by every face that uses the curve), and the faces are looked at again. The chord split
+ * is the one whose two halves no longer cross the other chord; when both or neither would do,
+ * the longer in 3D (both when they are as long). Splitting both, or the longer only, keeps
+ * the picture the same near a tangent vertex, where it is the same at every scale: the crossing
+ * moves closer to the vertex round after round (the crescent of test_cad_heal did so for 16
+ * rounds). The chord that sags towards the other curve is the one to split, and its halves are
+ * the ones that part. CHORD_ROUNDS bounds the rounds; a
+ * crossing left after them reaches the triangulation, which names it. Only proper
+ * crossings count: chords that meet at a node, or where the end of one lies on the other, are
+ * what the triangulation accepts. A node set without crossings is left as it is. */
+#define CHORD_ROUNDS 16
+
+typedef struct chord {
+  double lo, hi; /* the chord's u range, for the sweep */
+  int32_t k;     /* its constraint in the face's work */
+} chord;
+
+static int chord_cmp(const void *a, const void *b) {
+  const chord *x = a, *y = b;
+  if (x->lo != y->lo) return x->lo < y->lo ? -1 : 1;
+  return (x->k > y->k) - (x->k < y->k);
+}
+
+/* 1 when segments ab and cd cross properly (each one's ends strictly on either side of the other). */
+static int crosses(const double a[2], const double b[2], const double c[2], const double d[2]) {
+  return pm_orient2d(a, b, c) * pm_orient2d(a, b, d) < 0 &&
+         pm_orient2d(c, d, a) * pm_orient2d(c, d, b) < 0;
+}
+
+/* 1 when splitting constraint k of w at its curve's middle parameter leaves no proper crossing
+ * of its two halves with segment cd in (u, v). */
+static int split_parts(const pm_cell *f, const face_work *w, const chains *ch, int32_t k,
+                       const double c[2], const double d[2]) {
+  const int32_t seg = w->cons_seg[k];
+  double mid[2];
+  pm_face_curve_uv(f, &w->cons_use[k], 0.5 * (ch->t[seg] + ch->t[seg + 1]), mid);
+  const double *a = &w->uv[2 * w->cons[2 * k]], *b = &w->uv[2 * w->cons[2 * k + 1]];
+  return !crosses(a, mid, c, d) && !crosses(mid, b, c, d);
+}
+
+/* Flag in split (by chain position) the curve segments of face f whose chords cross another of
+ * the face's chords in (u, v). Returns the number of crossings, -1 when out of memory. */
+static int32_t flag_crossed_chords(const pm_model *m, const pm_cell *f, const pm_mesh *mesh,
+                                   const chains *ch, const buckets *fb, uint8_t *split) {
+  face_work w = {0};
+  pm_error err;
+  chord *cs = NULL;
+  int32_t found = -1, n = 0;
+  if (gather_face_points(m, f, mesh, ch, fb, 1, &w, &err)) goto done;
+  if (!(cs = malloc(sizeof(chord) * ((size_t)w.nc + 1)))) goto done;
+  for (int32_t k = 0; k < w.nc; ++k) {
+    if (w.cons_seg[k] < 0) continue;
+    const double *a = &w.uv[2 * w.cons[2 * k]], *b = &w.uv[2 * w.cons[2 * k + 1]];
+    cs[n++] = (chord){fmin(a[0], b[0]), fmax(a[0], b[0]), k};
+  }
+  qsort(cs, (size_t)n, sizeof(chord), chord_cmp);
+  found = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    const int32_t *pi = &w.cons[2 * cs[i].k];
+    const double *a = &w.uv[2 * pi[0]], *b = &w.uv[2 * pi[1]];
+    double vlo = fmin(a[1], b[1]), vhi = fmax(a[1], b[1]);
+    for (int32_t j = i + 1; j < n && cs[j].lo <= cs[i].hi; ++j) {
+      const int32_t *pj = &w.cons[2 * cs[j].k];
+      int32_t ni[2] = {w.node[pi[0]], w.node[pi[1]]}, nj[2] = {w.node[pj[0]], w.node[pj[1]]};
+      if (ni[0] == nj[0] || ni[0] == nj[1] || ni[1] == nj[0] || ni[1] == nj[1]) continue;
+      const double *c = &w.uv[2 * pj[0]], *d = &w.uv[2 * pj[1]];
+      if (fmax(c[1], d[1]) < vlo || fmin(c[1], d[1]) > vhi) continue;
+      if (crosses(a, b, c, d)) {
+        /* Split the chord whose split parts the two; else the longer, or both when as long. */
+        int ci = split_parts(f, &w, ch, cs[i].k, c, d), cj = split_parts(f, &w, ch, cs[j].k, a, b);
+        double li = pm_v3_dist2(&mesh->xyz[3 * (size_t)ni[0]], &mesh->xyz[3 * (size_t)ni[1]]);
+        double lj = pm_v3_dist2(&mesh->xyz[3 * (size_t)nj[0]], &mesh->xyz[3 * (size_t)nj[1]]);
+        if (ci != cj) li = ci, lj = cj;
+        if (li >= lj) {
+#pragma omp atomic write
+          split[w.cons_seg[cs[i].k]] = 1;
+        }
+        if (lj >= li) {
+#pragma omp atomic write
+          split[w.cons_seg[cs[j].k]] = 1;
+        }
+        ++found;
+      }
+    }
+  }
+done:
+  free(cs);
+  face_work_free(&w);
+  return found;
+}
+
+/* Step 1c over all faces: split the crossing chords, round by round, and rebuild the curve
+ * buckets and chains after each round. */
+static pm_status split_crossed_chords(const pm_model *m, pm_mesh *mesh, const int32_t *vnode,
+                                      buckets *cb, const buckets *fb, chains *ch,
+                                      pm_connect_report *rep, pm_error *err) {
+  const int32_t nf = m->count[PM_FACE], nc = m->count[PM_CURVE];
+  for (int round = 0; round < CHORD_ROUNDS; ++round) {
+    uint8_t *split = calloc((size_t)ch->off[nc] + 1, 1);
+    if (!split) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+    int32_t found = 0, oom = 0;
+    /* Faces flag segments in parallel; a flag is only ever set, so the result is the union. */
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : found) reduction(| : oom)
+    for (int32_t f = 0; f < nf; ++f) {
+      int32_t k = flag_crossed_chords(m, &m->cells[PM_FACE][f], mesh, ch, fb, split);
+      if (k < 0) oom = 1;
+      else found += k;
+    }
+    pm_status s = oom ? pm_error_setf(err, PM_ERR_NOMEM, "out of memory") : PM_OK;
+    for (int32_t c = 0; c < nc && found && !s; ++c)
+      for (int32_t k = ch->off[c]; k + 1 < ch->off[c + 1] && !s; ++k) {
+        if (!split[k]) continue;
+        double par[2] = {0.5 * (ch->t[k] + ch->t[k + 1]), 0};
+        pm_curve_point at;
+        pm_curve_eval(&m->cells[PM_CURVE][c], par[0], 0, &at);
+        s = pm_mesh_add_node(mesh, at.p, PM_CURVE, c, par, NULL, err);
+        rep->chord_nodes++;
+      }
+    free(split);
+    if (s || !found) return s;
+    buckets_free(cb), chains_free(ch);
+    if ((s = buckets_build(mesh, PM_CURVE, nc, cb, err))) return s;
+    if ((s = chains_build(m, mesh, cb, vnode, ch, err))) return s;
+  }
+  return PM_OK;
+}
+
 /* ---- the entry point ---------------------------------------------------------------------------- */
 
 pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *p,
@@ -1653,6 +1811,7 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
   if ((s = buckets_build(mesh, PM_CURVE, m->count[PM_CURVE], &cb, err))) goto done;
   if ((s = buckets_build(mesh, PM_FACE, m->count[PM_FACE], &fb, err))) goto done;
   if ((s = chains_build(m, mesh, &cb, vnode, &ch, err))) goto done;
+  if ((s = split_crossed_chords(m, mesh, vnode, &cb, &fb, &ch, &rep, err))) goto done;
   if (p->drop_crossed && (s = drop_crossed_nodes(m, mesh, vnode, &cb, &fb, &ch, &rep, err))) goto done;
   if ((s = emit_segments(m, mesh, &ch, err))) goto done;
   double t1 = pm_seconds();

@@ -83,6 +83,8 @@ typedef struct pm_connect_report {
   int32_t crossed_nodes;       /* face nodes dropped for lying inside a boundary segment in (u, v)
                                   but outside it in 3D, where the face's pcurve and the curve
                                   disagree (connect.c, step 1b) */
+  int32_t chord_nodes;         /* curve nodes added in the middle of boundary segments whose
+                                  chords crossed another in a face's (u, v) (connect.c, step 1c) */
   int32_t pole_triangles;      /* parameter-space triangles collapsed onto a pole, dropped */
   int32_t repair_nodes;        /* face nodes added where two triangles had the same three nodes
                                   (a pole with two neighbours, two faces sharing both curves of
