@@ -48,6 +48,10 @@ typedef struct psys_params {
                            1.5 (the paper is silent; bounds the gap search radius) */
   double kappa_refresh; /* re-evaluate a particle's curvature after it moved this many sigma;
                            0.25 */
+  int feature_width;    /* 1: sigma <= s_tau x the width of the model's narrow places where the
+                           gap of the paper does not look, wedges and cusps between curves that
+                           meet at a vertex included (sizing_features.h), down to the shared
+                           feature floor, below sigma_min; 0: the paper's field; 1 (ours) */
   /* ---- energy, movement (eq. 1-2, 7-10, Algorithm 1) ---- */
   double lambda_init;   /* initial step scale lambda_i of a new particle (step = lambda x the
                            Newton step of E_i in the cell's tangent space); 1 */

@@ -29,6 +29,12 @@ static const pm_param_desc desc[] = {
     {"kappa_max", D, F(kappa_max), 0, 0, INFINITY, PM_RANGE_HI_OPEN, "1/length",
      "largest curvature considered; sigma_min = 1/(s_kappa kappa_max); 0 = 500 / model diagonal",
      "001 eq. 12 (default: ours)", NULL},
+    {"feature_width", B, F(feature_width), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "1: sigma <= s_tau x the local width of narrow faces, wedges and cusps of the model (the "
+     "shared feature field of the narrow places, sizing_features.h, which also sees between "
+     "curves that meet at a vertex), down to the feature floor, below sigma_min if need be (0: "
+     "the paper's field, whose gap skips adjacent cells)",
+     "ours; differs from 001 sec. 3.1 (0)", NULL},
     {"sigma_grow", D, F(sigma_grow), 1.5, 1, 100, PM_RANGE_LO_OPEN, "",
      "largest factor by which a particle's sigma may rise in one update (bounds the gap search)",
      "ours (001 is silent; no cap, the paper's reading: 100)", NULL},

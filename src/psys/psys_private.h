@@ -25,6 +25,7 @@
 #include <stdint.h>
 
 #include "common/sizing/grid.h"
+#include "common/sizing/sizing_features.h"
 #include "psys/psys.h"
 
 #ifdef __cplusplus
@@ -118,6 +119,8 @@ typedef struct psys_sys {
   double max_bytes;        /* the memory cap (max_memory_gb, or the physical memory) */
   double kappa_min, kappa_max; /* resolved (the 0 defaults made absolute) */
   double sigma_min, sigma_max; /* eq. 12-13 */
+  pm_feature_size *width;  /* feature_width: the narrow places of the model (PM_FEATURE_WIDTH,
+                              grade L / s_tau); NULL when off or with a given field */
 
   /* particles, index 0 .. n-1; arrays of capacity cap */
   int32_t n, cap;
@@ -134,7 +137,9 @@ typedef struct psys_sys {
   double *lambda;          /* Algorithm 1's step scale lambda_i */
   double *energy;          /* E_i at the last move pass */
   double *force;           /* [3 cap] the descent direction -dE_i/dx_i at the last move pass */
-  double *sig_curv;        /* the curvature bound clamp(1 / (s_kappa kappa), sigma_min, sigma_max) */
+  double *sig_curv;        /* the geometry's bound psys_geometry_sigma: the curvature bound
+                              clamp(1 / (s_kappa kappa), sigma_min, sigma_max), and the width of
+                              narrow places (feature_width) */
   double *kxyz;            /* [3 cap] where sig_curv was evaluated */
   double *bdist;           /* phase 3: a face particle's distance to its face's boundary
                               polylines after the last move pass (INFINITY when far) */
@@ -311,12 +316,14 @@ double psys_random(const psys_sys *s, int32_t i, int purpose);
 
 /* ---- the sizing field (psys_sizing.c) --------------------------------------------------- */
 
-/* The curvature bound at a point of a cell: clamp(1 / (s_kappa kappa), sigma_min, sigma_max)
- * with kappa the largest principal curvature on a face, the larger of the curve's curvature and
- * its faces' largest principal curvatures on a curve, the largest of those over its curves at a
- * vertex (section 3.1, Curvature). */
-double psys_curvature_sigma(const psys_sys *s, int dim, int32_t cell, const double *par,
-                            const double xyz[3]);
+/* The geometry's bound at a point of a cell: the curvature bound clamp(1 / (s_kappa kappa),
+ * sigma_min, sigma_max), with kappa the largest principal curvature on a face, the larger of the
+ * curve's curvature and its faces' largest principal curvatures on a curve, the largest of those
+ * over its curves at a vertex (section 3.1, Curvature); with feature_width, the lesser of that
+ * and s_tau x the width of the model's narrow places there (s->width), which may be below
+ * sigma_min. */
+double psys_geometry_sigma(const psys_sys *s, int dim, int32_t cell, const double *par,
+                           const double xyz[3]);
 
 /* The gap distance of particle i (before s_tau) from the particles within R_i = sigma_grow
  * sigma_i / s_tau of it (psys_sizing.c for the rules), from its gap list; INFINITY when none

@@ -117,7 +117,8 @@ static double sigma_at(const front *F, const double uv[2], const double x[3], co
                        double r, pm_idbuf *buf) {
   const psys_sys *s = F->s;
   if (s->size) return pm_sizing_eval(s->size, x) / s->p.edge_per_sigma;
-  double sg = fmin(psys_curvature_sigma(s, PM_FACE, F->f->index, uv, x), s->sigma_max);
+  const double geom = psys_geometry_sigma(s, PM_FACE, F->f->index, uv, x);
+  double sg = fmin(geom, s->sigma_max);
   sg = fmin(sg, parent->sigma + s->p.lipschitz * r);
   sg = fmin(sg, s->p.s_tau * width_at(F, x, sg / s->p.s_tau, buf));
   if (F->hint && !pm_grid_query(F->hint->grid, x, 2 * sg, PM_GRID_BALL, buf, NULL))
@@ -125,7 +126,7 @@ static double sigma_at(const front *F, const double uv[2], const double x[3], co
       const int32_t j = buf->ids[q];
       sg = fmin(sg, F->hint->sigma[j] + s->p.lipschitz * pm_v3_dist(x, &F->hint->xyz[3 * j]));
     }
-  return fmax(sg, s->sigma_min);
+  return fmin(fmax(sg, s->sigma_min), geom); /* a narrow place may ask for less: bound_of */
 }
 
 /* No point of the face within SEED_KEEP x the larger spacing of x (spacing h) and of it. */

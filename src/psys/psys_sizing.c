@@ -117,8 +117,8 @@ static double curve_kappa(const psys_sys *s, const pm_cell *c, double t, const d
   return k;
 }
 
-double psys_curvature_sigma(const psys_sys *s, int dim, int32_t cell, const double *par,
-                            const double xyz[3]) {
+double psys_geometry_sigma(const psys_sys *s, int dim, int32_t cell, const double *par,
+                           const double xyz[3]) {
   const pm_cell *c = pm_model_cell(s->model, dim, cell);
   double k = 0;
   if (dim == PM_FACE) {
@@ -145,7 +145,9 @@ double psys_curvature_sigma(const psys_sys *s, int dim, int32_t cell, const doub
   /* eq. 12-13: the curvature is bounded to [kappa_min, kappa_max], so sigma_kappa' is bounded
    * to [sigma_min, sigma_max]. */
   k = fmin(fmax(k, s->kappa_min), s->kappa_max);
-  return 1.0 / (s->p.s_kappa * k);
+  double sg = 1.0 / (s->p.s_kappa * k);
+  if (s->width) sg = fmin(sg, pm_feature_size_eval(s->width, xyz) / s->p.edge_per_sigma);
+  return sg;
 }
 
 /* ---- candidates around a particle ---------------------------------------------------------- */
@@ -637,13 +639,16 @@ static int curvature_due(const psys_sys *s, int32_t i) {
   return psys_d2(&s->xyz[3 * i], &s->kxyz[3 * i]) > lim * lim || s->p.kappa_refresh == 0;
 }
 
-/* The bound of eq. 11 before the Lipschitz term (curvature, limits, growth, gap G). */
+/* The bound of eq. 11 before the Lipschitz term (curvature, limits, growth, gap G), then the
+ * width of narrow places below sigma_min: sig_curv is the geometry's bound, at least sigma_min
+ * unless a narrow place made it less, and so min(max(T, sigma_min), sig_curv) is eq. 11's bound
+ * capped by that width. */
 static double bound_of(const psys_sys *s, int32_t i, double sig_curv, double G) {
   const double tmax = s->p.sigma_grow * s->sigma[i];
   double T = fmin(s->sigma_max, sig_curv);
   if (G < INFINITY) T = fmin(T, s->p.s_tau * G);
   T = fmin(T, tmax);
-  return fmax(T, s->sigma_min);
+  return fmin(fmax(T, s->sigma_min), sig_curv);
 }
 
 pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
@@ -662,7 +667,7 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
   for (int32_t i = 0; i < n; ++i) {
     if (s->frozen[i] || !curvature_due(s, i)) continue;
     const double *xi = &s->xyz[3 * i];
-    s->sig_curv[i] = psys_curvature_sigma(s, s->dim[i], s->cell[i], &s->par[2 * i], xi);
+    s->sig_curv[i] = psys_geometry_sigma(s, s->dim[i], s->cell[i], &s->par[2 * i], xi);
     pm_v3_copy(&s->kxyz[3 * i], xi);
   }
   t0 = pm_seconds();
@@ -775,7 +780,7 @@ pm_status psys_sigma_reference(const psys_sys *s, double *out, pm_error *err) {
     }
     double kc = s->sig_curv[i];
     if (curvature_due(s, i))
-      kc = psys_curvature_sigma(s, s->dim[i], s->cell[i], &s->par[2 * i], &s->xyz[3 * i]);
+      kc = psys_geometry_sigma(s, s->dim[i], s->cell[i], &s->par[2 * i], &s->xyz[3 * i]);
     double G = INFINITY;
     if (psys_gap_active(s, i)) {
       if ((st = pm_grid_query(g, &s->xyz[3 * i], gap_radius(s, i), PM_GRID_BALL, &q, err))) break;

@@ -179,6 +179,16 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
   }
   s->sigma_min = 1.0 / (p->s_kappa * s->kappa_max); /* eq. 12 */
   s->sigma_max = 1.0 / (p->s_kappa * s->kappa_min); /* eq. 13 */
+  /* The narrow places (feature_width): the shared field of their width f (an edge length, the
+   * one bubble's default size uses) gives sigma <= f / edge_per_sigma, where the paper's gap
+   * does not look (between cells that meet: wedges, cusps). Its grade L edge_per_sigma makes
+   * that bound L-Lipschitz, as eq. 14 asks of sigma. */
+  if (!size && p->feature_width &&
+      (st = pm_feature_size_create(m, INFINITY, fmin(10, p->lipschitz * p->edge_per_sigma),
+                                   PM_FEATURE_WIDTH, &s->width, err))) {
+    psys_sys_destroy(s);
+    return st;
+  }
   if ((st = build_closures(s, err))) {
     psys_sys_destroy(s);
     return st;
@@ -226,6 +236,7 @@ pm_status psys_sys_create(const pm_model *m, const psys_params *p, const pm_sizi
 void psys_sys_destroy(psys_sys *s) {
   if (!s) return;
   psys_nbr_free(s);
+  pm_feature_size_destroy(s->width);
   free(s->dim), free(s->cell), free(s->par), free(s->xyz), free(s->xs), free(s->deriv);
   free(s->fxyz), free(s->sigma), free(s->lambda), free(s->energy), free(s->force);
   free(s->sig_curv), free(s->kxyz), free(s->bdist), free(s->serial), free(s->grace);
@@ -337,7 +348,7 @@ static pm_status add_core(psys_sys *s, int dim, int32_t cell, const double *par,
     s->sig_curv[i] = s->sig_curv[parent];
     pm_v3_copy(&s->kxyz[3 * i], &s->kxyz[3 * parent]);
   } else {
-    s->sig_curv[i] = s->size ? 0 : psys_curvature_sigma(s, dim, cell, &s->par[2 * i], x);
+    s->sig_curv[i] = s->size ? 0 : psys_geometry_sigma(s, dim, cell, &s->par[2 * i], x);
     pm_v3_copy(&s->kxyz[3 * i], x);
   }
   if (!(sigma > 0)) {

@@ -473,6 +473,24 @@ static void crossing_chords_are_split(void **state) {
   pm_model_destroy(m);
 }
 
+/* psys on the crescent: the paper's gap skips two curves that meet, so its field stays coarse
+ * along the cusp, clamped at sigma_min where the crescent is narrower still, and triangles span
+ * the crescent as needles; with feature_width (the default) sigma follows the crescent's width,
+ * as bubble's default size does, and no needle is left that the cusp itself does not force. */
+static void crescent_psys_follows_the_width(void **state) {
+  (void)state;
+  const char *path = write_shape("crescent", crescent);
+  cJSON *paper = mesh_stats(path, "psys", "--set feature_width=0");
+  cJSON *ours = mesh_stats(path, "psys", NULL);
+  print_message("crescent, psys: feature_width=0: %g nodes, %g unforced needles; 1: %g nodes, %g\n",
+                pm_test_stat(paper, "nodes", NULL, NULL), pm_test_stat(paper, "tri", "needles", "unforced"),
+                pm_test_stat(ours, "nodes", NULL, NULL), pm_test_stat(ours, "tri", "needles", "unforced"));
+  assert_true(pm_test_stat(paper, "tri", "needles", "unforced") > 0);
+  assert_valid_no_unforced(ours, "crescent, psys");
+  cJSON_Delete(paper);
+  cJSON_Delete(ours);
+}
+
 /* ---- a boundary segment too coarse for its arc ------------------------------------------- */
 
 /* A quarter of a cone frustum (radius 1 at the bottom, 0.5 at height 1): each quarter circle is
@@ -610,6 +628,7 @@ int main(void) {
       cmocka_unit_test(sliver_face_gives_no_needle),
       cmocka_unit_test(pole_with_two_neighbours),
       cmocka_unit_test(crossing_chords_are_split),
+      cmocka_unit_test(crescent_psys_follows_the_width),
       cmocka_unit_test(coarse_arc_drops_nodes_beyond_its_chord),
       cmocka_unit_test(tall_cylinder_does_not_wrap),
       cmocka_unit_test(graded_cone_does_not_wrap),
