@@ -575,7 +575,8 @@ static int cmp_double(const void *a, const void *b) {
 
 static pm_status add_pole_copies(const pm_cell *f, const pm_use *use, double tlo, double thi,
                                  int32_t node, const pm_mesh *mesh, const buckets *fb,
-                                 face_work *w, int32_t *first, int32_t *prev, pm_error *err) {
+                                 face_work *w, int32_t *first, int32_t *prev, int32_t seg,
+                                 const pm_use *seg_use, pm_error *err) {
   double t0 = use->sense >= 0 ? tlo : thi, t1 = use->sense >= 0 ? thi : tlo;
   double A[2], B[2];
   pm_face_curve_uv(f, use, t0, A);
@@ -620,12 +621,13 @@ static pm_status add_pole_copies(const pm_cell *f, const pm_use *use, double tlo
     double uv[2];
     pm_face_curve_uv(f, use, t0 + (t1 - t0) * s[k], uv);
     int32_t q = add_point(w, uv, node);
-    if (q < 0 || (*prev >= 0 && add_constraint(w, *prev, q, -1, NULL))) {
+    /* the edge into the first copy is the curve segment that reaches the pole (seg) */
+    if (q < 0 || (*prev >= 0 && add_constraint(w, *prev, q, seg, seg_use))) {
       st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
       break;
     }
     if (*first < 0) *first = q;
-    *prev = q;
+    *prev = q, seg = -1, seg_use = NULL;
   }
   free(s);
   return st;
@@ -653,7 +655,7 @@ static pm_status gather_face_points(const pm_model *m, const pm_cell *f, const p
       int32_t c = use->cell, a = ch->off[c], b = ch->off[c + 1];
       if (m->cells[PM_CURVE][c].degenerate) {
         pm_status s = add_pole_copies(f, use, ch->t[a], ch->t[b - 1], ch->node[a], mesh, fb, w,
-                                      &first, &prev, err);
+                                      &first, &prev, seg, seg_use, err);
         if (s) return s;
         seg = -1, seg_use = NULL;
         continue;
