@@ -12,6 +12,7 @@
  *     triangle twice) is connected into a valid mesh by a repair node;
  *   - boundary chords of two curves leaving a vertex tangent to each other that cross in the
  *     face's parameter plane are split on their curves (a crescent);
+ *   - curve nodes given twice, or at their curve's end, are dropped (the same crescent);
  *   - face nodes beyond the chord of a boundary segment too coarse for its arc are dropped (a
  *     quarter cone frustum);
  *   - a cylinder far taller than wide in its parameters connects without wrapping round;
@@ -473,6 +474,61 @@ static void crossing_chords_are_split(void **state) {
   pm_model_destroy(m);
 }
 
+/* Curve nodes that repeat a node: the crescent's nodes as above, each arc's second node given
+ * twice more (once at the same parameter, once 1e-13 of the range further), and a node at the
+ * far end of each arc (its end vertex's point). Connected, the repeats are dropped (connect.c,
+ * step 1a) and the mesh is the one of the nodes without them; kept, they would be duplicate
+ * nodes and zero-length segments. */
+static void repeated_curve_nodes_are_dropped(void **state) {
+  (void)state;
+  const char *path = write_shape("crescent", crescent);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  pm_mesh *plain = pm_mesh_create(), *repeated = pm_mesh_create();
+  assert_non_null(plain);
+  assert_non_null(repeated);
+  int32_t extra = 0;
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+    double len = pm_curve_length(cv, cv->lo[0], cv->hi[0]);
+    if (pm_curve_curvature(cv, 0.5 * (cv->lo[0] + cv->hi[0])) < 0.1) continue; /* the line */
+    const double range = cv->hi[0] - cv->lo[0];
+    const int n = (int)(len / 0.1);
+    for (int i = 1; i < n; ++i) {
+      double t = cv->lo[0] + range * i / n, x[3];
+      pm_cell_point(cv, &t, x);
+      PM_ASSERT_OK(pm_mesh_add_node(plain, x, PM_CURVE, c, &t, NULL, &e), e);
+      PM_ASSERT_OK(pm_mesh_add_node(repeated, x, PM_CURVE, c, &t, NULL, &e), e);
+      if (i != 2) continue;
+      double t2 = t + 1e-13 * range, x2[3];
+      pm_cell_point(cv, &t2, x2);
+      PM_ASSERT_OK(pm_mesh_add_node(repeated, x, PM_CURVE, c, &t, NULL, &e), e);
+      PM_ASSERT_OK(pm_mesh_add_node(repeated, x2, PM_CURVE, c, &t2, NULL, &e), e);
+      extra += 2;
+    }
+    double te = cv->hi[0], xe[3];
+    pm_cell_point(cv, &te, xe);
+    PM_ASSERT_OK(pm_mesh_add_node(repeated, xe, PM_CURVE, c, &te, NULL, &e), e);
+    ++extra;
+  }
+  assert_int_equal(extra, 6);
+  pm_connect_report ra, rb;
+  PM_ASSERT_OK(pm_connect(m, plain, NULL, &ra, &e), e);
+  PM_ASSERT_OK(pm_connect(m, repeated, NULL, &rb, &e), e);
+  assert_int_equal(rb.dropped_nodes - ra.dropped_nodes, extra);
+  assert_int_equal(repeated->nnode, plain->nnode);
+  assert_int_equal(repeated->ntri, plain->ntri);
+  assert_memory_equal(repeated->tri, plain->tri, sizeof(int32_t) * 3 * (size_t)plain->ntri);
+  pm_check_report chk = {0};
+  PM_ASSERT_OK(pm_mesh_check(repeated, m, &chk, &e), e);
+  if (!chk.valid) fail_msg("%s", chk.nproblem ? chk.problem[0] : "invalid");
+  pm_check_report_clear(&chk);
+  pm_mesh_destroy(plain);
+  pm_mesh_destroy(repeated);
+  pm_model_destroy(m);
+}
+
 /* psys on the crescent: the paper's gap skips two curves that meet, so its field stays coarse
  * along the cusp, clamped at sigma_min where the crescent is narrower still, and triangles span
  * the crescent as needles; with feature_width (the default) sigma follows the crescent's width,
@@ -628,6 +684,7 @@ int main(void) {
       cmocka_unit_test(sliver_face_gives_no_needle),
       cmocka_unit_test(pole_with_two_neighbours),
       cmocka_unit_test(crossing_chords_are_split),
+      cmocka_unit_test(repeated_curve_nodes_are_dropped),
       cmocka_unit_test(crescent_psys_follows_the_width),
       cmocka_unit_test(coarse_arc_drops_nodes_beyond_its_chord),
       cmocka_unit_test(tall_cylinder_does_not_wrap),

@@ -13,6 +13,7 @@
 #include "common/base/hash.h"
 #include "common/backends/predicates.h"
 #include "common/mesh/element_measure.h"
+#include "common/mesh/mesh_check.h"
 #include "common/base/vec3.h"
 
 void pm_connect_params_init(pm_connect_params *p) {
@@ -1618,6 +1619,99 @@ static int32_t repair_repeats(const pm_model *m, pm_mesh *mesh, const face_out *
   return added;
 }
 
+/* Remove the nodes flagged in drop and renumber what the connection has built so far (vertex
+ * nodes, buckets, chains). */
+static pm_status drop_and_rebuild(const pm_model *m, pm_mesh *mesh, const uint8_t *drop,
+                                  int32_t *vnode, buckets *cb, buckets *fb, chains *ch,
+                                  pm_error *err) {
+  compact_nodes(mesh, drop);
+  for (int32_t i = 0; i < mesh->nnode; ++i)
+    if (mesh->node_dim[i] == PM_VERTEX) vnode[mesh->node_cell[i]] = i;
+  buckets_free(cb), buckets_free(fb), chains_free(ch);
+  pm_status s = buckets_build(mesh, PM_CURVE, m->count[PM_CURVE], cb, err);
+  if (!s) s = buckets_build(mesh, PM_FACE, m->count[PM_FACE], fb, err);
+  if (!s) s = chains_build(m, mesh, cb, vnode, ch, err);
+  return s;
+}
+
+/* Step 1a: a curve node at the parameter of the node before it in its chain, or of the curve's
+ * end, adds a segment of no length: its two ends are one point of every face the curve bounds,
+ * and the parameter-space triangulation of those faces fails on it, or joins it to a copy of
+ * itself. So does a curve node within the checker's duplicate distance (PM_CHECK_DUP_NODE_REL
+ * of the diagonal) of a vertex node or of a curve node before it in index order, on its curve or
+ * another: the checker would reject the two as one node twice. Such nodes are dropped. A mesher
+ * that clamps its curve nodes to the curve's parameter range can leave several at an end: psys
+ * on robust/step__SampleCrankshaft4A.stp left eleven, on curves 35 and 324, 1e-11 of the
+ * diagonal apart at the point where both curves end, 0.14 off their end vertex. Parameters
+ * within 1e-12 of the curve's range are the same. */
+typedef struct xkey {
+  double x;
+  int32_t id;
+} xkey;
+
+static int xkey_cmp(const void *a, const void *b) {
+  const xkey *p = a, *q = b;
+  if (p->x != q->x) return p->x < q->x ? -1 : 1;
+  return (p->id > q->id) - (p->id < q->id);
+}
+
+/* Flag the curve nodes within tol of a vertex node or of a curve node of lower index that is
+ * kept (a sweep along x). Returns the count, -1 when out of memory. */
+static int32_t flag_duplicate_curve_nodes(const pm_mesh *mesh, double tol, uint8_t *drop) {
+  int32_t n = 0;
+  xkey *k = malloc(sizeof(xkey) * ((size_t)mesh->nnode + 1));
+  if (!k) return -1;
+  for (int32_t i = 0; i < mesh->nnode; ++i)
+    if (mesh->node_dim[i] <= PM_CURVE) k[n++] = (xkey){mesh->xyz[3 * (size_t)i], i};
+  qsort(k, (size_t)n, sizeof(xkey), xkey_cmp);
+  int32_t ndrop = 0;
+  /* In index order of the dropped node, so that which of two is kept never depends on the
+   * sweep: a node is dropped for a partner of lower index (or a vertex) within tol. */
+  for (int32_t a = 0; a < n; ++a)
+    for (int32_t b = a + 1; b < n && k[b].x - k[a].x <= tol; ++b) {
+      int32_t i = k[a].id, j = k[b].id;
+      if (pm_v3_dist2(&mesh->xyz[3 * (size_t)i], &mesh->xyz[3 * (size_t)j]) > tol * tol) continue;
+      /* the one to drop: a curve node, the later one when both are */
+      int32_t d = mesh->node_dim[i] == PM_VERTEX ? j : mesh->node_dim[j] == PM_VERTEX ? i : (i > j ? i : j);
+      if (mesh->node_dim[d] == PM_CURVE && !drop[d]) drop[d] = 1, ++ndrop;
+    }
+  free(k);
+  return ndrop;
+}
+
+static pm_status drop_coincident_curve_nodes(const pm_model *m, pm_mesh *mesh, int32_t *vnode,
+                                            buckets *cb, buckets *fb, chains *ch,
+                                            pm_connect_report *rep, pm_error *err) {
+  uint8_t *drop = calloc((size_t)mesh->nnode + 1, 1);
+  if (!drop) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  int32_t ndrop = flag_duplicate_curve_nodes(mesh, PM_CHECK_DUP_NODE_REL * m->diagonal, drop);
+  if (ndrop < 0) {
+    free(drop);
+    return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  }
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    const int32_t a = ch->off[c], b = ch->off[c + 1];
+    const pm_cell *cv = &m->cells[PM_CURVE][c];
+    const double tol = 1e-12 * fabs(cv->hi[0] - cv->lo[0]);
+    double last = ch->t[a];
+    for (int32_t k = a + 1; k + 1 < b; ++k) {
+      if (drop[ch->node[k]]) continue;
+      if (ch->t[k] - last <= tol || ch->t[b - 1] - ch->t[k] <= tol) {
+        drop[ch->node[k]] = 1, ++ndrop;
+        continue;
+      }
+      last = ch->t[k];
+    }
+  }
+  pm_status s = PM_OK;
+  if (ndrop) {
+    rep->dropped_nodes += ndrop;
+    s = drop_and_rebuild(m, mesh, drop, vnode, cb, fb, ch, err);
+  }
+  free(drop);
+  return s;
+}
+
 /* Step 1b over all faces (flag_crossed_nodes): drop the flagged face nodes and renumber what
  * the connection has built so far (vertex nodes, buckets, chains). */
 static pm_status drop_crossed_nodes(const pm_model *m, pm_mesh *mesh, int32_t *vnode, buckets *cb,
@@ -1636,14 +1730,8 @@ static pm_status drop_crossed_nodes(const pm_model *m, pm_mesh *mesh, int32_t *v
   pm_status s = PM_OK;
   if (oom) s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   else if (ndrop) {
-    compact_nodes(mesh, drop);
     rep->crossed_nodes = ndrop;
-    for (int32_t i = 0; i < mesh->nnode; ++i)
-      if (mesh->node_dim[i] == PM_VERTEX) vnode[mesh->node_cell[i]] = i;
-    buckets_free(cb), buckets_free(fb), chains_free(ch);
-    if (!(s = buckets_build(mesh, PM_CURVE, m->count[PM_CURVE], cb, err)) &&
-        !(s = buckets_build(mesh, PM_FACE, nf, fb, err)))
-      s = chains_build(m, mesh, cb, vnode, ch, err);
+    s = drop_and_rebuild(m, mesh, drop, vnode, cb, fb, ch, err);
   }
   free(drop);
   return s;
@@ -1813,6 +1901,7 @@ pm_status pm_connect(const pm_model *m, pm_mesh *mesh, const pm_connect_params *
   if ((s = buckets_build(mesh, PM_CURVE, m->count[PM_CURVE], &cb, err))) goto done;
   if ((s = buckets_build(mesh, PM_FACE, m->count[PM_FACE], &fb, err))) goto done;
   if ((s = chains_build(m, mesh, &cb, vnode, &ch, err))) goto done;
+  if ((s = drop_coincident_curve_nodes(m, mesh, vnode, &cb, &fb, &ch, &rep, err))) goto done;
   if ((s = split_crossed_chords(m, mesh, vnode, &cb, &fb, &ch, &rep, err))) goto done;
   if (p->drop_crossed && (s = drop_crossed_nodes(m, mesh, vnode, &cb, &fb, &ch, &rep, err))) goto done;
   if ((s = emit_segments(m, mesh, &ch, err))) goto done;
