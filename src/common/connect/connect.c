@@ -1639,7 +1639,8 @@ static pm_status drop_and_rebuild(const pm_model *m, pm_mesh *mesh, const uint8_
  * and the parameter-space triangulation of those faces fails on it, or joins it to a copy of
  * itself. So does a curve node within the checker's duplicate distance (PM_CHECK_DUP_NODE_REL
  * of the diagonal) of a vertex node or of a curve node before it in index order, on its curve or
- * another: the checker would reject the two as one node twice. Such nodes are dropped. A mesher
+ * another (of a run of close nodes, the first is kept): the checker would reject the two as one
+ * node twice. Such nodes are dropped. A mesher
  * that clamps its curve nodes to the curve's parameter range can leave several at an end: psys
  * on robust/step__SampleCrankshaft4A.stp left eleven, on curves 35 and 324, 1e-11 of the
  * diagonal apart at the point where both curves end, 0.14 off their end vertex. Parameters
@@ -1655,8 +1656,9 @@ static int xkey_cmp(const void *a, const void *b) {
   return (p->id > q->id) - (p->id < q->id);
 }
 
-/* Flag the curve nodes within tol of a vertex node or of a curve node of lower index that is
- * kept (a sweep along x). Returns the count, -1 when out of memory. */
+/* Flag every curve node that has a vertex node, or a curve node of lower index, within tol (a
+ * sweep along x; the flagged set is a property of the pairs, so it does not depend on the order
+ * of the sweep). Returns the count, -1 when out of memory. */
 static int32_t flag_duplicate_curve_nodes(const pm_mesh *mesh, double tol, uint8_t *drop) {
   int32_t n = 0;
   xkey *k = malloc(sizeof(xkey) * ((size_t)mesh->nnode + 1));
@@ -1665,8 +1667,6 @@ static int32_t flag_duplicate_curve_nodes(const pm_mesh *mesh, double tol, uint8
     if (mesh->node_dim[i] <= PM_CURVE) k[n++] = (xkey){mesh->xyz[3 * (size_t)i], i};
   qsort(k, (size_t)n, sizeof(xkey), xkey_cmp);
   int32_t ndrop = 0;
-  /* In index order of the dropped node, so that which of two is kept never depends on the
-   * sweep: a node is dropped for a partner of lower index (or a vertex) within tol. */
   for (int32_t a = 0; a < n; ++a)
     for (int32_t b = a + 1; b < n && k[b].x - k[a].x <= tol; ++b) {
       int32_t i = k[a].id, j = k[b].id;
