@@ -186,6 +186,7 @@ static void chains_free(chains *ch) {
   memset(ch, 0, sizeof *ch);
 }
 
+/* A node id with a sort key: a curve parameter (chains) or a coordinate (step 1a's sweep). */
 typedef struct tnode {
   double t;
   int32_t id;
@@ -1645,30 +1646,19 @@ static pm_status drop_and_rebuild(const pm_model *m, pm_mesh *mesh, const uint8_
  * on robust/step__SampleCrankshaft4A.stp left eleven, on curves 35 and 324, 1e-11 of the
  * diagonal apart at the point where both curves end, 0.14 off their end vertex. Parameters
  * within 1e-12 of the curve's range are the same. */
-typedef struct xkey {
-  double x;
-  int32_t id;
-} xkey;
-
-static int xkey_cmp(const void *a, const void *b) {
-  const xkey *p = a, *q = b;
-  if (p->x != q->x) return p->x < q->x ? -1 : 1;
-  return (p->id > q->id) - (p->id < q->id);
-}
-
 /* Flag every curve node that has a vertex node, or a curve node of lower index, within tol (a
  * sweep along x; the flagged set is a property of the pairs, so it does not depend on the order
  * of the sweep). Returns the count, -1 when out of memory. */
 static int32_t flag_duplicate_curve_nodes(const pm_mesh *mesh, double tol, uint8_t *drop) {
   int32_t n = 0;
-  xkey *k = malloc(sizeof(xkey) * ((size_t)mesh->nnode + 1));
+  tnode *k = malloc(sizeof(tnode) * ((size_t)mesh->nnode + 1)); /* keyed by x */
   if (!k) return -1;
   for (int32_t i = 0; i < mesh->nnode; ++i)
-    if (mesh->node_dim[i] <= PM_CURVE) k[n++] = (xkey){mesh->xyz[3 * (size_t)i], i};
-  qsort(k, (size_t)n, sizeof(xkey), xkey_cmp);
+    if (mesh->node_dim[i] <= PM_CURVE) k[n++] = (tnode){mesh->xyz[3 * (size_t)i], i};
+  qsort(k, (size_t)n, sizeof(tnode), tnode_cmp);
   int32_t ndrop = 0;
   for (int32_t a = 0; a < n; ++a)
-    for (int32_t b = a + 1; b < n && k[b].x - k[a].x <= tol; ++b) {
+    for (int32_t b = a + 1; b < n && k[b].t - k[a].t <= tol; ++b) {
       int32_t i = k[a].id, j = k[b].id;
       if (pm_v3_dist2(&mesh->xyz[3 * (size_t)i], &mesh->xyz[3 * (size_t)j]) > tol * tol) continue;
       /* the one to drop: a curve node, the later one when both are */
