@@ -15,9 +15,11 @@
  *   - curve nodes given twice, or at their curve's end, are dropped (the same crescent);
  *   - face nodes beyond the chord of a boundary segment too coarse for its arc are dropped (a
  *     quarter cone frustum);
+ *   - a corner where the surface's derivatives are nearly parallel (a twisted bilinear patch
+ *     whose boundary curves meet at 173 degrees) gets no needle;
  *   - a cylinder far taller than wide in its parameters connects without wrapping round;
- *   - a cone meshed by psys (fine at the apex, coarse at the base) connects without wrapping
- *     (a copy of robust/statreport__Cone_1.brep).
+ *   - a cone meshed by psys (fine at the apex, coarse at the base) connects without wrapping,
+ *     and without a needle at the apex (a copy of robust/statreport__Cone_1.brep).
  */
 #include "cli/cli_stats.h"
 
@@ -28,6 +30,7 @@
 
 #include "common/connect/connect.h"
 #include "common/geom/geom_cad.h"
+#include "common/mesh/element_measure.h"
 #include "common/mesh/mesh_check.h"
 #include "common/backends/gmsh_session.h"
 #include "common/geom/trim.h"
@@ -629,6 +632,91 @@ static void coarse_arc_drops_nodes_beyond_its_chord(void **state) {
   pm_model_destroy(m);
 }
 
+/* ---- a corner where the surface's derivatives are nearly parallel ------------------------- */
+
+/* A bilinear patch twisted out of its plane: P00 = (0, 0, 0), P10 = (10, 0, 0), P11 = (20, 1.2, 0)
+ * and P01 = (5, -8, 10). At the corner (u, v) = (1, 0), Su = P10 - P00 and Sv = P11 - P10 are 6.8
+ * degrees apart, so the two boundary curves meet there at 173 degrees, and the surface's normal
+ * there, +z, is 116 degrees off the normal at (0.85, 0.15) (a corner of the same kind, 84
+ * degrees off, is on robust/statreport__A319.brep's face 5, where it was found). Nowhere else
+ * are Su and Sv closer than 5 degrees. */
+static int flat_corner_patch(void) {
+  int ierr = 0, pt[4];
+  const double P[4][3] = {{0, 0, 0}, {10, 0, 0}, {5, -8, 10}, {20, 1.2, 0}}; /* u fastest */
+  for (int k = 0; k < 4 && !ierr; ++k) pt[k] = gmshModelOccAddPoint(P[k][0], P[k][1], P[k][2], 0, -1, &ierr);
+  if (!ierr) gmshModelOccAddBezierSurface(pt, 4, 2, -1, NULL, 0, 0, &ierr);
+  return ierr;
+}
+
+/* Curve nodes every tenth of each curve's parameter range and face nodes on an 8 x 8 grid of
+ * (u, v) of the same step kept 1.5 steps from the sides: in (u, v) the corner is a right angle,
+ * the circle through it and its two neighbours holds no face node, so the
+ * triangulation there joins the corner to the first node along each curve, a triangle that
+ * lifts to a 3-degree needle along the flat corner. The 3D flips must turn it to the face node
+ * beside it: the corner's normal, taken from two nearly parallel derivatives, is no test of the
+ * flipped triangles (connect.c, local_nodes, NORMAL_MIN_SIN). */
+static void flat_corner_gets_no_needle(void **state) {
+  (void)state;
+  const char *path = write_shape("flat_corner", flat_corner_patch);
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  assert_int_equal(m->count[PM_FACE], 1);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  pm_mesh *mesh = pm_mesh_create();
+  assert_non_null(mesh);
+  for (int32_t c = 0; c < m->count[PM_CURVE]; ++c) {
+    const pm_cell *cv = pm_model_cell(m, PM_CURVE, c);
+    for (int k = 1; k < 10; ++k) {
+      double t = cv->lo[0] + (cv->hi[0] - cv->lo[0]) * k / 10, x[3];
+      pm_cell_point(cv, &t, x);
+      PM_ASSERT_OK(pm_mesh_add_node(mesh, x, PM_CURVE, c, &t, NULL, &e), e);
+    }
+  }
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j) {
+      double uv[2] = {f->lo[0] + (f->hi[0] - f->lo[0]) * (0.15 + 0.1 * i),
+                      f->lo[1] + (f->hi[1] - f->lo[1]) * (0.15 + 0.1 * j)};
+      double x[3];
+      pm_cell_point(f, uv, x);
+      PM_ASSERT_OK(pm_mesh_add_node(mesh, x, PM_FACE, f->index, uv, NULL, &e), e);
+    }
+  /* The (u, v) triangulation as it comes, for the 3D flips alone to mend. */
+  pm_connect_params p;
+  pm_connect_params_init(&p);
+  p.affine = 0, p.metric_flips = 0;
+  pm_connect_report rep;
+  PM_ASSERT_OK(pm_connect(m, mesh, &p, &rep, &e), e);
+  pm_check_report chk = {0};
+  PM_ASSERT_OK(pm_mesh_check(mesh, m, &chk, &e), e);
+  if (!chk.valid) fail_msg("%s", chk.nproblem ? chk.problem[0] : "invalid");
+  /* The corner: the vertex node at (10, 0, 0). */
+  int32_t corner = -1;
+  for (int32_t i = 0; i < mesh->nnode; ++i)
+    if (mesh->node_dim[i] == PM_VERTEX && fabs(mesh->xyz[3 * i] - 10) < 1e-9 &&
+        fabs(mesh->xyz[3 * i + 1]) < 1e-9)
+      corner = i;
+  assert_true(corner >= 0);
+  int at_corner = 0;
+  double worst = 180;
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    const int32_t *v = &mesh->tri[3 * t];
+    if (v[0] != corner && v[1] != corner && v[2] != corner) continue;
+    pm_tri_measure q;
+    pm_tri_measure_eval(&mesh->xyz[3 * v[0]], &mesh->xyz[3 * v[1]], &mesh->xyz[3 * v[2]], &q);
+    worst = fmin(worst, q.min_angle);
+    ++at_corner;
+  }
+  print_message("flat corner: %d triangles, smallest angle %.2f degrees\n", at_corner, worst);
+  /* Measured: 3 triangles, 14.3 degrees (1 triangle of 3.4 degrees when the corner's normal
+   * vetoed the flip). */
+  assert_true(at_corner >= 2);
+  assert_true(worst >= 10);
+  pm_check_report_clear(&chk);
+  pm_mesh_destroy(mesh);
+  pm_model_destroy(m);
+}
+
 /* ---- a tall cylinder ---------------------------------------------------------------------- */
 
 /* Radius 100, height 300 (robust/statreport__Cylinder_1.brep's shape): its parameter plane is
@@ -671,6 +759,12 @@ static void graded_cone_does_not_wrap(void **state) {
    * (64 with the repair node, 1.4 without it, of a diagonal of 412). */
   assert_true(pm_test_stat(o, "distance", "max", NULL) <
               0.01 * pm_test_stat(o, "distance", "bbox_diagonal", NULL));
+  /* psys leaves no face node as close to the apex as the seam's last node (0.25 from it, the
+   * nearest face node 0.47): the triangle of that node, the one before it and the apex lies flat
+   * on the seam's ruling on each side of the seam; flipped away, the apex's fan holds no needle
+   * (4 unforced ones, about 7 degrees, when a repair node split its edge into the apex). */
+  assert_valid_no_unforced(o, "psys on Cone_1");
+  assert_true(pm_test_stat(o, "tri", "min_angle_deg", "min") >= 10);
   cJSON_Delete(o);
 }
 
@@ -687,6 +781,7 @@ int main(void) {
       cmocka_unit_test(repeated_curve_nodes_are_dropped),
       cmocka_unit_test(crescent_psys_follows_the_width),
       cmocka_unit_test(coarse_arc_drops_nodes_beyond_its_chord),
+      cmocka_unit_test(flat_corner_gets_no_needle),
       cmocka_unit_test(tall_cylinder_does_not_wrap),
       cmocka_unit_test(graded_cone_does_not_wrap),
   };

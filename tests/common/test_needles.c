@@ -173,6 +173,37 @@ static void triangle_across_a_vertex_gap_forces(void **state) {
   pm_model_destroy(m);
 }
 
+/* The same file: curves 34 and 323 both end 0.11 from their vertex 33. psys's triangle on face
+ * 112 of the vertex and the two curves' nodes nearest it (0.019 apart) has 7.3 degrees at the
+ * vertex and spans the jump between the curves' ends and the vertex: forced. The same triangle
+ * scaled three times about the vertex, its far corners beyond twice the gap: unforced. */
+static void triangle_from_a_missed_vertex_forces(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  char path[512];
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(
+      pm_input_open(pm_test_cad("robust/step__SampleCrankshaft4A.stp", path, sizeof path), &m,
+                    NULL, &e),
+      e);
+  const int dim[3] = {PM_VERTEX, PM_CURVE, PM_CURVE};
+  const int32_t cell[3] = {33, 323, 34};
+  double at_gap[3][3] = {{-45.1636375577012, -8.480225269930195, 91.68980790979668},
+                         {-45.08302268067044, -8.563184447111944, 91.77833461105746},
+                         {-45.08331299333096, -8.57654093747308, 91.76533042982825}};
+  pm_needles n = classify_xyz(m, (const double(*)[3])at_gap, dim, cell, 112);
+  assert_int_equal(n.count, 1);
+  assert_int_equal(n.feature, 1);
+  assert_int_equal(n.unforced, 0);
+  for (int k = 1; k < 3; ++k)
+    for (int i = 0; i < 3; ++i) at_gap[k][i] = at_gap[0][i] + 3 * (at_gap[k][i] - at_gap[0][i]);
+  n = classify_xyz(m, (const double(*)[3])at_gap, dim, cell, 112);
+  assert_int_equal(n.count, 1);
+  assert_int_equal(n.unforced, 1);
+  pm_model_destroy(m);
+}
+
 /* robust/step__U_Joint_2.stp: face 38 is a lens between curves 152 and 154, which leave vertex
  * 124 tangent to each other (0.19 degrees apart 0.27 from it); the vertex is the image of a side
  * of the face's (u, v) box that collapses to a point (|Sv| = 7e-17 there). bubble's triangle on
@@ -209,6 +240,7 @@ int main(void) {
       cmocka_unit_test(gap_between_curve_and_face_forces),
       cmocka_unit_test(vertex_missed_by_its_curve_forces),
       cmocka_unit_test(triangle_across_a_vertex_gap_forces),
+      cmocka_unit_test(triangle_from_a_missed_vertex_forces),
       cmocka_unit_test(triangle_in_a_cusp_at_a_pole_forces),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -737,11 +737,9 @@ static pm_status local_nodes(const pm_cell *f, const pm_mesh *mesh, face_work *w
     if (pole) continue;
     pm_face_point fp;
     pm_face_eval(f, &w->uv[2 * p], 1, &fp);
-    pm_v3_cross(n, fp.su, fp.sv);
-    double su = pm_v3_norm(fp.su), sv = pm_v3_norm(fp.sv), nn = pm_v3_norm(n);
-    /* A singular point that is not a listed pole (a seam vertex at an apex): no normal either. */
-    if (!(nn > 1e-10 * su * sv)) pm_v3_zero(n);
-    else pm_v3_scale(n, n, 1.0 / nn);
+    /* A singular point that is not a listed pole (a seam vertex at an apex): no normal either
+     * (PM_CONNECT_NORMAL_MIN_SIN). */
+    pm_face_point_normal(&fp, PM_CONNECT_NORMAL_MIN_SIN, n);
   }
   return PM_OK;
 }
@@ -1029,13 +1027,27 @@ static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face
  * wrap, left to split_repeats); the flips are capped (the metric differs from one quadrilateral
  * to the next, so the criterion is not a global one and could cycle). Works on w->tri in point
  * indices; returns the number of flips, -1 when out of memory. */
+static int lifts_flat(const double *xyz, int32_t a, int32_t b, int32_t c) {
+  pm_tri_measure q;
+  pm_tri_measure_eval(&xyz[3 * a], &xyz[3 * b], &xyz[3 * c], &q);
+  return q.degenerate;
+}
+
+/* Does the pair (a, b, c), (b, a, d) hold a triangle of no area in 3D that the flip to (c, d)
+ * removes without making another? */
+static int flat_pair_flips(const double *xyz, int32_t a, int32_t b, int32_t c, int32_t d) {
+  return (lifts_flat(xyz, a, b, c) || lifts_flat(xyz, b, a, d)) && !lifts_flat(xyz, c, d, b) &&
+         !lifts_flat(xyz, d, c, a);
+}
+
 static int64_t metric_flips(const pm_cell *f, face_work *w, int64_t max_flips, pm_error *err) {
   if (w->ntri < 2) return 0;
-  double *met = malloc(sizeof(double) * 3 * (size_t)w->np);
+  double *met = malloc(sizeof(double) * 6 * (size_t)w->np), *xyz = met + 3 * (size_t)w->np;
   if (!met) return -1;
   for (int32_t p = 0; p < w->np; ++p) {
     pm_face_point fp;
     pm_face_eval(f, &w->uv[2 * p], 1, &fp);
+    memcpy(&xyz[3 * p], fp.p, sizeof fp.p);
     met[3 * p] = pm_v3_dot(fp.su, fp.su);
     met[3 * p + 1] = pm_v3_dot(fp.su, fp.sv);
     met[3 * p + 2] = pm_v3_dot(fp.sv, fp.sv);
@@ -1080,6 +1092,14 @@ static int64_t metric_flips(const pm_cell *f, face_work *w, int64_t max_flips, p
     /* Strictly convex: c and d on either side of (a, b), a and b on either side of (c, d). */
     if (pm_orient2d(A, B, C) * pm_orient2d(A, B, D) >= 0) continue;
     if (pm_orient2d(C, D, A) * pm_orient2d(C, D, B) >= 0) continue;
+    /* So has a triangle whose corners lie on one line in 3D: a seam node, the next one along
+     * the seam and a copy of the apex, all on one straight ruling of a cone (statreport/
+     * Cone_1.brep, where the mesher left no face node as close to the apex as the seam's first
+     * node). Each side of the seam holds one, the two repeat each other, and their edge into
+     * the apex is then used four times; split_repeats would split it at its (u, v) middle, a
+     * point just beside the seam node (a needle). Flipping it away, when neither new triangle
+     * is flat, leaves a fan round the apex. */
+    if (!wrap) wrap = flat_pair_flips(xyz, a, b, c, d);
     if (!wrap) {
       double E = 0, F = 0, G = 0;
       for (int i = 0; i < 4; ++i) E += met[3 * v[i]], F += met[3 * v[i] + 1], G += met[3 * v[i] + 2];
@@ -1316,11 +1336,7 @@ static int32_t add_split_point(const pm_cell *f, face_work *w, face_out *out, co
   w->loc[p] = l;
   w->gnode[l] = w->node[p];
   memcpy(&w->lxyz[3 * l], fp.p, sizeof fp.p);
-  double *n = &w->nrm[3 * l];
-  pm_v3_cross(n, fp.su, fp.sv);
-  double nn = pm_v3_norm(n);
-  if (nn > 1e-10 * pm_v3_norm(fp.su) * pm_v3_norm(fp.sv)) pm_v3_scale(n, n, 1.0 / nn);
-  else pm_v3_zero(n);
+  pm_face_point_normal(&fp, PM_CONNECT_NORMAL_MIN_SIN, &w->nrm[3 * l]);
   memcpy(&out->new_xyz[3 * out->nnew], fp.p, sizeof fp.p);
   out->new_uv[2 * out->nnew] = uv[0], out->new_uv[2 * out->nnew + 1] = uv[1];
   out->nnew++;
@@ -1638,14 +1654,18 @@ static pm_status drop_and_rebuild(const pm_model *m, pm_mesh *mesh, const uint8_
 /* Step 1a: a curve node at the parameter of the node before it in its chain, or of the curve's
  * end, adds a segment of no length: its two ends are one point of every face the curve bounds,
  * and the parameter-space triangulation of those faces fails on it, or joins it to a copy of
- * itself. So does a curve node within the checker's duplicate distance (PM_CHECK_DUP_NODE_REL
- * of the diagonal) of a vertex node or of a curve node before it in index order, on its curve or
- * another (of a run of close nodes, the first is kept): the checker would reject the two as one
- * node twice. Such nodes are dropped. A mesher
+ * itself. So does a curve node within CURVE_NODE_MERGE_REL of the diagonal of a vertex node or
+ * of a curve node before it in index order, on its curve or another (of a run of close nodes,
+ * the first is kept): nearer than that the two are one point of the model (below, at 1e-10,
+ * the checker would reject them as one node twice), and any triangle on the segment between
+ * them is a needle of no size. Such nodes are dropped. A mesher
  * that clamps its curve nodes to the curve's parameter range can leave several at an end: psys
  * on robust/step__SampleCrankshaft4A.stp left eleven, on curves 35 and 324, 1e-11 of the
- * diagonal apart at the point where both curves end, 0.14 off their end vertex. Parameters
- * within 1e-12 of the curve's range are the same. */
+ * diagonal apart at the point where both curves end, 0.14 off their end vertex, and three more
+ * 1.5e-7 to 5.6e-7 apart (up to 1.7e-9 of the diagonal): a 0-degree triangle joined one of the
+ * face's nodes to two of them. Parameters within 1e-12 of the curve's range are the same. */
+#define CURVE_NODE_MERGE_REL 1e-7 /* above OpenCASCADE's confusion tolerance (1e-7 model units)
+                                     on models of 1 to 1000 units, far below the feature floor */
 /* Flag every curve node that has a vertex node, or a curve node of lower index, within tol (a
  * sweep along x; the flagged set is a property of the pairs, so it does not depend on the order
  * of the sweep). Returns the count, -1 when out of memory. */
@@ -1674,7 +1694,7 @@ static pm_status drop_coincident_curve_nodes(const pm_model *m, pm_mesh *mesh, i
                                             pm_connect_report *rep, pm_error *err) {
   uint8_t *drop = calloc((size_t)mesh->nnode + 1, 1);
   if (!drop) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  int32_t ndrop = flag_duplicate_curve_nodes(mesh, PM_CHECK_DUP_NODE_REL * m->diagonal, drop);
+  int32_t ndrop = flag_duplicate_curve_nodes(mesh, CURVE_NODE_MERGE_REL * m->diagonal, drop);
   if (ndrop < 0) {
     free(drop);
     return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");

@@ -50,10 +50,7 @@ static int surface_point(const pm_cell *f, const double target[3], const double 
   if (!pm_face_inside(f, uv)) return 0;
   pm_face_point fp;
   pm_face_eval(f, uv, 1, &fp);
-  pm_v3_cross(n, fp.su, fp.sv);
-  double nn = pm_v3_norm(n);
-  if (!(nn > 1e-10 * pm_v3_norm(fp.su) * pm_v3_norm(fp.sv))) return 0;
-  pm_v3_scale(n, n, 1.0 / nn);
+  if (!pm_face_point_normal(&fp, PM_CONNECT_NORMAL_MIN_SIN, n)) return 0;
   memcpy(p, fp.p, sizeof fp.p);
   return 1;
 }

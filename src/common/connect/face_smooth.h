@@ -25,6 +25,17 @@
 extern "C" {
 #endif
 
+/* The connection's surface normals (the flips' and the smoothing's test that a triangle agrees
+ * with the surface): a point where Su and Sv are closer to parallel than 8.6 degrees (sine
+ * 0.15) has none (pm_face_point_normal). The normal there is the cross product of two almost
+ * collinear vectors, and the surface turns fast around it, so it says little about the
+ * triangles that meet there. robust/statreport__A319.brep's face 5 has such a corner, where
+ * two of its curves meet at 173 degrees: Su and Sv 5.4 degrees apart, the normal (1, 0, 0)
+ * there against (0.1, -0.65, 0.75) at the curves' next nodes 30 away; tested against it, the
+ * flip of the corner's flat triangle (its two curve segments and the chord between them, a
+ * 3-degree needle) to the face node beside it was refused. */
+#define PM_CONNECT_NORMAL_MIN_SIN 0.15
+
 /* One face's triangulation over nv local nodes: xyz [3*nv] positions, uv [2*nv] parameters on
  * face f (read and written for movable nodes only), nrm [3*nv] unit surface normals (zero where
  * the surface has none; written for the nodes that move), movable [nv] 1 for a node that may move,

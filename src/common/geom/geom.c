@@ -284,6 +284,18 @@ void pm_face_eval_many(const pm_cell *f, int32_t n, const double *uv, int order,
   for (int32_t i = 0; i < n; ++i) f->cls->face_eval(f, uv + 2 * i, order, out + i);
 }
 
+int pm_face_point_normal(const pm_face_point *fp, double min_sin, double n[3]) {
+  pm_v3_cross(n, fp->su, fp->sv);
+  double nn = pm_v3_norm(n);
+  /* Written as !(a > b) so that a NaN derivative also counts as singular. */
+  if (!(nn > min_sin * pm_v3_norm(fp->su) * pm_v3_norm(fp->sv))) {
+    pm_v3_zero(n);
+    return 0;
+  }
+  pm_v3_scale(n, n, 1.0 / nn);
+  return 1;
+}
+
 void pm_face_curve_uv(const pm_cell *f, const pm_use *use, double t, double uv[2]) {
   f->cls->face_curve_uv(f, use, t, uv);
 }

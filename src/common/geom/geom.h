@@ -217,6 +217,11 @@ void pm_face_eval(const pm_cell *f, const double uv[2], int order, pm_face_point
 void pm_face_eval_many(const pm_cell *f, int32_t n, const double *uv, int order,
                        pm_face_point *out);
 
+/* The unit normal Su x Sv / |Su x Sv| of an evaluated face point (order >= 1) into n; 0 with n
+ * zero where the point is singular: |Su x Sv| <= min_sin |Su| |Sv|, Su and Sv closer to
+ * parallel than the angle whose sine is min_sin (a pole, an apex, a collapsed corner). */
+int pm_face_point_normal(const pm_face_point *fp, double min_sin, double n[3]);
+
 /* The 3D point of a cell at par (vertex: its point; volume: par itself). */
 void pm_cell_point(const pm_cell *c, const double *par, double xyz[3]);
 

@@ -242,6 +242,33 @@ static int within_vertex_gap(const pm_mesh *mesh, const pm_model *m, int32_t cur
   return 0;
 }
 
+/* The gap rule at the vertex itself: a corner of the triangle is vertex V's node, another lies on
+ * a curve that ends at V but misses it by g wider than the floor, and the whole triangle lies
+ * within 2 g of V. The face's boundary jumps g between that curve's end and V, and a triangle
+ * that spans the jump cannot be judged by its angles (robust/step__SampleCrankshaft4A.stp:
+ * curves 34 and 323 both end 0.11 from their vertex 33; psys's triangle of the vertex and the
+ * two curves' nodes nearest it, 0.019 apart, has 7.3 degrees). */
+static int spans_vertex_gap(const pm_mesh *mesh, const pm_model *m, const int32_t *v,
+                            const double *const P[3], double floor) {
+  for (int j = 0; j < 3; ++j) {
+    if (mesh->node_dim[v[j]] != PM_VERTEX) continue;
+    const int32_t vert = mesh->node_cell[v[j]];
+    if (vert < 0 || vert >= m->count[PM_VERTEX]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const int32_t curve = mesh->node_cell[v[k]];
+      if (mesh->node_dim[v[k]] != PM_CURVE || curve < 0 || curve >= m->count[PM_CURVE] ||
+          !in_curve_closure(m, PM_VERTEX, vert, curve))
+        continue;
+      const double g = vertex_gap(m, curve, vert);
+      if (!(g > floor)) continue;
+      int near = 1;
+      for (int i = 0; i < 3; ++i) near = near && pm_v3_dist(P[i], P[j]) < 2 * g;
+      if (near) return 1;
+    }
+  }
+  return 0;
+}
+
 /* The gap rule: the triangle stands on an edge of curve-closure nodes (a curve's nodes and its
  * end vertices), and a CAD gap wider than the floor keeps its third corner at least g from the
  * curve: face f's surface stays g away from the curve there (the face does not reach its
@@ -339,6 +366,8 @@ pm_status pm_needles_classify(const pm_mesh *mesh, const pm_model *model, double
           else if (below_floor_across_cells(mesh, model, v, P, floor))
             k = PM_NEEDLE_FEATURE;
           else if (below_gap_to_curve(mesh, model, fc, v, P, j, rad, floor))
+            k = PM_NEEDLE_FEATURE;
+          else if (spans_vertex_gap(mesh, model, v, P, floor))
             k = PM_NEEDLE_FEATURE;
         }
       }

@@ -28,7 +28,10 @@
  *     limit, at the spacing the curve's other faces ask for; or when the curve misses one of its
  *     end vertices by g wider than the floor, the third corner is on another curve ending at
  *     that vertex, and the whole triangle lies within 2 g of the vertex (the face's boundary
- *     jumps g there, and a triangle spanning the jump cannot be judged by its angles).
+ *     jumps g there, and a triangle spanning the jump cannot be judged by its angles); or,
+ *     for the same reason, when one corner is that vertex, another is on a curve that ends
+ *     there and misses it by g wider than the floor, and the whole triangle lies within 2 g of
+ *     the vertex.
  * Every other needle is unforced: a finer node spacing at the feature would have avoided it (a
  * face narrower than the local size, an edge shorter than it, a corner sharper than the size's
  * angular resolution but not below the limit). A mesh with unforced needles is a defect of the
