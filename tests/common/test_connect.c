@@ -345,13 +345,13 @@ static void smooth_fan_recentres(void **state) {
   }
   double ring[3 * 6];
   memcpy(ring, &xyz[3], sizeof ring);
-  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri), 1);
+  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri, NULL), 1);
   PM_ASSERT_NEAR(xyz[0], 0, 1e-12);
   PM_ASSERT_NEAR(xyz[1], 0, 1e-12);
   PM_ASSERT_NEAR(uv[0], 0, 1e-12);
   PM_ASSERT_NEAR(uv[1], 0, 1e-12);
   assert_memory_equal(ring, &xyz[3], sizeof ring);
-  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri), 0);
+  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri, NULL), 0);
   pm_model_destroy(m);
 }
 

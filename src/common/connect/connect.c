@@ -944,7 +944,8 @@ static void flip_pair(face_work *w, int32_t t1, int q1, int32_t t2, int q2) {
  * be acceptable (non-degenerate, agreeing with the surface normal); the new edge must not exist
  * yet (no duplicate triangle); at most max_flips flips (termination is then guaranteed whatever
  * the surface; the cap is counted when hit). */
-static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face_out *out) {
+static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face_out *out,
+                      uint8_t *dirty) {
   if (w->ntri < 2) return;
   pairset edges;
   if (!pairset_init(&edges, 3 * (int64_t)w->ntri)) return;
@@ -995,6 +996,7 @@ static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face
       break;
     }
     flip_pair(w, t1, q1, t2, q2);
+    if (dirty) dirty[a] = dirty[b] = dirty[c] = dirty[d] = 1;
     pairset_del(&edges, a, b);
     pairset_add(&edges, c, d);
     ++flips;
@@ -1179,7 +1181,8 @@ static pm_status smooth_face(const pm_cell *f, const pm_mesh *mesh, const pm_con
   double *uv = malloc(sizeof(double) * 2 * (size_t)(nv ? nv : 1));
   uint8_t *movable = calloc((size_t)(nv ? nv : 1), 1);
   int32_t *npoint = calloc((size_t)(nv ? nv : 1), sizeof(int32_t));
-  if (!uv || !movable || !npoint) goto nomem;
+  uint8_t *dirty = malloc((size_t)(nv ? nv : 1));
+  if (!uv || !movable || !npoint || !dirty) goto nomem;
   for (int32_t q = w->np - 1; q >= 0; --q) {
     int32_t l = w->loc[q];
     npoint[l]++;
@@ -1193,12 +1196,16 @@ static pm_status smooth_face(const pm_cell *f, const pm_mesh *mesh, const pm_con
     nmov += movable[l];
   }
   if (nmov > 0) {
+    /* Each sweep tries only the nodes whose ring changed since their last try (face_smooth.h):
+     * the flips after a sweep mark the nodes of the triangles they change. */
+    memset(dirty, 1, (size_t)nv);
     for (int k = 0; k < p->smooth; ++k) {
-      int32_t n = pm_face_smooth_sweep(f, nv, w->lxyz, uv, w->nrm, movable, w->ntri, w->tri);
+      int32_t n = pm_face_smooth_sweep(f, nv, w->lxyz, uv, w->nrm, movable, w->ntri, w->tri, dirty);
       if (n < 0) goto nomem;
       out->smooth_moves += n;
       if (n == 0) break;
-      if (p->flips != PM_FLIP_NONE) flip_face(w, mesh, (int64_t)p->max_flips_per_tri * w->ntri, out);
+      if (p->flips != PM_FLIP_NONE)
+        flip_face(w, mesh, (int64_t)p->max_flips_per_tri * w->ntri, out, dirty);
     }
     out->moved = malloc(sizeof(int32_t) * (size_t)nmov);
     out->moved_xyz = malloc(sizeof(double) * 3 * (size_t)nmov);
@@ -1214,10 +1221,10 @@ static pm_status smooth_face(const pm_cell *f, const pm_mesh *mesh, const pm_con
       out->nmoved++;
     }
   }
-  free(uv), free(movable), free(npoint);
+  free(uv), free(movable), free(npoint), free(dirty);
   return PM_OK;
 nomem:
-  free(uv), free(movable), free(npoint);
+  free(uv), free(movable), free(npoint), free(dirty);
   return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
 }
 
@@ -1521,7 +1528,7 @@ static void connect_face(const pm_model *m, const pm_cell *f, const pm_mesh *mes
   if (p->flips != PM_FLIP_NONE && w.ntri > 1) {
     s = build_adjacency(&w, w.nloc, err);
     if (s) goto fail;
-    flip_face(&w, mesh, (int64_t)p->max_flips_per_tri * w.ntri, out);
+    flip_face(&w, mesh, (int64_t)p->max_flips_per_tri * w.ntri, out, NULL);
     if (p->smooth > 0 && (s = smooth_face(f, mesh, p, &w, out, err))) goto fail;
   }
   if (out->curved) out->asp_after = sum_aspect(&w, mesh, &out->max_after, &out->degen_after);

@@ -56,7 +56,8 @@ static int surface_point(const pm_cell *f, const double target[3], const double 
 }
 
 int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *uv, double *nrm,
-                             const uint8_t *movable, int32_t ntri, const int32_t *tri) {
+                             const uint8_t *movable, int32_t ntri, const int32_t *tri,
+                             uint8_t *dirty) {
   /* The triangles around each node, as offsets into one array (counting sort by node). */
   int32_t *off = calloc((size_t)nv + 1, sizeof(int32_t));
   int32_t *ring = malloc(sizeof(int32_t) * 3 * (size_t)(ntri ? ntri : 1));
@@ -74,7 +75,8 @@ int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *
   int32_t moved = 0;
   for (int32_t v = 0; v < nv; ++v) {
     int32_t nring = off[v + 1] - off[v];
-    if (!movable[v] || nring < 3) continue;
+    if (!movable[v] || nring < 3 || (dirty && !dirty[v])) continue;
+    if (dirty) dirty[v] = 0;
     const int32_t *rv = &ring[off[v]];
     /* The centroid of the ring's other nodes: each neighbour of an interior node appears in two
      * of its triangles, so the mean over triangles weighs them alike. */
@@ -96,6 +98,9 @@ int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *
       memcpy(&nrm[3 * v], n, sizeof n);
       memcpy(&uv[2 * v], nuv, sizeof nuv);
       ++moved;
+      if (dirty)
+        for (int32_t k = 0; k < nring; ++k)
+          for (int q = 0; q < 3; ++q) dirty[tri[3 * rv[k] + q]] = 1;
       break;
     }
   }

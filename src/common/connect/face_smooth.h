@@ -40,9 +40,16 @@ extern "C" {
  * face f (read and written for movable nodes only), nrm [3*nv] unit surface normals (zero where
  * the surface has none; written for the nodes that move), movable [nv] 1 for a node that may move,
  * tri [3*ntri] triangles in local nodes, oriented along nrm. One sweep over the movable nodes;
- * returns the number of nodes moved, -1 when out of memory. */
+ * returns the number of nodes moved, -1 when out of memory.
+ * dirty [nv], or NULL for every node: the nodes to try (read and written). A node's try is a
+ * function of its position and of its ring (the ring's triangles, their nodes' positions and
+ * normals) alone, so a node that was tried and stayed, and whose ring has not changed since, would
+ * stay again: the sweep tries only the dirty nodes, clears each one it tries, and marks a node
+ * that moves, and every node of its ring, dirty. The caller marks the nodes of triangles it
+ * changes (flips). Sweeps with dirty flags give the mesh of sweeps over every node, to the bit. */
 int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *uv, double *nrm,
-                             const uint8_t *movable, int32_t ntri, const int32_t *tri);
+                             const uint8_t *movable, int32_t ntri, const int32_t *tri,
+                             uint8_t *dirty);
 
 #ifdef __cplusplus
 }
