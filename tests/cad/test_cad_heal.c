@@ -654,7 +654,7 @@ static int flat_corner_patch(void) {
  * triangulation there joins the corner to the first node along each curve, a triangle that
  * lifts to a 3-degree needle along the flat corner. The 3D flips must turn it to the face node
  * beside it: the corner's normal, taken from two nearly parallel derivatives, is no test of the
- * flipped triangles (connect.c, local_nodes, NORMAL_MIN_SIN). */
+ * flipped triangles (face_smooth.h, PM_CONNECT_NORMAL_MIN_SIN). */
 static void flat_corner_gets_no_needle(void **state) {
   (void)state;
   const char *path = write_shape("flat_corner", flat_corner_patch);

@@ -140,13 +140,8 @@ static void vertex_missed_by_its_curve_forces(void **state) {
   pm_model_destroy(m);
 }
 
-/* robust/step__SampleCrankshaft4A.stp: curves 13 and 337 (gmsh tags 14, 338) end 0.056 from
- * their vertex 11, where curve 10 ends too. bubble's triangle between curve 13's last two nodes
- * and curve 10's last node has 9.9 degrees and lies within twice the gap of the vertex: forced.
- * The same triangle moved 0.2 along the curves, away from the gap: unforced. */
-static void triangle_across_a_vertex_gap_forces(void **state) {
-  (void)state;
-  if (!pm_test_have_cad()) skip();
+/* robust/step__SampleCrankshaft4A.stp, from the shared models (the caller skips without them). */
+static pm_model *open_crankshaft(void) {
   char path[512];
   pm_model *m = NULL;
   pm_error e = {0};
@@ -154,6 +149,17 @@ static void triangle_across_a_vertex_gap_forces(void **state) {
       pm_input_open(pm_test_cad("robust/step__SampleCrankshaft4A.stp", path, sizeof path), &m,
                     NULL, &e),
       e);
+  return m;
+}
+
+/* robust/step__SampleCrankshaft4A.stp: curves 13 and 337 (gmsh tags 14, 338) end 0.056 from
+ * their vertex 11, where curve 10 ends too. bubble's triangle between curve 13's last two nodes
+ * and curve 10's last node has 9.9 degrees and lies within twice the gap of the vertex: forced.
+ * The same triangle moved 0.2 along the curves, away from the gap: unforced. */
+static void triangle_across_a_vertex_gap_forces(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  pm_model *m = open_crankshaft();
   const int dim[3] = {PM_CURVE, PM_CURVE, PM_CURVE};
   const int32_t cell[3] = {13, 10, 13};
   const double at_gap[3][3] = {{55.889256, -9.867038, 105.120647},
@@ -180,13 +186,7 @@ static void triangle_across_a_vertex_gap_forces(void **state) {
 static void triangle_from_a_missed_vertex_forces(void **state) {
   (void)state;
   if (!pm_test_have_cad()) skip();
-  char path[512];
-  pm_model *m = NULL;
-  pm_error e = {0};
-  PM_ASSERT_OK(
-      pm_input_open(pm_test_cad("robust/step__SampleCrankshaft4A.stp", path, sizeof path), &m,
-                    NULL, &e),
-      e);
+  pm_model *m = open_crankshaft();
   const int dim[3] = {PM_VERTEX, PM_CURVE, PM_CURVE};
   const int32_t cell[3] = {33, 323, 34};
   double at_gap[3][3] = {{-45.1636375577012, -8.480225269930195, 91.68980790979668},
