@@ -48,9 +48,11 @@
  *     pairs up to q max(sigma_i, sigma_j) apart get different colours, q = psys_nbr_reach, the
  *     farthest the lists are sure to reach: 1 + beta = 1.577 with the defaults, 5% beyond the
  *     conflict distance, so that a colouring outlives small moves) and kept from pass to pass
- *     while it holds: each pass first checks, in parallel, that every
- *     movable particle and no fixed one has a colour and that no two of one colour conflict,
- *     and colours again only when that fails or the particle count changed. Made at every pass,
+ *     while it holds: each pass first checks that every movable particle and no fixed one has
+ *     a colour and that no two of one colour conflict -- from each particle's move and sigma
+ *     growth since the colouring when that settles it (psys_colouring_surely_holds), else pair
+ *     by pair in parallel -- and colours again only when that fails or the particle count
+ *     changed. Made at every pass,
  *     the serial colouring took 8% of a two-thread run (wrench.stp, perf) while phase 3's tail
  *     moves its particles by about 1e-3 sigma per pass. Every colouring that holds gives a
  *     Gauss-Seidel sweep of the same kind; which one a pass uses depends on the run's history
@@ -500,11 +502,43 @@ static int32_t colour_particles(const psys_sys *s, int32_t *colour) {
   return ncol;
 }
 
+/* Whether no two movable particles of one colour can be in conflict, judged from how far each
+ * moved and how much its sigma grew since the colouring, without looking at pairs. Two particles
+ * of one colour were at least d0 = q m0 apart then (q = psys_nbr_reach, m0 the larger of their
+ * sigma then: the lists hold every pair within that, and the colouring separated them); they
+ * conflict when closer than r m (r = 1 + step_max, m the larger sigma now). With delta the
+ * distance a particle moved and g its sigma's growth (0 when it shrank), they are at least
+ * q m0 - delta_i - delta_j apart and m <= m0 + g_i + g_j, so they cannot conflict while
+ * e_i + e_j <= 0, e = delta + r g - (q - r) sigma0 / 2 (as m0 >= (sigma0_i + sigma0_j) / 2): for
+ * every pair at once while the two largest e sum to at most 0. A sufficient test only: when it
+ * fails, the pairs are checked. Runs of phase 3's tail pass it at most passes; the pair check
+ * took 6% of a one-thread run (wrench.stp, perf). */
+int psys_colouring_surely_holds(const psys_sys *s) {
+  const int32_t n = s->n;
+  const double r = 1 + s->p.step_max, q = psys_nbr_reach(&s->p);
+  /* (1 - 1e-9): room for the rounding of the distances the pair check compares */
+  const double slack = 0.5 * (q - r) * (1 - 1e-9);
+  double e1 = -INFINITY, e2 = -INFINITY; /* the two largest */
+  for (int32_t i = 0; i < n; ++i) {
+    if (s->colour[i] < 0) continue;
+    const double *x = &s->xs[4 * i], *x0 = &s->colour_x0[4 * i];
+    const double g = x[3] > x0[3] ? x[3] - x0[3] : 0;
+    const double e = sqrt(psys_d2(x, x0)) * (1 + 1e-9) + r * g - slack * x0[3];
+    if (e > e1) e2 = e1, e1 = e;
+    else if (e > e2) e2 = e;
+  }
+  return !(e1 + e2 > 0);
+}
+
 /* 1 when the kept colouring still holds for the current particles: the same count, a colour on
  * exactly the movable ones, and no two movable particles of one colour in conflict. */
 static int colouring_holds(const psys_sys *s) {
   const int32_t n = s->n;
   if (n == 0 || s->colour_n != n) return 0;
+  int consistent = 1;
+  for (int32_t i = 0; i < n && consistent; ++i) consistent = (s->colour[i] < 0) == (s->fixed[i] != 0);
+  if (!consistent) return 0;
+  if (psys_colouring_surely_holds(s)) return 1;
   const double reach = 1 + s->p.step_max;
   int bad = 0;
 #pragma omp parallel for num_threads(s->threads) schedule(static) reduction(| : bad) if (n > 4096)
@@ -535,11 +569,12 @@ static pm_status colour_again(psys_sys *s, pm_error *err) {
   if (n + 2 > s->colour_cap) {
     int32_t cap = s->colour_cap ? s->colour_cap : 256;
     while (cap < n + 2) cap = cap > INT32_MAX / 2 ? INT32_MAX : 2 * cap;
-    free(s->colour), free(s->colour_order), free(s->colour_start);
+    free(s->colour), free(s->colour_order), free(s->colour_start), free(s->colour_x0);
     s->colour = malloc(sizeof(int32_t) * (size_t)cap);
     s->colour_order = malloc(sizeof(int32_t) * (size_t)cap);
     s->colour_start = malloc(sizeof(int32_t) * (size_t)cap);
-    s->colour_cap = s->colour && s->colour_order && s->colour_start ? cap : 0;
+    s->colour_x0 = malloc(sizeof(double) * 4 * (size_t)cap);
+    s->colour_cap = s->colour && s->colour_order && s->colour_start && s->colour_x0 ? cap : 0;
     s->colour_n = 0;
     if (!s->colour_cap) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
@@ -553,6 +588,7 @@ static pm_status colour_again(psys_sys *s, pm_error *err) {
   for (int32_t c = 0; c < ncol; ++c) start[c + 2] += start[c + 1];
   for (int32_t i = 0; i < n; ++i)
     if (s->colour[i] >= 0) s->colour_order[start[s->colour[i] + 1]++] = i;
+  memcpy(s->colour_x0, s->xs, sizeof(double) * 4 * (size_t)n);
   s->ncolour = ncol;
   s->colour_n = n;
   s->recolours++;

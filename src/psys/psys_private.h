@@ -187,6 +187,7 @@ typedef struct psys_sys {
   int32_t *colour;         /* [colour_cap] colour of particle i, -1 when fixed */
   int32_t *colour_order;   /* [colour_cap] the movable particles colour by colour */
   int32_t *colour_start;   /* [colour_cap + 1] colour c at colour_start[c] .. [c + 1] - 1 */
+  double *colour_x0;       /* [4 colour_cap] each particle's point and sigma when coloured */
   int32_t colour_cap;
   int32_t colour_n;        /* particles coloured; 0: no colouring */
   int32_t ncolour;
@@ -392,6 +393,11 @@ static inline double psys_particle_energy(const psys_sys *s, int32_t i, const do
 /* Step 2: Algorithm 1 for every movable particle (a coloured Gauss-Seidel sweep, see above);
  * energies and forces of every particle are refreshed. */
 pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err);
+
+/* 1 when the kept colouring (psys_move.c) surely has no two movable particles of one colour in
+ * conflict, judged from each particle's move and sigma growth since it was coloured; 0 when
+ * that cannot be told without checking pairs. Requires a colouring of the current count. */
+int psys_colouring_surely_holds(const psys_sys *s);
 
 /* ---- population (psys_population.c) ----------------------------------------------------- */
 

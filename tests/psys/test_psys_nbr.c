@@ -1,7 +1,8 @@
 /* The neighbour structure (psys_nbr.c): after random moves, sigma changes, additions, deletions
  * and reorderings, an update leaves every neighbour and gap list holding exactly the pairs of
  * its relation (psys_nbr_check, a brute-force scan over all pairs), whether it renewed a few lists
- * or all of them; and a run's particles do not depend on how the lists were kept. */
+ * or all of them; a run's particles do not depend on how the lists were kept; and the move
+ * pass's quick test that its kept colouring still holds never passes a conflicting one. */
 #include "test_psys_run_util.h"
 
 /* Move each movable particle with probability `share` by up to `far` sigma along its cell, and
@@ -102,10 +103,58 @@ static void lists_do_not_change_results(void **state) {
   pm_model_destroy(m);
 }
 
+/* The kept colouring's quick test (psys_colouring_surely_holds) never passes a colouring with two
+ * movable particles of one colour in conflict, |x_i - x_j| < (1 + step_max) max(sigma_i,
+ * sigma_j), found here by a scan over all pairs, after random moves and sigma changes small
+ * (most rounds pass) and large (none does). */
+static void colouring_test_is_sufficient(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:boxhole");
+  psys_params p;
+  psys_params_init(&p);
+  p.max_iter = 20;
+  psys_sys *s = psys_test_system(m, &p, 2);
+  pm_error e = {0};
+  psys_phase_report rep;
+  for (int ph = 1; ph <= 3; ++ph) PM_ASSERT_OK(psys_run_phase(s, ph, NULL, NULL, &rep, &e), e);
+  /* Passes that barely move anything (lambda at most 1e-4): the colouring made at a pass's start
+   * then stands for the points the stirring starts from. */
+  s->p.lambda_max = 1e-4;
+  for (int32_t i = 0; i < s->n; ++i) s->lambda[i] = fmin(s->lambda[i], 1e-4);
+  pm_rng r;
+  pm_rng_init(&r, 9, 0);
+  const double reach = 1 + p.step_max;
+  int passed[2] = {0, 0}, rounds[2] = {0, 0};
+  for (int round = 0; round < 40; ++round) {
+    psys_move_info info;
+    PM_ASSERT_OK(psys_move_pass(s, &info, &e), e); /* colours again when the colouring fails */
+    const int large = round % 2;
+    stir(s, &r, 0.3, large ? 0.2 : 0.01, large ? 0.9 : 0.995, large ? 1.2 : 1.01);
+    const int surely = psys_colouring_surely_holds(s);
+    int conflict = 0;
+    for (int32_t i = 0; i < s->n && !conflict; ++i)
+      for (int32_t j = i + 1; j < s->n && !conflict; ++j) {
+        if (s->colour[i] < 0 || s->colour[i] != s->colour[j]) continue;
+        const double d = reach * fmax(s->sigma[i], s->sigma[j]);
+        conflict = pm_v3_dist2(&s->xyz[3 * i], &s->xyz[3 * j]) < d * d;
+      }
+    if (surely && conflict) fail_msg("round %d: the quick test passed a conflicting colouring", round);
+    passed[large] += surely, rounds[large]++;
+    check(s); /* the lists follow the moves for the next pass */
+  }
+  print_message("colouring quick test: passed %d of %d small rounds, %d of %d large ones\n",
+                passed[0], rounds[0], passed[1], rounds[1]);
+  assert_true(passed[0] > 0);
+  assert_int_equal(passed[1], 0);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(lists_follow_random_changes),
       cmocka_unit_test(lists_do_not_change_results),
+      cmocka_unit_test(colouring_test_is_sufficient),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
