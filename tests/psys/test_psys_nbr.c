@@ -29,20 +29,25 @@ static void check(psys_sys *s) {
   PM_ASSERT_OK(psys_nbr_check(s, &e), e);
 }
 
-/* Phase 3 on a box with a hole: face particles hold neighbour and gap lists, the frozen curve and
- * vertex particles neighbour lists only. */
-static void lists_follow_random_changes(void **state) {
-  (void)state;
-  pm_model *m = psys_test_open("case:boxhole");
+/* A two-thread system on case:boxhole (model m) after phases 1 to 3 of 20 iterations each. */
+static psys_sys *boxhole_phase3(const pm_model *m) {
   psys_params p;
   psys_params_init(&p);
   p.max_iter = 20;
   psys_sys *s = psys_test_system(m, &p, 2);
   pm_error e = {0};
   psys_phase_report rep;
-  PM_ASSERT_OK(psys_run_phase(s, 1, NULL, NULL, &rep, &e), e);
-  PM_ASSERT_OK(psys_run_phase(s, 2, NULL, NULL, &rep, &e), e);
-  PM_ASSERT_OK(psys_run_phase(s, 3, NULL, NULL, &rep, &e), e);
+  for (int ph = 1; ph <= 3; ++ph) PM_ASSERT_OK(psys_run_phase(s, ph, NULL, NULL, &rep, &e), e);
+  return s;
+}
+
+/* Phase 3 on a box with a hole: face particles hold neighbour and gap lists, the frozen curve and
+ * vertex particles neighbour lists only. */
+static void lists_follow_random_changes(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:boxhole");
+  psys_sys *s = boxhole_phase3(m);
+  pm_error e = {0};
   assert_true(s->nbr.gp.on);
   check(s);
   pm_rng r;
@@ -110,20 +115,15 @@ static void lists_do_not_change_results(void **state) {
 static void colouring_test_is_sufficient(void **state) {
   (void)state;
   pm_model *m = psys_test_open("case:boxhole");
-  psys_params p;
-  psys_params_init(&p);
-  p.max_iter = 20;
-  psys_sys *s = psys_test_system(m, &p, 2);
+  psys_sys *s = boxhole_phase3(m);
   pm_error e = {0};
-  psys_phase_report rep;
-  for (int ph = 1; ph <= 3; ++ph) PM_ASSERT_OK(psys_run_phase(s, ph, NULL, NULL, &rep, &e), e);
   /* Passes that barely move anything (lambda at most 1e-4): the colouring made at a pass's start
    * then stands for the points the stirring starts from. */
   s->p.lambda_max = 1e-4;
   for (int32_t i = 0; i < s->n; ++i) s->lambda[i] = fmin(s->lambda[i], 1e-4);
   pm_rng r;
   pm_rng_init(&r, 9, 0);
-  const double reach = 1 + p.step_max;
+  const double reach = 1 + s->p.step_max;
   int passed[2] = {0, 0}, rounds[2] = {0, 0};
   for (int round = 0; round < 40; ++round) {
     psys_move_info info;
