@@ -1012,23 +1012,7 @@ static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face
   free(queue), free(inq), free(edges.key);
 }
 
-/* Edge flips in the parameter plane under the surface's local metric. One affine map per face
- * (eq. 16) is exact only where the first fundamental form [E F; F G] is the same all over the
- * face. On a face whose parametrization is strongly uneven the Delaunay triangulation of the
- * scaled plane joins nodes far apart in 3D: long triangles across curved strips, which lift to
- * folded triangles and needles that the 3D flips, each kept acceptable, cannot all undo. Two
- * such faces: the B-spline thread of bottle.brep (gmsh face 4), where |Su| runs from about 2.5
- * at the ends of u to 48 in the middle and the angle between Su and Sv from 87 to 41 degrees
- * (estimated from the triangles of its bubble mesh), and a cone, whose |Su| shrinks to zero at
- * the apex (robust/statreport__Cone_1.brep). Here each interior edge (a, b) between (a, b, c) and
- * (b, a, d) is flipped to (c, d) when d lies inside the circle through a, b, c measured in the
- * metric averaged over the four points (the anisotropic Delaunay criterion, the metric fixed per
- * quadrilateral) and the quadrilateral is strictly convex in (u, v) -- so the triangulation stays
- * a planar one of the same points and constraints, only its connections change. A constrained
- * edge is never flipped, nor one touching a point whose node appears twice in the pair (a seam
- * wrap, left to split_repeats); the flips are capped (the metric differs from one quadrilateral
- * to the next, so the criterion is not a global one and could cycle). Works on w->tri in point
- * indices; returns the number of flips, -1 when out of memory. */
+/* Is the triangle of points a, b, c (3D positions in xyz) degenerate? */
 static int lifts_flat(const double *xyz, int32_t a, int32_t b, int32_t c) {
   pm_tri_measure q;
   pm_tri_measure_eval(&xyz[3 * a], &xyz[3 * b], &xyz[3 * c], &q);
@@ -1042,6 +1026,25 @@ static int flat_pair_flips(const double *xyz, int32_t a, int32_t b, int32_t c, i
          !lifts_flat(xyz, d, c, a);
 }
 
+/* Edge flips in the parameter plane under the surface's local metric. One affine map per face
+ * (eq. 16) is exact only where the first fundamental form [E F; F G] is the same all over the
+ * face. On a face whose parametrization is strongly uneven the Delaunay triangulation of the
+ * scaled plane joins nodes far apart in 3D: long triangles across curved strips, which lift to
+ * folded triangles and needles that the 3D flips, each kept acceptable, cannot all undo. Two
+ * such faces: the B-spline thread of bottle.brep (gmsh face 4), where |Su| runs from about 2.5
+ * at the ends of u to 48 in the middle and the angle between Su and Sv from 87 to 41 degrees
+ * (estimated from the triangles of its bubble mesh), and a cone, whose |Su| shrinks to zero at
+ * the apex (robust/statreport__Cone_1.brep). Here each interior edge (a, b) between (a, b, c) and
+ * (b, a, d) is flipped to (c, d) when d lies inside the circle through a, b, c measured in the
+ * metric averaged over the four points (the anisotropic Delaunay criterion, the metric fixed per
+ * quadrilateral) and the quadrilateral is strictly convex in (u, v) -- so the triangulation stays
+ * a planar one of the same points and constraints, only its connections change. An edge
+ * between two copies of one seam node, and a pair holding a triangle of no area in 3D, are
+ * flipped whatever the metric says when the flip is convex (and, for the flat one, makes no flat
+ * triangle). A constrained edge is never flipped, nor one touching a point whose node appears
+ * twice in the pair otherwise (a seam wrap, left to split_repeats); the flips are capped (the metric differs from one quadrilateral
+ * to the next, so the criterion is not a global one and could cycle). Works on w->tri in point
+ * indices; returns the number of flips, -1 when out of memory. */
 static int64_t metric_flips(const pm_cell *f, face_work *w, int64_t max_flips, pm_error *err) {
   if (w->ntri < 2) return 0;
   double *met = malloc(sizeof(double) * 6 * (size_t)w->np), *xyz = met + 3 * (size_t)w->np;
