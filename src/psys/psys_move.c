@@ -544,10 +544,6 @@ static int colouring_holds(const psys_sys *s) {
 #pragma omp parallel for num_threads(s->threads) schedule(static) reduction(| : bad) if (n > 4096)
   for (int32_t i = 0; i < n; ++i) {
     const int32_t ci = s->colour[i];
-    if ((ci < 0) != (s->fixed[i] != 0)) {
-      bad = 1;
-      continue;
-    }
     if (ci < 0) continue;
     const psys_list *l = psys_nb(s, i);
     const double *xi = &s->xs[4 * i];

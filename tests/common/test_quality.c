@@ -65,6 +65,18 @@ static void degenerate_triangle(void **state) {
   assert_false(q.degenerate);
   assert_true(q.radius_ratio > 0 && q.radius_ratio < 1e-8);
   PM_ASSERT_NEAR(q.max_angle, 180.0, 1e-6);
+  /* pm_tri_degenerate gives the same verdicts without the measures, also just either side of
+   * the flatness bound (a height of 1e-12 of the longest edge, 2: 2e-12). */
+  double f[3] = {0.5, 1.98e-12, 0}, g[3] = {0.5, 2.02e-12, 0};
+  assert_true(pm_tri_degenerate(a, b, c) && pm_tri_degenerate(a, b, d) && pm_tri_degenerate(a, b, n));
+  assert_false(pm_tri_degenerate(a, b, e));
+  double far[3] = {2, 0, 0};
+  pm_tri_measure_eval(a, far, f, &q);
+  assert_int_equal(pm_tri_degenerate(a, far, f), q.degenerate);
+  assert_true(pm_tri_degenerate(a, far, f));
+  pm_tri_measure_eval(a, far, g, &q);
+  assert_int_equal(pm_tri_degenerate(a, far, g), q.degenerate);
+  assert_false(pm_tri_degenerate(a, far, g));
 }
 
 /* A regular tet with positive orientation. */

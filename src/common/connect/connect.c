@@ -1014,9 +1014,7 @@ static void flip_face(face_work *w, const pm_mesh *mesh, int64_t max_flips, face
 
 /* Is the triangle of points a, b, c (3D positions in xyz) degenerate? */
 static int lifts_flat(const double *xyz, int32_t a, int32_t b, int32_t c) {
-  pm_tri_measure q;
-  pm_tri_measure_eval(&xyz[3 * a], &xyz[3 * b], &xyz[3 * c], &q);
-  return q.degenerate;
+  return pm_tri_degenerate(&xyz[3 * a], &xyz[3 * b], &xyz[3 * c]);
 }
 
 /* Does the pair (a, b, c), (b, a, d) hold a triangle of no area in 3D that the flip to (c, d)

@@ -81,8 +81,8 @@ typedef struct pm_connect_report {
   int32_t dropped_nodes;       /* face nodes outside their face's trimmed region, nodes of stray
                                   CAD points on another vertex, and curve nodes that repeat a
                                   node (at the parameter of the one before them or of the curve's
-                                  end, or within the checker's duplicate distance of a vertex or
-                                  an earlier curve node: connect.c, step 1a), removed */
+                                  end, or within 1e-7 of the diagonal of a vertex or an earlier
+                                  curve node: connect.c, step 1a), removed */
   int32_t crossed_nodes;       /* face nodes dropped for lying inside a boundary segment in (u, v)
                                   but outside it in 3D, where the face's pcurve and the curve
                                   disagree (connect.c, step 1b) */

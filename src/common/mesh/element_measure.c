@@ -33,21 +33,20 @@ static double angle_deg(const double u[3], const double w[3]) {
 
 /* ---- single elements ---------------------------------------------------------------------- */
 
-void pm_tri_measure_eval(const double a[3], const double b[3], const double c[3],
-                         pm_tri_measure *out) {
+/* Twice the area of triangle (a, b, c), and its edge lengths l[0..2] opposite a, b, c: the cross
+ * product at the vertex opposite the longest edge, whose two edges are the shortest, which keeps
+ * cancellation smallest for thin triangles. */
+static double tri_area2(const double a[3], const double b[3], const double c[3], double l[3]) {
   double ab[3], bc[3], ca[3];
   sub3(b, a, ab);
   sub3(c, b, bc);
   sub3(a, c, ca);
-  double la = norm3(bc), lb = norm3(ca), lc = norm3(ab); /* opposite a, b, c */
-  double lmin = fmin(la, fmin(lb, lc)), lmax = fmax(la, fmax(lb, lc));
-  /* Twice the area from the cross product at the vertex opposite the longest edge: its two
-   * edges are the shortest, which keeps cancellation smallest for thin triangles. */
+  l[0] = norm3(bc), l[1] = norm3(ca), l[2] = norm3(ab);
   double u[3], w[3], x[3];
-  if (la >= lb && la >= lc) {
+  if (l[0] >= l[1] && l[0] >= l[2]) {
     sub3(b, a, u);
     sub3(c, a, w);
-  } else if (lb >= lc) {
+  } else if (l[1] >= l[2]) {
     sub3(c, b, u);
     sub3(a, b, w);
   } else {
@@ -55,10 +54,28 @@ void pm_tri_measure_eval(const double a[3], const double b[3], const double c[3]
     sub3(b, c, w);
   }
   cross3(u, w, x);
-  double a2 = norm3(x);
+  return norm3(x);
+}
+
+/* Written as !(a > b) so that NaN coordinates also count as degenerate. */
+static int flat(double a2, double lmax) {
+  return !(a2 > PM_DEGENERATE_REL * lmax * lmax) || !isfinite(a2);
+}
+
+int pm_tri_degenerate(const double a[3], const double b[3], const double c[3]) {
+  double l[3];
+  double a2 = tri_area2(a, b, c, l);
+  return flat(a2, fmax(l[0], fmax(l[1], l[2])));
+}
+
+void pm_tri_measure_eval(const double a[3], const double b[3], const double c[3],
+                         pm_tri_measure *out) {
+  double l[3];
+  double a2 = tri_area2(a, b, c, l);
+  double la = l[0], lb = l[1], lc = l[2]; /* opposite a, b, c */
+  double lmin = fmin(la, fmin(lb, lc)), lmax = fmax(la, fmax(lb, lc));
   out->area = isfinite(a2) ? 0.5 * a2 : 0.0;
-  /* Written as !(a > b) so that NaN coordinates also land in the degenerate branch. */
-  if (!(a2 > PM_DEGENERATE_REL * lmax * lmax) || !isfinite(a2)) {
+  if (flat(a2, lmax)) {
     out->degenerate = 1;
     out->radius_ratio = 0.0;
     out->rr = 0.0;

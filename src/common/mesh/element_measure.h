@@ -57,6 +57,9 @@ typedef struct pm_tet_measure {
 
 void pm_tri_measure_eval(const double a[3], const double b[3], const double c[3],
                          pm_tri_measure *out);
+/* Whether triangle (a, b, c) is degenerate (the test of pm_tri_measure_eval, without the
+ * measures). */
+int pm_tri_degenerate(const double a[3], const double b[3], const double c[3]);
 void pm_tet_measure_eval(const double a[3], const double b[3], const double c[3],
                          const double d[3], pm_tet_measure *out);
 
