@@ -53,6 +53,17 @@ void peer_tagmap_free(peer_tagmap *t);
  * small face meshed with boundary nodes only). Returns the number of faces turned. */
 int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh);
 
+/* Flip each triangle of no area in 3D (pm_tri_degenerate: its three nodes on a line) with the
+ * triangle of the same face across its longest edge, when the node opposite that edge lies
+ * between its ends: the two new triangles then split the neighbour exactly, so the surface is
+ * the same and the orientation is kept. A backend meshes a face in its parameter plane, where the
+ * nodes of a straight boundary curve are not on a line when the face's pcurve strays from the
+ * curve (bottle.brep's face 4: gmsh's Frontal-Delaunay joins three consecutive nodes of curve
+ * 11 into a triangle of area 1e-18). Faces are oriented first (peer_orient_faces). A flat
+ * triangle whose flip would make another flat one, or an edge the face already has, stays.
+ * Returns the number of flips, or -1 when out of memory (the flips made before stand). */
+int32_t peer_flip_flat_triangles(pm_mesh *mesh);
+
 
 
 #endif /* PM_PEER_COMMON_H */

@@ -71,6 +71,11 @@ static const pm_param_desc gmsh_desc[] = {
     {"radius_edge", PM_PARAM_DOUBLE, offsetof(peer_gmsh_params, radius_edge), 1.5, 1, 10,
      PM_RANGE_LO_OPEN, "", "volume=tetgen: bound on a tet's circumradius / shortest edge",
      "TetGen -q (papers/001 sec. 4.4)", NULL},
+    {"flip_flat", PM_PARAM_BOOL, offsetof(peer_gmsh_params, flip_flat), 1, 0, 1, PM_RANGE_CLOSED,
+     "", "flip gmsh's triangles of no 3D area (three nodes on a line) with their neighbour",
+     "packmesh's choice: a face's pcurve straying from a straight curve lets gmsh join three of "
+     "its nodes (bottle.brep); not with gmsh's 3D Delaunay, whose tets use gmsh's triangles",
+     NULL},
 };
 
 #define NDESC ((int)(sizeof gmsh_desc / sizeof gmsh_desc[0]))
@@ -526,6 +531,9 @@ static pm_status gmsh_run(const pm_method *self, int algorithm, const char *algo
   peer_tagmap_free(&map);
 
   if (!s) peer_orient_faces(m, mesh);
+  int32_t flat_flips = 0;
+  if (!s && p->flip_flat && !gmsh_volume && (flat_flips = peer_flip_flat_triangles(mesh)) < 0)
+    s = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   /* volume=tetgen: the connection layer's volume step on gmsh's own surface triangles, so that
    * the volume mesher is the same as for our methods. */
   pm_connect_report vrep;
@@ -552,13 +560,19 @@ static pm_status gmsh_run(const pm_method *self, int algorithm, const char *algo
   if (gmsh_volume) pm_observe_time(in->observer, "volume", t_volume, NULL);
   if (want_volume && !gmsh_volume) pm_observe_time(in->observer, "volume", t_tetgen, NULL);
   pm_observe_time(in->observer, "convert", t_convert, NULL);
+  pm_observe_number(in->observer, "flat_triangle_flips", flat_flips, NULL);
   if (want_volume && !gmsh_volume) {
     pm_observe_number(in->observer, "tetgen_steiner", vrep.steiner, NULL);
     pm_observe_number(in->observer, "tetgen_flat_tet_flips", vrep.flat_tet_flips, NULL);
   }
   out->mesh = mesh;
-  snprintf(out->stop_reason, sizeof out->stop_reason, "gmsh %s%s", algorithm_name,
-           !want_volume ? "" : gmsh_volume ? " + gmsh 3D Delaunay" : " + TetGen refinement");
+  char flipped[64] = "";
+  if (flat_flips)
+    snprintf(flipped, sizeof flipped, ", %d flat triangle%s flipped", (int)flat_flips,
+             flat_flips == 1 ? "" : "s");
+  snprintf(out->stop_reason, sizeof out->stop_reason, "gmsh %s%s%s", algorithm_name,
+           !want_volume ? "" : gmsh_volume ? " + gmsh 3D Delaunay" : " + TetGen refinement",
+           flipped);
   return PM_OK;
 }
 

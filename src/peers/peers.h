@@ -49,6 +49,10 @@ typedef struct peer_gmsh_params {
                          gmsh|tetgen, default gmsh */
   double radius_edge; /* volume=tetgen: TetGen -q radius-edge bound; (1, 10], default 1.5 (the
                          connection step's default) */
+  int flip_flat;      /* flip gmsh's triangles of no 3D area with their neighbour
+                         (peer_flip_flat_triangles) on the surface mesh, unless gmsh's 3D
+                         Delaunay meshes the volumes from it; on|off, default on (off: gmsh's
+                         triangles as they come) */
 } peer_gmsh_params;
 
 void peer_gmsh_params_init(void *params);

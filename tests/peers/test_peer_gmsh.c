@@ -10,6 +10,8 @@
 #include "common/geom/geom_analytic.h"
 #include "common/geom/geom_cad.h"
 #include "common/backends/gmsh_session.h"
+#include "common/mesh/element_measure.h"
+#include "peers/peer_common.h"
 
 static const pm_method *const gmsh_methods[3] = {&peer_gmsh_meshadapt, &peer_gmsh_delaunay,
                                                  &peer_gmsh_frontal};
@@ -466,13 +468,69 @@ static void default_size(void **state) {
   pm_model_destroy(md);
 }
 
+/* peer_flip_flat_triangles: a fan around d over a straight boundary e0 - b - e1 - g, with the
+ * flat triangle (b, e0, e1) that a backend makes when it joins three nodes of a straight curve.
+ * The flip replaces it and its neighbour (e1, e0, d) by (b, e0, d) and (b, d, e1): no flat
+ * triangle is left, the area is the same and every triangle keeps its turn. Across a face
+ * boundary, or when the new edge exists already, nothing flips. */
+static double signed_area_z(const pm_mesh *m, int32_t t) {
+  const double *a = &m->xyz[3 * m->tri[3 * t]], *b = &m->xyz[3 * m->tri[3 * t + 1]],
+               *c = &m->xyz[3 * m->tri[3 * t + 2]];
+  return 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]));
+}
+
+static pm_mesh *flat_fan(int32_t neighbour_face) {
+  pm_mesh *m = pm_mesh_create();
+  pm_error e = {0};
+  const double x[5][3] = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {1, 1, 0}, {3, 0, 0}}; /* e0 b e1 d g */
+  for (int k = 0; k < 5; ++k) PM_ASSERT_OK(pm_mesh_add_node(m, x[k], 2, 0, NULL, NULL, &e), e);
+  PM_ASSERT_OK(pm_mesh_add_tri(m, 1, 0, 2, 0, &e), e);              /* flat, turn -0 */
+  PM_ASSERT_OK(pm_mesh_add_tri(m, 2, 0, 3, neighbour_face, &e), e); /* clockwise */
+  PM_ASSERT_OK(pm_mesh_add_tri(m, 4, 2, 3, 0, &e), e);              /* clockwise */
+  return m;
+}
+
+static void flat_triangles_flip(void **state) {
+  (void)state;
+  pm_mesh *m = flat_fan(0);
+  const double area = signed_area_z(m, 1) + signed_area_z(m, 2);
+  assert_int_equal(peer_flip_flat_triangles(m), 1);
+  assert_int_equal(m->ntri, 3);
+  double sum = 0;
+  for (int32_t t = 0; t < m->ntri; ++t) {
+    const double *a = &m->xyz[3 * m->tri[3 * t]], *b = &m->xyz[3 * m->tri[3 * t + 1]],
+                 *c = &m->xyz[3 * m->tri[3 * t + 2]];
+    assert_false(pm_tri_degenerate(a, b, c));
+    assert_true(signed_area_z(m, t) < 0); /* the turn of the face kept */
+    sum += signed_area_z(m, t);
+  }
+  PM_ASSERT_NEAR(sum, area, 1e-15);
+  const int32_t want[6] = {1, 0, 3, 1, 3, 2};
+  for (int k = 0; k < 6; ++k) assert_int_equal(m->tri[k], want[k]);
+  assert_int_equal(peer_flip_flat_triangles(m), 0); /* nothing left to flip */
+  pm_mesh_destroy(m);
+
+  /* the neighbour on another face: the edge is a face boundary, nothing flips */
+  m = flat_fan(1);
+  assert_int_equal(peer_flip_flat_triangles(m), 0);
+  assert_int_equal(m->tri[0], 1);
+  pm_mesh_destroy(m);
+
+  /* the new edge (b, d) exists already (a triangle (b, d, g) of the face): nothing flips */
+  m = flat_fan(0);
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_mesh_add_tri(m, 1, 3, 4, 0, &e), e);
+  assert_int_equal(peer_flip_flat_triangles(m), 0);
+  pm_mesh_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(qi1_uniform),     cmocka_unit_test(qi3_graded),
       cmocka_unit_test(arcs_of_every_kind), cmocka_unit_test(qi2_qi4_holes),
       cmocka_unit_test(solids_and_cad),  cmocka_unit_test(volumes),
       cmocka_unit_test(determinism_and_pristine), cmocka_unit_test(bad_input),
-      cmocka_unit_test(default_size),
+      cmocka_unit_test(default_size),    cmocka_unit_test(flat_triangles_flip),
   };
   /* PM_TEST_FILTER=name runs one test (cmocka's glob), for debugging. */
   if (getenv("PM_TEST_FILTER")) cmocka_set_test_filter(getenv("PM_TEST_FILTER"));
