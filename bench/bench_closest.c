@@ -1,7 +1,8 @@
 /* Benchmark of the Embree checks: BVH build time and closest-point queries per second
  * (closest_embree.c), and the self-intersection check (self_intersect.c), on closed UV spheres of
- * 10^4 .. 10^6 triangles. Also compares the build with Embree's own thread pool (default device)
- * against the single-thread device that pm_bvh uses, and times the two-sided distance
+ * 10^4 .. 10^6 triangles. Also compares the build with Embree's own thread pool (default device,
+ * build_tbb) against the single-thread device that pm_bvh uses (build_1th, Embree's default build
+ * quality; build_s is pm_bvh's own, at the low quality), and times the two-sided distance
  * (distance.c) of the same spheres against the built-in case "sphere".
  *
  * Usage: bench_closest [max_triangles]   (default 1000000)
@@ -233,8 +234,9 @@ int main(int argc, char **argv) {
     free(xyz), free(tri);
   }
   pm_model_destroy(m);
-  printf("# build_s: pm_bvh_create (copy + checks + single-thread Embree build);\n"
-         "# build_tbb / build_1th: the same Embree build with the default device (TBB pool) / threads=1;\n"
+  printf("# build_s: pm_bvh_create (copy + checks + single-thread Embree build, low quality);\n"
+         "# build_tbb / build_1th: Embree's build at its default quality with the default device\n"
+         "# (TBB pool) / threads=1;\n"
          "# q/s: pm_bvh_closest per second, 1 thread or all OpenMP threads; near: points within 5%% of\n"
          "# the surface, far: at radius 1.5 .. 3; selfint_s: pm_triangles_self_intersections;\n"
          "# dist_s: pm_mesh_distance against case:sphere (default parameters, unclassified mesh);\n"

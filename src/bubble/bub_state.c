@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/base/morton.h"
 #include "common/base/vec3.h"
 
 /* ---- closure tables ----------------------------------------------------------------------- */
@@ -387,24 +388,13 @@ static int cmp_key(const void *a, const void *b) {
   return (x->idx > y->idx) - (x->idx < y->idx);
 }
 
-/* Spread the low 21 bits of v to every third bit. */
-static uint64_t spread3(uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffull;
-  v = (v | v << 16) & 0x1f0000ff0000ffull;
-  v = (v | v << 8) & 0x100f00f00f00f00full;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ull;
-  v = (v | v << 2) & 0x1249249249249249ull;
-  return v;
-}
-
 static uint64_t morton(const pm_model *m, const double x[3]) {
   uint64_t z = 0;
   for (int k = 0; k < 3; ++k) {
     double ext = m->box[k + 3] - m->box[k], t = ext > 0 ? (x[k] - m->box[k]) / ext : 0;
     if (!(t > 0)) t = 0; /* also NaN */
     if (t > 1) t = 1;
-    z |= spread3((uint64_t)(t * 2097151.0)) << k;
+    z |= pm_morton_spread3((uint64_t)(t * 2097151.0)) << k;
   }
   return z;
 }

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "common/geom/geom_cad.h"
+#include "common/base/morton.h"
 #include "common/base/rng.h"
 #include "common/base/vec3.h"
 #include "psys/psys_private.h"
@@ -424,17 +425,6 @@ pm_status psys_compact(psys_sys *s, const uint8_t *dead, pm_error *err) {
 
 /* ---- spatial order --------------------------------------------------------------------------- */
 
-/* Interleave the low 21 bits of x, y, z (Morton order). */
-static uint64_t spread21(uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffULL;
-  v = (v | v << 16) & 0x1f0000ff0000ffULL;
-  v = (v | v << 8) & 0x100f00f00f00f00fULL;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
-  return v;
-}
-
 typedef struct mkey {
   uint64_t key;
   int32_t i;
@@ -474,7 +464,8 @@ pm_status psys_reorder(psys_sys *s, pm_error *err) {
       double t = (x[a] - b[a]) * scale;
       c[a] = t <= 0 ? 0 : (t >= 2097151.0 ? 2097151 : (uint64_t)t);
     }
-    k[q].key = spread21(c[0]) | spread21(c[1]) << 1 | spread21(c[2]) << 2;
+    k[q].key =
+        pm_morton_spread3(c[0]) | pm_morton_spread3(c[1]) << 1 | pm_morton_spread3(c[2]) << 2;
     k[q].i = lo + q;
   }
   qsort(k, (size_t)m, sizeof(mkey), cmp_mkey);

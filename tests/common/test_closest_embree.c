@@ -180,6 +180,44 @@ static void test_bvh_bumpy_surface(void **state) {
   free(xyz), free(tri);
 }
 
+/* Ties go to the lowest index, as in brute_closest's search in index order: a bumpy surface
+ * whose every triangle appears three times, at indices spread over the array (so the copies sit
+ * in different places of the tree), and points over the grid's nodes, where the closest point
+ * is a node shared by up to six triangles. Every query's triangle is brute force's. */
+static void test_bvh_ties_lowest_index(void **state) {
+  (void)state;
+  double *xyz;
+  int32_t *tri, nnode, ntri;
+  bumpy_grid(20, &xyz, &nnode, &tri, &ntri);
+  const int32_t n3 = 3 * ntri;
+  int32_t *tri3 = malloc(sizeof(int32_t) * 3 * (size_t)n3);
+  pm_rng r;
+  pm_rng_init(&r, 21, 0);
+  int32_t *slot = malloc(sizeof(int32_t) * (size_t)n3);
+  for (int32_t k = 0; k < n3; ++k) slot[k] = k;
+  for (int32_t k = n3 - 1; k > 0; --k) { /* a random placement of the copies */
+    int32_t j = (int32_t)pm_rng_below(&r, (uint64_t)k + 1), x = slot[k];
+    slot[k] = slot[j], slot[j] = x;
+  }
+  for (int32_t k = 0; k < n3; ++k) memcpy(&tri3[3 * slot[k]], &tri[3 * (k % ntri)], 3 * sizeof(int32_t));
+  pm_error e = {0};
+  pm_bvh *bvh = NULL;
+  PM_ASSERT_OK(pm_bvh_create(xyz, nnode, tri3, n3, &bvh, &e), e);
+  for (int32_t i = 0; i < nnode; ++i) {
+    const double *x = &xyz[3 * i];
+    double p[3] = {x[0] + pm_rng_range(&r, -1e-3, 1e-3), x[1], x[2] + 0.05};
+    if (i % 2) p[0] = x[0]; /* right above the node: up to six triangles tie, three times */
+    int32_t bt;
+    double bd = brute_closest(xyz, tri3, n3, p, &bt);
+    pm_bvh_hit h;
+    assert_int_equal(pm_bvh_closest(bvh, p, INFINITY, &h), 1);
+    assert_true(h.dist == bd);
+    assert_int_equal(h.tri, bt);
+  }
+  pm_bvh_destroy(bvh);
+  free(slot), free(tri3), free(xyz), free(tri);
+}
+
 /* Coordinates far from the origin: the float rounding of the query point and of Embree's boxes is
  * then large compared with the mesh's features, the case the sphere margin exists for. */
 static void test_bvh_offset_coordinates(void **state) {
@@ -411,6 +449,7 @@ int main(void) {
       cmocka_unit_test(test_bvh_random_soup),
       cmocka_unit_test(test_bvh_bumpy_surface),
       cmocka_unit_test(test_bvh_offset_coordinates),
+      cmocka_unit_test(test_bvh_ties_lowest_index),
       cmocka_unit_test(test_bvh_degenerate_primitives),
       cmocka_unit_test(test_bvh_visit),
       cmocka_unit_test(test_bvh_concurrent),

@@ -373,6 +373,9 @@ static void test_sphere_chordal_error(void **state) {
     /* The reference tessellation (at most ref_per_tri = 16 points per mesh triangle) has a
      * chordal error well below the mesh's own, measured here; it only seeds the projections. */
     assert_true(d.ref_chord > 0 && d.ref_chord < 0.05 * expect);
+    /* Classified, every sample finds its foot from its own triangle on the one face: the
+     * reference's hierarchy is never needed, so never built. Unclassified, it starts them all. */
+    assert_int_equal(d.ref_tree_built, !classify);
     dmax[classify] = d.mesh_to_model_max;
     /* The mean mesh -> model distance is below the maximum and of its order. */
     assert_true(d.mesh_to_model_mean > 0.2 * expect && d.mesh_to_model_mean < expect);
@@ -676,6 +679,7 @@ static void test_prune_changes_no_figure(void **state) {
     assert_true(dp.model_to_mesh_mean == ds.model_to_mesh_mean);
     assert_true(dp.model_to_mesh_max == ds.model_to_mesh_max);
     assert_true(dp.nsamples_mesh == ds.nsamples_mesh && dp.nsamples_model == ds.nsamples_model);
+    assert_true(ds.ref_tree_built); /* searched everywhere */
     assert_int_equal(dp.nfallback, 0);
     if (which == 0) {
       /* At least the prism's sagitta (test_cylinder_prism), the pulled ring adds to it. */

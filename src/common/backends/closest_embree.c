@@ -253,6 +253,11 @@ pm_status pm_bvh_create(const double *xyz, int32_t nnode, const int32_t *tri, in
     pm_bvh_destroy(b);
     return s;
   }
+  /* Embree's low build quality (its Morton-code builder): the hierarchy's build, on one thread,
+   * was most of the cost of the distance's reference, and a closest point is exact and its ties
+   * go to the lowest index whatever the tree, so the answers stay the same (bench_closest prints
+   * this build beside Embree's default one). */
+  rtcSetSceneBuildQuality(b->scene, RTC_BUILD_QUALITY_LOW);
   if (ntri > 0) {
     /* User primitives rather than Embree triangles: their boxes are ours (rounded outwards from
      * the doubles), degenerate triangles are kept, and rtcCollide (the self-intersection broad
@@ -335,7 +340,11 @@ static bool closest_cb(struct RTCPointQueryFunctionArguments *args) {
   double pt[3], w[3];
   double d = pm_point_triangle_closest(q->p, &b->xyz[3 * (size_t)v[0]], &b->xyz[3 * (size_t)v[1]],
                                        &b->xyz[3 * (size_t)v[2]], pt, w);
-  if (d < q->hit->dist && d <= q->limit) {
+  /* Among triangles at the same distance the lowest index wins, as in a search of the
+   * triangles in index order: the answer does not depend on how the hierarchy was built or in
+   * which order it is traversed. (The radius keeps a margin above d, so the others at d are
+   * still visited.) */
+  if ((d < q->hit->dist || (d == q->hit->dist && t < q->hit->tri)) && d <= q->limit) {
     pm_bvh_hit *h = q->hit;
     h->tri = t, h->dist = d;
     pm_v3_copy(h->point, pt);

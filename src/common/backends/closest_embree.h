@@ -63,7 +63,8 @@ int32_t pm_bvh_ntri(const pm_bvh *bvh);
 /* The closest point of the mesh to p among the triangles within max_radius of p (pass INFINITY
  * for no limit). Returns 1 and fills *hit when one is found; returns 0 with hit->tri = -1 and
  * hit->dist = INFINITY when none lies within max_radius (or p is not finite). Among triangles at
- * the same distance the one found first wins (any of them is a correct answer). Thread-safe. */
+ * the same distance the lowest index wins, so the answer is that of a search in index order,
+ * whatever the hierarchy. Thread-safe. */
 int pm_bvh_closest(const pm_bvh *bvh, const double p[3], double max_radius, pm_bvh_hit *hit);
 
 /* Visit the triangles that may lie within `radius` of p: fn(user, tri, radius) is called for a

@@ -157,6 +157,9 @@ typedef struct pm_distance {
   int64_t ref_triangles;            /* triangles of the faces' reference tessellation */
   int64_t ref_cdt_points;           /* points of it that went through the constrained
                                        triangulation (ref_split) */
+  int ref_tree_built;               /* 1 when a search needed the reference's hierarchy, which is
+                                       built at its first use (a one-face model whose samples all
+                                       find their foot from their own element needs none) */
 } pm_distance;
 
 /* The two-sided distance between mesh and model (see above).
