@@ -163,12 +163,12 @@ static double peak_rss_bytes(void) {
 
 /* The time of each step of the iterations (time_s.psys.*), all phases, and the phase-3 share. */
 static void print_steps(const pm_stats *st) {
-  static const char *const steps[] = {"neighbours", "energy",           "step",
-                                      "surface",    "sizing.curvature", "sizing.gap",
-                                      "sizing.lipschitz", "sizing.field", "population",
-                                      "seeding"};
-  static const char *const shown[] = {"nbr", "energy", "step", "surf", "curv", "gap",
-                                      "lipschitz", "field", "pop", "seed"};
+  static const char *const steps[] = {"neighbours", "colouring",        "energy",
+                                      "step",       "surface",          "sizing.curvature",
+                                      "sizing.gap", "sizing.lipschitz", "sizing.field",
+                                      "population", "seeding"};
+  static const char *const shown[] = {"nbr", "colour", "energy", "step", "surf", "curv",
+                                      "gap", "lipschitz", "field", "pop", "seed"};
   double sum = 0, sum3 = 0;
   printf("    steps (s, all phases / phase 3):");
   for (int k = 0; k < (int)(sizeof steps / sizeof steps[0]); ++k) {

@@ -609,7 +609,7 @@ pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err) {
   int32_t largest = 0;
   for (int32_t c = 0; c < ncol; ++c)
     if (start[c + 1] - start[c] > largest) largest = start[c + 1] - start[c];
-  psys_clock_add(s, PSYS_T_NEIGHBOURS, pm_seconds() - t0);
+  psys_clock_add(s, PSYS_T_COLOURING, pm_seconds() - t0);
   if (largest > 0 && chunk_alloc(&B, largest < CHUNK ? largest : CHUNK)) {
     st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
     goto out;

@@ -57,7 +57,8 @@ double psys_ideal_energy(double sigma);
  * work of several steps, its wall time is split between them in proportion to the time each
  * took on the threads (psys_clock_split). */
 typedef enum psys_step {
-  PSYS_T_NEIGHBOURS = 0, /* neighbour search, colouring, upkeep of the neighbour structures */
+  PSYS_T_NEIGHBOURS = 0, /* neighbour search, upkeep of the neighbour structures */
+  PSYS_T_COLOURING,      /* the colouring's check and, when it fails, the colouring again */
   PSYS_T_ENERGY,         /* E_i, its gradient and Hessian at the particles (eq. 1-2, 8) */
   PSYS_T_STEP,           /* the tangent Newton step, the energy check of trial points, the
                             boundary-distance rule (Algorithm 1) */

@@ -115,7 +115,7 @@ int psys_touch(const psys_sys *s, int32_t ka, int32_t kb) {
 /* ---- time per step ---------------------------------------------------------------------- */
 
 const char *const psys_step_names[PSYS_T_COUNT] = {
-    "neighbours", "energy", "step", "surface", "sizing.curvature", "sizing.gap",
+    "neighbours", "colouring", "energy", "step", "surface", "sizing.curvature", "sizing.gap",
     "sizing.lipschitz", "sizing.field", "population", "seeding"};
 
 void psys_clock_split(psys_sys *s, double wall, int m, const psys_step *ks, const double *cpu) {

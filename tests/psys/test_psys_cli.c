@@ -72,6 +72,12 @@ static void mesh_with_stats_trace_frames(void **state) {
   assert_true(number(root, "time_s", "connect") >= 0);
   const cJSON *ps = cJSON_GetObjectItemCaseSensitive(root, "psys");
   assert_true(number(ps, "iterations", "phase3") > 0);
+  /* the colouring has its own time, and was made at least once per phase */
+  assert_true(number(ps, "lists", "recolours") >= 3);
+  const cJSON *ts = cJSON_GetObjectItemCaseSensitive(root, "time_s");
+  const cJSON *tps = cJSON_GetObjectItemCaseSensitive(ts, "psys");
+  assert_true(number(tps, "colouring", NULL) > 0);
+  assert_true(number(tps, "neighbours", NULL) > 0);
   const cJSON *tri = cJSON_GetObjectItemCaseSensitive(root, "tri");
   assert_true(number(tri, "aspect_ratio", "median") < 0.7);
   cJSON_Delete(root);
