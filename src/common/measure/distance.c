@@ -1088,8 +1088,11 @@ static double size_at(const dctx *c, const double x[3]) {
 
 /* Pattern search: the local maximum of the distance around a sample, over the element's
  * parameters (8 directions: the axes and diagonals, steps halved when no neighbour is better,
- * down to 1e-7 of the start step or 400 evaluations). */
-#define PS_MIN_STEP 1e-7
+ * down to 1e-4 of the start step or 400 evaluations). Near a smooth maximum the value found
+ * differs from the maximum by the square of the last step: from 1e-7 down, the maxima of 20
+ * bubble meshes of both CAD folders moved by at most 2.4e-10 of themselves and no mean moved,
+ * for 13 halvings instead of 23 (the search was up to 60% of the distance's time). */
+#define PS_MIN_STEP 1e-4
 #define PS_MAX_EVAL 400
 
 static double refine_one(const dctx *c, const mblock *blocks, topk *e, double x_best[3]) {
