@@ -255,8 +255,9 @@ pm_status pm_bvh_create(const double *xyz, int32_t nnode, const int32_t *tri, in
   }
   /* Embree's low build quality (its Morton-code builder): the hierarchy's build, on one thread,
    * was most of the cost of the distance's reference, and a closest point is exact and its ties
-   * go to the lowest index whatever the tree, so the answers stay the same (bench_closest prints
-   * this build beside Embree's default one). */
+   * go to the lowest index whatever the tree, so the answers stay the same. `bench_closest
+   * 100000` with one thread, this build against the default quality: 100488 triangles 0.054 s
+   * against 0.090 s, the queries as fast (556k to 563k per second against 490k to 544k). */
   rtcSetSceneBuildQuality(b->scene, RTC_BUILD_QUALITY_LOW);
   if (ntri > 0) {
     /* User primitives rather than Embree triangles: their boxes are ours (rounded outwards from
