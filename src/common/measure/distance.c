@@ -1736,6 +1736,7 @@ static pm_status dist_face_reference(dist_state *r, pm_error *err) {
   if (c->rf.tri.n > 0) {
     if (!(c->rf.lazy = calloc(1, sizeof(lazy_tree)))) return dist_nomem(err);
     pthread_mutex_init(&c->rf.lazy->lock, NULL);
+    atomic_init(&c->rf.lazy->tree, NULL);
   }
   return PM_OK;
 }
