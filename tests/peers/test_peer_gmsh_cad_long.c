@@ -19,8 +19,18 @@ static int nfiles;
 
 /* gmsh's surface mesh of engine_block.stp at diag/30 has, with MeshAdapt and Frontal-Delaunay,
  * two faces of a thin feature meshed across the same pair of curve nodes (an edge of the shell
- * used by four triangles); the checker reports it, and so does this test's output. */
-static int known_defect(const char *file, const char *method) {
+ * used by four triangles); the checker reports it, and so does this test's output. gmsh's
+ * MeshAdapt also folds triangles over on solid56.step (2, face 30) and t20_component8.step (47,
+ * face 1): they run against the face's normal at each of their face nodes (the same at 1009477
+ * and after, `packmesh mesh solid56.step --method gmsh-meshadapt --stats s.json`). */
+static int known_defect(const char *file, const char *method, int gmsh_volume) {
+  /* bottle.brep: gmsh's 3D Delaunay makes no tets ("No elements in volume 1") on gmsh's own
+   * surface mesh, which holds the two triangles of no area that the peer flips away from the
+   * surface it returns (peer_flip_flat_triangles; not possible under gmsh's volume mesher) */
+  if (gmsh_volume && strcmp(file, "bottle.brep") == 0) return 1;
+  if (strcmp(method, "gmsh-meshadapt") == 0 &&
+      (strcmp(file, "solid56.step") == 0 || strcmp(file, "t20_component8.step") == 0))
+    return 1;
   return strcmp(file, "engine_block.stp") == 0 && strcmp(method, "gmsh-delaunay") != 0;
 }
 
@@ -74,7 +84,11 @@ static void every_model(void **state) {
       const char *set = run == 4 ? "volume=tetgen" : NULL;
       fflush(stdout);
       pid_t pid = fork();
-      if (pid == 0) _exit(child(files[f], method, volume, set));
+      if (pid == 0) {
+        const int code = child(files[f], method, volume, set);
+        fflush(stdout); /* _exit does not flush: a failure's line would be lost */
+        _exit(code);
+      }
       int status = 0;
       assert_true(pid > 0 && waitpid(pid, &status, 0) == pid);
       if (WIFSIGNALED(status)) {
@@ -83,7 +97,10 @@ static void every_model(void **state) {
         continue;
       }
       int code = WEXITSTATUS(status);
-      if (code == 1 && known_defect(files[f], method->name)) continue;
+      if ((code == 1 || code == 2) && known_defect(files[f], method->name, volume && !set)) {
+        printf("  (a known defect of gmsh's, above)\n");
+        continue;
+      }
       if (code != 0) ++failures;
     }
   }
