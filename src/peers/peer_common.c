@@ -9,6 +9,7 @@
 #include "common/sizing/sizing_features.h"
 #include "common/base/vec3.h"
 #include "common/mesh/element_measure.h"
+#include "common/mesh/mesh_topo.h"
 
 int peer_is_planar_domain(const pm_model *m) {
   if (!m || pm_cad_gmsh_model(m) != NULL) return 0;
@@ -172,34 +173,6 @@ int32_t peer_orient_faces(const pm_model *m, pm_mesh *mesh) {
 
 /* ---- flat triangles ----------------------------------------------------------------------- */
 
-/* An edge of a triangle, keyed by its face and its two nodes (lo < hi). */
-typedef struct tri_edge {
-  int32_t face, lo, hi, tri;
-} tri_edge;
-
-static int tri_edge_cmp(const void *a, const void *b) {
-  const tri_edge *x = a, *y = b;
-  if (x->face != y->face) return x->face < y->face ? -1 : 1;
-  if (x->lo != y->lo) return x->lo < y->lo ? -1 : 1;
-  if (x->hi != y->hi) return x->hi < y->hi ? -1 : 1;
-  return (x->tri > y->tri) - (x->tri < y->tri);
-}
-
-/* The range [*first, return) of edges equal to (face, a, b) in the sorted array. */
-static int64_t tri_edge_find(const tri_edge *e, int64_t n, int32_t face, int32_t a, int32_t b,
-                             int64_t *first) {
-  const tri_edge key = {face, a < b ? a : b, a < b ? b : a, INT32_MIN};
-  int64_t lo = 0, hi = n;
-  while (lo < hi) {
-    int64_t mid = lo + (hi - lo) / 2;
-    if (tri_edge_cmp(&e[mid], &key) < 0) lo = mid + 1;
-    else hi = mid;
-  }
-  *first = lo;
-  while (hi < n && e[hi].face == key.face && e[hi].lo == key.lo && e[hi].hi == key.hi) ++hi;
-  return hi;
-}
-
 static const double *node_at(const pm_mesh *mesh, int32_t v) { return &mesh->xyz[3 * v]; }
 
 /* Whether triangle t (of nodes v) is flat, and if so, which corner lies between the other two
@@ -216,45 +189,33 @@ static int flat_apex(const pm_mesh *mesh, const int32_t *v, int *apex) {
   return pm_v3_dist2(p[*apex], p[(*apex + 1) % 3]) > 0 && pm_v3_dist2(p[*apex], p[(*apex + 2) % 3]) > 0;
 }
 
-/* One pass: every flat triangle is flipped at most once, and a triangle changed in this pass is
- * not used again until the edges are listed anew. Returns the flips, -1 when out of memory. */
-static int32_t flip_pass(pm_mesh *mesh) {
-  const int32_t nt = mesh->ntri;
-  int32_t nflat = 0;
-  for (int32_t t = 0; t < nt; ++t) {
-    int apex;
-    nflat += flat_apex(mesh, &mesh->tri[3 * t], &apex);
-  }
-  if (!nflat) return 0;
-  tri_edge *e = malloc(sizeof(tri_edge) * 3 * (size_t)nt);
-  uint8_t *used = calloc((size_t)nt + 1, 1);
-  if (!e || !used) {
-    free(e), free(used);
+/* One pass over the flat triangles flat[nflat]: each is flipped at most once, and a triangle
+ * changed in this pass is not used again until the edges are listed anew (mesh_topo.h's table).
+ * Returns the flips, -1 when out of memory. */
+static int32_t flip_pass(pm_mesh *mesh, const int32_t *flat, int32_t nflat) {
+  pm_edges E = {0};
+  uint8_t *used = calloc((size_t)mesh->ntri + 1, 1);
+  if (!used || pm_edges_build(mesh->nnode, mesh->tri, mesh->ntri, 3, &E, NULL)) {
+    free(used);
+    pm_edges_free(&E);
     return -1;
   }
-  for (int32_t t = 0; t < nt; ++t)
-    for (int q = 0; q < 3; ++q) {
-      const int32_t a = mesh->tri[3 * t + q], b = mesh->tri[3 * t + (q + 1) % 3];
-      e[3 * t + q] = (tri_edge){mesh->tri_cell[t], a < b ? a : b, a < b ? b : a, t};
-    }
-  const int64_t ne = 3 * (int64_t)nt;
-  qsort(e, (size_t)ne, sizeof(tri_edge), tri_edge_cmp);
   int32_t flips = 0;
-  for (int32_t t = 0; t < nt; ++t) {
+  for (int32_t k = 0; k < nflat; ++k) {
+    const int32_t t = flat[k];
     int32_t *v = &mesh->tri[3 * t];
-    int k;
-    if (used[t] || !flat_apex(mesh, v, &k)) continue;
-    const int32_t f = mesh->tri_cell[t], b = v[k], e0 = v[(k + 1) % 3], e1 = v[(k + 2) % 3];
-    int64_t first, end = tri_edge_find(e, ne, f, e0, e1, &first);
-    if (end - first != 2) continue; /* a boundary or non-manifold edge */
-    const int32_t t2 = e[first].tri == t ? e[first + 1].tri : e[first].tri;
-    if (used[t2]) continue;
+    int a;
+    if (used[t] || !flat_apex(mesh, v, &a)) continue;
+    const int32_t b = v[a], e0 = v[(a + 1) % 3], e1 = v[(a + 2) % 3];
+    const int64_t e = pm_edges_find(&E, e0, e1);
+    if (e < 0 || E.off[e + 1] - E.off[e] != 2) continue; /* a boundary or non-manifold edge */
+    const int32_t t2 = E.elem[E.off[e]] == t ? E.elem[E.off[e] + 1] : E.elem[E.off[e]];
+    if (used[t2] || mesh->tri_cell[t2] != mesh->tri_cell[t]) continue; /* a curve between faces */
     int32_t *w = &mesh->tri[3 * t2], d = -1;
     for (int q = 0; q < 3; ++q)
       if (w[q] == e1 && w[(q + 1) % 3] == e0) d = w[(q + 2) % 3];
     if (d < 0) continue; /* the two disagree in orientation */
-    int64_t f2;
-    if (tri_edge_find(e, ne, f, b, d, &f2) > f2) continue; /* the new edge exists already */
+    if (pm_edges_find(&E, b, d) >= 0) continue; /* the new edge exists already */
     if (pm_tri_degenerate(node_at(mesh, b), node_at(mesh, e0), node_at(mesh, d)) ||
         pm_tri_degenerate(node_at(mesh, b), node_at(mesh, d), node_at(mesh, e1)))
       continue;
@@ -263,17 +224,37 @@ static int32_t flip_pass(pm_mesh *mesh) {
     used[t] = used[t2] = 1;
     ++flips;
   }
-  free(e), free(used);
+  free(used);
+  pm_edges_free(&E);
   return flips;
 }
 
 int32_t peer_flip_flat_triangles(pm_mesh *mesh) {
+  int32_t *flat = NULL, nflat = 0, cap = 0;
+  for (int32_t t = 0; t < mesh->ntri; ++t) {
+    int apex;
+    if (!flat_apex(mesh, &mesh->tri[3 * t], &apex)) continue;
+    if (nflat == cap) {
+      int32_t *nf = realloc(flat, sizeof(int32_t) * (size_t)(cap = cap ? 2 * cap : 16));
+      if (!nf) {
+        free(flat);
+        return -1;
+      }
+      flat = nf;
+    }
+    flat[nflat++] = t;
+  }
   int32_t total = 0;
-  for (int pass = 0; pass < 8; ++pass) { /* flat triangles side by side need a pass each */
-    const int32_t k = flip_pass(mesh);
-    if (k < 0) return -1;
+  /* flat triangles side by side need a pass each; a pass flips each of the others */
+  for (int pass = 0; pass < 8 && nflat; ++pass) {
+    const int32_t k = flip_pass(mesh, flat, nflat);
+    if (k < 0) {
+      total = -1;
+      break;
+    }
     if (!k) break;
     total += k;
   }
+  free(flat);
   return total;
 }

@@ -51,8 +51,8 @@
  *     while it holds: each pass first checks that every movable particle and no fixed one has
  *     a colour and that no two of one colour conflict -- from each particle's move and sigma
  *     growth since the colouring when that settles it (psys_colouring_surely_holds), else pair
- *     by pair in parallel -- and colours again only when that fails or the particle count
- *     changed. Made at every pass,
+ *     by pair in parallel from the particles that moved enough to conflict -- and colours again
+ *     only when that fails or the particle count changed. Made at every pass,
  *     the serial colouring took 8% of a two-thread run (wrench.stp, perf) while phase 3's tail
  *     moves its particles by about 1e-3 sigma per pass. Every colouring that holds gives a
  *     Gauss-Seidel sweep of the same kind; which one a pass uses depends on the run's history

@@ -831,7 +831,7 @@ static double model_dist(const dctx *c, int part, const double x[3], const hint 
     if (nb && nf == 1 && poly_in[0] && fc[0].in &&
         nb->other > (rx + fc[0].d) * NBHD_SLACK)
       goto candidates_done;
-    const pm_bvh *rtree = c->rf.lazy ? ref_tree(&c->rf) : NULL;
+    const pm_bvh *rtree = ref_tree(&c->rf);
     if (rtree) {
       pm_bvh_hit hit;
       if (pm_bvh_closest(rtree, x, reach, &hit)) {
