@@ -310,6 +310,32 @@ static void faces_listed_twice_are_kept_once(void **state) {
   pm_model_destroy(m);
 }
 
+/* robust/step__mesh_T106_V3.step: an open shell of 8 B-spline faces exported unsewn. Sewing
+ * leaves two faces that meet along part of an edge; the sewn shapes are fragmented where they
+ * lie (no second import), and the report names every step, the pcurves taken by projection
+ * last: a report that long was once cut off at 320 characters. */
+static void sewn_then_merged_report_is_whole(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  char path[1024];
+  snprintf(path, sizeof path, "%s/robust/step__mesh_T106_V3.step", PM_CAD_DIR);
+  if (access(path, R_OK) != 0) skip();
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  assert_int_equal(m->count[PM_VERTEX], 12);
+  assert_int_equal(m->count[PM_CURVE], 18);
+  assert_int_equal(m->count[PM_FACE], 8);
+  assert_non_null(strstr(m->heal, "coincident vertex pairs (unsewn faces or touching solids): 28"));
+  assert_non_null(strstr(m->heal, "merged what sewing left"));
+  assert_non_null(strstr(m->heal, "32 / 34 / 8 / 0 -> 12 / 18 / 8 / 0"));
+  const char *tail = "taken by projection onto the face: 12";
+  size_t n = strlen(m->heal), k = strlen(tail);
+  assert_true(n > k);
+  assert_string_equal(m->heal + n - k, tail);
+  pm_model_destroy(m);
+}
+
 /* ---- a sliver face ------------------------------------------------------------------------ */
 
 /* A unit square and a strip 1 x 0.01 along its edge x = 1, fragmented so that they share it:
@@ -775,6 +801,7 @@ int main(void) {
       cmocka_unit_test(unsewn_faces_come_out_conforming),
       cmocka_unit_test(touching_solids_share_their_face),
       cmocka_unit_test(faces_listed_twice_are_kept_once),
+      cmocka_unit_test(sewn_then_merged_report_is_whole),
       cmocka_unit_test(sliver_face_gives_no_needle),
       cmocka_unit_test(pole_with_two_neighbours),
       cmocka_unit_test(crossing_chords_are_split),

@@ -177,7 +177,7 @@ struct pm_model {
   double box[6];        /* 3D bounding box */
   double diagonal;      /* |box max - box min| */
   double tol;           /* geometric tolerance, relative to the diagonal (backend's choice) */
-  char heal[320];       /* what loading repaired in the file, one line ("" when nothing: see
+  char heal[512];       /* what loading repaired in the file, one line ("" when nothing: see
                            geom_cad_heal.c) */
   double time_build;    /* seconds spent building the cell complex once the file was read
                            (loops, trimming polylines and inside tests, projection grids); 0 for
