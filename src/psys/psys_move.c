@@ -529,6 +529,7 @@ static double colour_slack(const psys_sys *s) {
  * took 6% of a one-thread run (wrench.stp, perf). */
 int psys_colouring_surely_holds(const psys_sys *s) {
   const int32_t n = s->n;
+  if (s->colour_nmended > 0) return 0; /* their pairs are checked at every pass (colour_mend) */
   const double r = 1 + s->p.step_max, slack = colour_slack(s);
   double e1 = -INFINITY, e2 = -INFINITY; /* the two largest */
   for (int32_t i = 0; i < n; ++i) {
@@ -540,37 +541,100 @@ int psys_colouring_surely_holds(const psys_sys *s) {
   return !(e1 + e2 > 0);
 }
 
-/* 1 when the kept colouring still holds for the current particles: the same count, a colour on
- * exactly the movable ones, and no two movable particles of one colour in conflict. The pairs
- * are checked from the particles whose e (above) is positive only: a pair with e_i + e_j <= 0
- * cannot conflict, so one of a conflicting pair has e > 0, and the verdict is that of checking
- * every pair. Those are few when the sufficient test fails (table.brep with one thread, 103
- * checks: 0.006% to 24% of the movable particles, median 0.8%), and the check of all pairs took
- * 47 s of box_sides.step's 706 s on two threads. */
-static int colouring_holds(const psys_sys *s) {
+/* The kept colouring against the current particles: -1 when it must be made again (another
+ * count, or a colour on other particles than the movable ones), else the number of movable
+ * particles in conflict with one of their colour, each marked in s->colour_mark (0: it holds).
+ * The pairs are checked from the particles whose e (above) is positive, and from those coloured
+ * alone since the colouring (colour_mend), whose e says nothing: a pair of two others with
+ * e_i + e_j <= 0 cannot conflict, so every conflict is found, and both of its particles are marked
+ * when both are checked. Those checked are few when the sufficient test fails (table.brep with
+ * one thread, 103 checks: 0.006% to 24% of the movable particles, median 0.8%), and the check of
+ * all pairs took 47 s of box_sides.step's 706 s on two threads. */
+static int32_t colouring_check(psys_sys *s) {
   const int32_t n = s->n;
-  if (n == 0 || s->colour_n != n) return 0;
+  if (n == 0 || s->colour_n != n) return -1;
   int consistent = 1;
   for (int32_t i = 0; i < n && consistent; ++i) consistent = (s->colour[i] < 0) == (s->fixed[i] != 0);
-  if (!consistent) return 0;
-  if (psys_colouring_surely_holds(s)) return 1;
+  if (!consistent) return -1;
+  if (psys_colouring_surely_holds(s)) return 0;
   const double reach = 1 + s->p.step_max, slack = colour_slack(s);
-  int bad = 0;
-#pragma omp parallel for num_threads(s->threads) schedule(static) reduction(| : bad) if (n > 4096)
+  int32_t nbad = 0;
+  uint8_t *mark = s->colour_mark;
+#pragma omp parallel for num_threads(s->threads) schedule(static) reduction(+ : nbad) if (n > 4096)
   for (int32_t i = 0; i < n; ++i) {
+    mark[i] = 0;
     const int32_t ci = s->colour[i];
-    if (ci < 0 || !(colour_excess(s, i, reach, slack) > 0)) continue;
+    if (ci < 0 || (!s->colour_mended[i] && !(colour_excess(s, i, reach, slack) > 0))) continue;
     const psys_list *l = psys_nb(s, i);
     const double *xi = &s->xs[4 * i];
-    for (int32_t q = 0; q < l->n; ++q) {
+    for (int32_t q = 0; q < l->n && !mark[i]; ++q) {
       const int32_t j = l->ids[q];
       if (j == i || s->colour[j] != ci) continue;
       const double *xj = &s->xs[4 * j];
       const double r = reach * (xi[3] > xj[3] ? xi[3] : xj[3]);
-      if (psys_d2(xi, xj) < r * r) bad = 1;
+      if (psys_d2(xi, xj) < r * r) mark[i] = 1;
     }
+    nbad += mark[i];
   }
-  return !bad;
+  return nbad;
+}
+
+/* List the movable particles colour by colour, in index order within a colour (a counting sort
+ * of s->colour over its s->ncolour colours). */
+static void order_colours(psys_sys *s) {
+  const int32_t n = s->n, ncol = s->ncolour;
+  int32_t *start = s->colour_start;
+  memset(start, 0, sizeof(int32_t) * ((size_t)ncol + 2));
+  for (int32_t i = 0; i < n; ++i)
+    if (s->colour[i] >= 0) start[s->colour[i] + 2]++;
+  for (int32_t c = 0; c < ncol; ++c) start[c + 2] += start[c + 1];
+  for (int32_t i = 0; i < n; ++i)
+    if (s->colour[i] >= 0) s->colour_order[start[s->colour[i] + 1]++] = i;
+}
+
+/* colour_mend: the particles marked by colouring_check get, one after the other in index order,
+ * the lowest colour that no movable particle within psys_nbr_reach times the larger sigma has
+ * (the separation of the greedy colouring; the lists hold every such pair). Each then keeps its
+ * pairs checked at every pass until the next colouring, since its colouring point says nothing
+ * about the others'. On a packing at rest the conflicts come a few at a time, where a lattice
+ * defect glides (wrench.stp on two threads: 1 to 6 particles of 48371, every 4 to 10 passes of
+ * phase 3's last 120), and colouring all again for them took a tenth of box_sides.step's run
+ * (64 of 602 s, 205 colourings in 322 passes). Above MEND_MAX of the movable particles, and
+ * above MEND_MIN (in conflict now, or coloured alone before), everything is coloured again
+ * instead: each particle coloured alone is checked at every pass. */
+#define MEND_MAX (1.0 / 64)
+#define MEND_MIN 32
+
+static pm_status colour_mend(psys_sys *s, int32_t nmark, pm_error *err) {
+  const int32_t n = s->n;
+  const double q = psys_nbr_reach(&s->p);
+  /* each particle coloured alone adds at most one colour */
+  uint8_t *used = calloc((size_t)s->ncolour + (size_t)nmark + 1, 1);
+  if (!used) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+  int32_t ncol = s->ncolour;
+  for (int32_t i = 0; i < n; ++i) {
+    if (!s->colour_mark[i]) continue;
+    const psys_list *l = psys_nb(s, i);
+    const double *xi = &s->xs[4 * i];
+    memset(used, 0, (size_t)ncol + 1);
+    for (int32_t k = 0; k < l->n; ++k) {
+      const int32_t j = l->ids[k], c = s->colour[j];
+      if (j == i || c < 0) continue;
+      const double *xj = &s->xs[4 * j];
+      const double r = q * (xi[3] > xj[3] ? xi[3] : xj[3]);
+      if (psys_d2(xi, xj) < r * r) used[c] = 1;
+    }
+    int32_t c = 0;
+    while (used[c]) ++c;
+    s->colour[i] = c;
+    if (c + 1 > ncol) ncol = c + 1;
+    if (!s->colour_mended[i]) s->colour_mended[i] = 1, s->colour_nmended++;
+    s->colour_mends++;
+  }
+  free(used);
+  s->ncolour = ncol;
+  order_colours(s);
+  return PM_OK;
 }
 
 /* Colour the particles again into s->colour, and list the movable ones colour by colour, in
@@ -581,26 +645,28 @@ static pm_status colour_again(psys_sys *s, pm_error *err) {
     int32_t cap = s->colour_cap ? s->colour_cap : 256;
     while (cap < n + 2) cap = cap > INT32_MAX / 2 ? INT32_MAX : 2 * cap;
     free(s->colour), free(s->colour_order), free(s->colour_start), free(s->colour_x0);
+    free(s->colour_mark), free(s->colour_mended);
     s->colour = malloc(sizeof(int32_t) * (size_t)cap);
     s->colour_order = malloc(sizeof(int32_t) * (size_t)cap);
     s->colour_start = malloc(sizeof(int32_t) * (size_t)cap);
     s->colour_x0 = malloc(sizeof(double) * 4 * (size_t)cap);
-    s->colour_cap = s->colour && s->colour_order && s->colour_start && s->colour_x0 ? cap : 0;
+    s->colour_mark = malloc((size_t)cap);
+    s->colour_mended = malloc((size_t)cap);
+    s->colour_cap = s->colour && s->colour_order && s->colour_start && s->colour_x0 &&
+                            s->colour_mark && s->colour_mended
+                        ? cap
+                        : 0;
     s->colour_n = 0;
     if (!s->colour_cap) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   }
   s->colour_n = 0;
   const int32_t ncol = colour_particles(s, s->colour);
   if (ncol < 0) return pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
-  int32_t *start = s->colour_start;
-  memset(start, 0, sizeof(int32_t) * ((size_t)ncol + 2));
-  for (int32_t i = 0; i < n; ++i)
-    if (s->colour[i] >= 0) start[s->colour[i] + 2]++;
-  for (int32_t c = 0; c < ncol; ++c) start[c + 2] += start[c + 1];
-  for (int32_t i = 0; i < n; ++i)
-    if (s->colour[i] >= 0) s->colour_order[start[s->colour[i] + 1]++] = i;
-  memcpy(s->colour_x0, s->xs, sizeof(double) * 4 * (size_t)n);
   s->ncolour = ncol;
+  order_colours(s);
+  memcpy(s->colour_x0, s->xs, sizeof(double) * 4 * (size_t)n);
+  memset(s->colour_mended, 0, (size_t)n);
+  s->colour_nmended = 0;
   s->colour_n = n;
   s->recolours++;
   return PM_OK;
@@ -619,7 +685,16 @@ pm_status psys_move_pass(psys_sys *s, psys_move_info *info, pm_error *err) {
   }
   if ((st = psys_nbr_update(s, err))) goto out; /* timed as the neighbour structure's */
   double t0 = pm_seconds();
-  if (!colouring_holds(s) && (st = colour_again(s, err))) goto out;
+  {
+    const int32_t nbad = colouring_check(s);
+    const int32_t movable = s->colour_n == n ? s->colour_start[s->ncolour] : 0;
+    if (nbad > 0 && s->p.colour_mend &&
+        (double)(nbad + s->colour_nmended) <= fmax(MEND_MIN, MEND_MAX * (double)movable)) {
+      if ((st = colour_mend(s, nbad, err))) goto out;
+    } else if (nbad != 0 && (st = colour_again(s, err))) {
+      goto out;
+    }
+  }
   const int32_t ncol = s->ncolour, *start = s->colour_start, *order = s->colour_order;
   int32_t largest = 0;
   for (int32_t c = 0; c < ncol; ++c)

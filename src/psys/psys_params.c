@@ -108,6 +108,10 @@ static const pm_param_desc desc[] = {
      "1: a curve particle below half the split threshold keeps population control on, like a "
      "face particle (0: faces only; curves are grown by halving their gaps)",
      "ours (001 has no hungry rule: the end of a phase is ours, see psys_phases.c)", NULL},
+    {"colour_mend", B, F(colour_mend), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "1: when the sweep's kept colouring has a few conflicts, only the particles in them get new "
+     "colours (0: every particle is coloured again)",
+     "ours (psys_move.c; 001 updates one particle after the other)", NULL},
     {"max_iter", I, F(max_iter), 1500, 1, 10000000, PM_RANGE_CLOSED, "iterations",
      "iteration cap of each phase", "ours", NULL},
     {"edge_per_sigma", D, F(edge_per_sigma), 0.66, 0.05, 2, PM_RANGE_CLOSED, "",

@@ -189,10 +189,14 @@ typedef struct psys_sys {
   int32_t *colour_order;   /* [colour_cap] the movable particles colour by colour */
   int32_t *colour_start;   /* [colour_cap + 1] colour c at colour_start[c] .. [c + 1] - 1 */
   double *colour_x0;       /* [4 colour_cap] each particle's point and sigma when coloured */
+  uint8_t *colour_mark;    /* [colour_cap] scratch: in a conflict found by the pass's check */
+  uint8_t *colour_mended;  /* [colour_cap] coloured alone since the last colouring (colour_mend) */
   int32_t colour_cap;
   int32_t colour_n;        /* particles coloured; 0: no colouring */
   int32_t ncolour;
+  int32_t colour_nmended;  /* particles with colour_mended set */
   int64_t recolours;       /* move passes that coloured the particles again */
+  int64_t colour_mends;    /* particles coloured alone (colour_mend) */
 } psys_sys;
 
 /* A system on model m with parameters p (copied, must have passed psys_params_check), a given

@@ -47,6 +47,7 @@ static pm_status add_stats(const pm_run_observer *st, const psys_sys *s, const p
   if (!r) r = pm_observe_number(st, "psys.lists.gap_renewed", (double)s->nbr.gp.renewed, err);
   if (!r) r = pm_observe_number(st, "psys.lists.gap_rebuilds", (double)s->nbr.gp.rebuilds, err);
   if (!r) r = pm_observe_number(st, "psys.lists.recolours", (double)s->recolours, err);
+  if (!r) r = pm_observe_number(st, "psys.lists.colour_mends", (double)s->colour_mends, err);
   /* time per step, under time_s: psys.STEP over all phases, psys.phaseK.STEP per phase */
   for (int k = 0; k < PSYS_T_COUNT && !r; ++k) {
     double sum = 0;

@@ -247,6 +247,7 @@ void psys_sys_destroy(psys_sys *s) {
   free(s->chain_off), free(s->chain), free(s->chain_pos), free(s->vpart), free(s->face_on);
   free(s->target), free(s->key);
   free(s->colour), free(s->colour_order), free(s->colour_start), free(s->colour_x0);
+  free(s->colour_mark), free(s->colour_mended);
   free(s);
 }
 

@@ -74,6 +74,7 @@ static void mesh_with_stats_trace_frames(void **state) {
   assert_true(number(ps, "iterations", "phase3") > 0);
   /* the colouring has its own time, and was made at least once per phase */
   assert_true(number(ps, "lists", "recolours") >= 3);
+  assert_true(number(ps, "lists", "colour_mends") >= 0); /* present, 0 when none was needed */
   const cJSON *ts = cJSON_GetObjectItemCaseSensitive(root, "time_s");
   const cJSON *tps = cJSON_GetObjectItemCaseSensitive(ts, "psys");
   assert_true(number(tps, "colouring", NULL) > 0);

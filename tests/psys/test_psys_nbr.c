@@ -1,8 +1,9 @@
 /* The neighbour structure (psys_nbr.c): after random moves, sigma changes, additions, deletions
  * and reorderings, an update leaves every neighbour and gap list holding exactly the pairs of
  * its relation (psys_nbr_check, a brute-force scan over all pairs), whether it renewed a few lists
- * or all of them; a run's particles do not depend on how the lists were kept; and the move
- * pass's quick test that its kept colouring still holds never passes a conflicting one. */
+ * or all of them; a run's particles do not depend on how the lists were kept; the move pass's
+ * quick test that its kept colouring still holds never passes a conflicting one; and a kept
+ * colouring with a few conflicts is mended by colouring the particles in them alone. */
 #include "test_psys_run_util.h"
 
 /* Move each movable particle with probability `share` by up to `far` sigma along its cell, and
@@ -150,11 +151,71 @@ static void colouring_test_is_sufficient(void **state) {
   pm_model_destroy(m);
 }
 
+/* Movable particles of one colour closer than `factor` (1 + step_max) max(sigma_i, sigma_j), by a
+ * scan over all pairs. */
+static int colour_conflicts(const psys_sys *s, double factor) {
+  const double reach = factor * (1 + s->p.step_max);
+  int n = 0;
+  for (int32_t i = 0; i < s->n; ++i)
+    for (int32_t j = i + 1; j < s->n; ++j) {
+      if (s->colour[i] < 0 || s->colour[i] != s->colour[j]) continue;
+      const double d = reach * fmax(s->sigma[i], s->sigma[j]);
+      n += pm_v3_dist2(&s->xyz[3 * i], &s->xyz[3 * j]) < d * d;
+    }
+  return n;
+}
+
+/* A few particles moved by up to 0.3 sigma into particles of their colour: with colour_mend the
+ * next pass gives them new colours alone (no colouring of all), and the sweep's colouring has no
+ * conflict; without it, every particle is coloured again. The particles hardly move in a pass
+ * (lambda at most 1e-4), so a conflict after the pass would have been one at its start. */
+static void colouring_mends_conflicts_alone(void **state) {
+  (void)state;
+  pm_model *m = psys_test_open("case:boxhole");
+  for (int mend = 1; mend >= 0; --mend) {
+    psys_sys *s = boxhole_phase3(m);
+    pm_error e = {0};
+    s->p.colour_mend = mend;
+    s->p.lambda_max = 1e-4;
+    for (int32_t i = 0; i < s->n; ++i) s->lambda[i] = fmin(s->lambda[i], 1e-4);
+    psys_move_info info;
+    PM_ASSERT_OK(psys_move_pass(s, &info, &e), e);
+    pm_rng r;
+    pm_rng_init(&r, 17, 0);
+    int conflicted = 0;
+    for (int round = 0; round < 10; ++round) {
+      stir(s, &r, 0.01, 0.3, 1, 1);
+      check(s);
+      const int before = colour_conflicts(s, 1);
+      const int64_t recolours = s->recolours, mends = s->colour_mends;
+      PM_ASSERT_OK(psys_move_pass(s, &info, &e), e);
+      assert_int_equal(colour_conflicts(s, 0.999), 0);
+      if (before == 0) continue;
+      conflicted++;
+      if (mend) {
+        /* within the share mended alone: the particles in conflict, no colouring of all */
+        assert_int_equal(s->recolours, recolours);
+        assert_true(s->colour_mends >= mends + 1);
+        assert_true(s->colour_nmended > 0);
+        assert_int_equal(psys_colouring_surely_holds(s), 0);
+      } else {
+        assert_int_equal(s->recolours, recolours + 1);
+        assert_int_equal(s->colour_mends, mends);
+      }
+      check(s);
+    }
+    assert_true(conflicted >= 3);
+    psys_sys_destroy(s);
+  }
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(lists_follow_random_changes),
       cmocka_unit_test(lists_do_not_change_results),
       cmocka_unit_test(colouring_test_is_sufficient),
+      cmocka_unit_test(colouring_mends_conflicts_alone),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
