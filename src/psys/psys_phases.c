@@ -318,6 +318,7 @@ pm_status psys_run_phase(psys_sys *s, int phase, const uint8_t *faces, const psy
       psys_clock_add(s, PSYS_T_NEIGHBOURS, pm_seconds() - tc);
     }
     const int held = phase == 3 && !pop_on && s->p.hold_sigma && !s->unsized;
+    if (held) psys_nbr_hold(s);
     if (!held && (st = psys_sigma_update(s, err))) return st;
     if ((st = psys_move_pass(s, &mi, err))) return st;
     tc = pm_seconds();

@@ -107,7 +107,10 @@ typedef struct psys_vl {
 typedef struct psys_nbr {
   psys_vl nb, gp;
   int rebuild;        /* 1: rebuild every list at the next update (a phase changed) */
+  int held;           /* 1: sigma is held (phase 3 after population control, hold_sigma): the
+                         neighbour lists need no growth budget and the gap lists are not kept */
   int always;         /* 1: rebuild every list at every update (tests: results must not change) */
+  int never_hold;     /* 1: psys_nbr_hold does nothing (tests: results must not change) */
 } psys_nbr;
 
 typedef struct psys_sys {
@@ -283,6 +286,10 @@ pm_status psys_nbr_permute(psys_sys *s, int32_t lo, int32_t m, const int32_t *pe
                            pm_error *err);
 /* A phase changed (the gap relation, the radii): every list is made again at the next update. */
 void psys_nbr_reset(psys_sys *s);
+/* Sigma is held from now on (psys_phases.c, hold_sigma) until the next phase or sigma update:
+ * the neighbour lists are made again at the next update without the budget for sigma's growth,
+ * and the gap lists, which only the sigma update reads, are dropped. */
+void psys_nbr_hold(psys_sys *s);
 /* Whether the lists hold every pair they must (PM_ERR_INTERNAL naming the first missing or
  * extra pair): against a brute-force scan over all pairs, O(n^2), for tests. */
 pm_status psys_nbr_check(const psys_sys *s, pm_error *err);

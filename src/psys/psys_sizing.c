@@ -659,6 +659,7 @@ pm_status psys_sigma_update(psys_sys *s, pm_error *err) {
     return st;
   }
   const int32_t n = s->n;
+  if (s->nbr.held) psys_nbr_reset(s); /* the gap lists again, and the growth budget */
   pm_status st = psys_nbr_update(s, err); /* timed as the neighbour structure's */
   if (st) return st;
   double t1 = pm_seconds();

@@ -84,10 +84,11 @@ static void lists_follow_random_changes(void **state) {
 }
 
 /* The particles of a run on model m (all three phases), with lists kept incrementally or made
- * again at every update. */
-static psys_sys *optimize(const pm_model *m, int always) {
+ * again at every update, and with or without the held radii of phase 3's end. */
+static psys_sys *optimize(const pm_model *m, int always, int never_hold) {
   psys_sys *s = psys_test_system(m, NULL, 1);
   s->nbr.always = always;
+  s->nbr.never_hold = never_hold;
   pm_error e = {0};
   psys_phase_report rep[3];
   PM_ASSERT_OK(psys_optimize(s, NULL, rep, &e), e);
@@ -95,17 +96,30 @@ static psys_sys *optimize(const pm_model *m, int always) {
 }
 
 /* The lists only choose candidates: every use filters them with the current points and sigma,
- * so a run whose lists are made again at every update gives the same particles, to the bit. */
+ * so a run whose lists are made again at every update gives the same particles, to the bit, and
+ * so does one that keeps the growth budget and the gap lists while sigma is held. */
 static void lists_do_not_change_results(void **state) {
   (void)state;
   pm_model *m = psys_test_open("case:boxhole");
-  psys_sys *a = optimize(m, 0), *b = optimize(m, 1);
+  psys_sys *a = optimize(m, 0, 0), *b = optimize(m, 1, 0), *c = optimize(m, 0, 1);
   assert_true(a->nbr.nb.renewed > 1000);
   assert_int_equal(b->nbr.nb.renewed, 0);
-  assert_int_equal(a->n, b->n);
-  assert_memory_equal(a->xyz, b->xyz, sizeof(double) * 3 * (size_t)a->n);
-  assert_memory_equal(a->sigma, b->sigma, sizeof(double) * (size_t)a->n);
-  psys_sys_destroy(a), psys_sys_destroy(b);
+  /* a ended held: neighbour lists without the growth budget, no gap lists */
+  assert_true(a->nbr.held && !a->nbr.gp.on && a->nbr.nb.f < c->nbr.nb.f);
+  assert_true(!c->nbr.held && c->nbr.gp.on);
+  for (const psys_sys *o = b; o; o = o == b ? c : NULL) {
+    assert_int_equal(a->n, o->n);
+    assert_memory_equal(a->xyz, o->xyz, sizeof(double) * 3 * (size_t)a->n);
+    assert_memory_equal(a->sigma, o->sigma, sizeof(double) * (size_t)a->n);
+  }
+  /* the held lists hold every pair of their relation; a sigma update takes the gap lists back */
+  check(a);
+  assert_true(a->nbr.held);
+  pm_error e = {0};
+  PM_ASSERT_OK(psys_sigma_update(a, &e), e);
+  assert_true(!a->nbr.held && a->nbr.gp.on);
+  check(a);
+  psys_sys_destroy(a), psys_sys_destroy(b), psys_sys_destroy(c);
   pm_model_destroy(m);
 }
 
