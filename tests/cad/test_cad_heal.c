@@ -311,9 +311,9 @@ static void faces_listed_twice_are_kept_once(void **state) {
 }
 
 /* robust/step__mesh_T106_V3.step: an open shell of 8 B-spline faces exported unsewn. Sewing
- * leaves two faces that meet along part of an edge; the sewn shapes are fragmented where they
- * lie (no second import), and the report names every step, the pcurves taken by projection
- * last: a report that long was once cut off at 320 characters. */
+ * leaves two faces that meet along part of an edge, so the sewn faces are fragmented too, and
+ * the report names every step, the pcurves taken by projection last: a report that long was
+ * once cut off at 320 characters. */
 static void sewn_then_merged_report_is_whole(void **state) {
   (void)state;
   if (!pm_test_have_cad()) skip();

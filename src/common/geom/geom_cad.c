@@ -335,11 +335,12 @@ static pm_status heal(const char *path, cad_format fmt, char *healed, size_t len
       return heal_error(err, path, "sewing the IGES faces");
     how = "imported again with the faces sewn (gmsh's Geometry.OCCSewFaces)";
   } else if (act == CAD_HEAL_SEW) {
-    /* Sewn and fragmented in place, on the shapes imported for the measurement: importing again
-     * first gave the same model to the byte and cost an import and, where pairs were left, a
-     * second sewing too (step__mesh_T106_V3.step: two imports of 0.075 s and a sewing of 0.03 s
-     * before the fragment's 1.1 s). */
-    if (cad_heal_sew() || synchronize())
+    /* Imported again rather than sewn where the measurement's import lies: synchronizing a model
+     * whose shapes were replaced leaks gmsh 4.8.4's old entities (ASan: OCC_Internals::
+     * synchronize), removing the model deletes them. It costs an import and, where pairs are
+     * left, a second sewing (step__mesh_T106_V3.step: two imports of 0.075 s and a sewing of
+     * 0.03 s beside the fragment's 1.1 s); sewing in place gave the same meshes to the byte. */
+    if (import_again(path, fmt, 0) || cad_heal_sew() || synchronize())
       return heal_error(err, path, "sewing the faces");
     how = "sewed the faces (OpenCASCADE's BRepBuilderAPI_Sewing, gmsh's Geometry.OCCSewFaces)";
     /* Sewing leaves pairs whose faces do not meet along a whole edge (T-junctions: a vertex of
@@ -347,7 +348,7 @@ static pm_status heal(const char *path, cad_format fmt, char *healed, size_t len
     cad_heal_counts sewn;
     if (cad_heal_count(&sewn)) return heal_error(err, path, "measuring the sewn model");
     if (sewn.coincident > 0) {
-      if (cad_heal_fragment() || synchronize())
+      if (import_again(path, fmt, 0) || cad_heal_sew() || cad_heal_fragment() || synchronize())
         return heal_error(err, path, "merging the sewn faces");
       how = "sewed the faces (OpenCASCADE's BRepBuilderAPI_Sewing, gmsh's Geometry.OCCSewFaces) "
             "and merged what sewing left (gmsh's RemoveAllDuplicates)";
@@ -360,7 +361,7 @@ static pm_status heal(const char *path, cad_format fmt, char *healed, size_t len
     if (failed) return heal_error(err, path, "removing faces listed twice");
     how = "removed the repeats and rebuilt the volumes that listed them";
   } else {
-    if (cad_heal_fragment() || synchronize())
+    if (import_again(path, fmt, 0) || cad_heal_fragment() || synchronize())
       return heal_error(err, path, "merging the touching solids");
     how = "merged the shapes that touch (gmsh's RemoveAllDuplicates)";
   }
