@@ -293,17 +293,23 @@ static void touching_solids_share_their_face(void **state) {
   cJSON_Delete(o);
 }
 
-static void faces_listed_twice_are_kept_once(void **state) {
-  (void)state;
-  /* bl/dlr_f6.brep of the corpus lists its symmetry plane twice (faces 124 and 131): the
-   * geometry is real CAD, so the test reads it when the shared models are there. */
+/* The corpus file robust/NAME, loaded; the test is skipped when the shared models are not there
+ * (real CAD, read from ../shared/cad). */
+static pm_model *load_robust(const char *name) {
   if (!pm_test_have_cad()) skip();
   char path[1024];
-  snprintf(path, sizeof path, "%s/robust/bl__dlr_f6.brep", PM_CAD_DIR);
+  snprintf(path, sizeof path, "%s/robust/%s", PM_CAD_DIR, name);
   if (access(path, R_OK) != 0) skip();
   pm_model *m = NULL;
   pm_error e = {0};
   PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  return m;
+}
+
+static void faces_listed_twice_are_kept_once(void **state) {
+  (void)state;
+  /* bl/dlr_f6.brep of the corpus lists its symmetry plane twice (faces 124 and 131) */
+  pm_model *m = load_robust("bl__dlr_f6.brep");
   assert_int_equal(m->count[PM_FACE], 129);
   assert_int_equal(m->count[PM_VOLUME], 1);
   assert_non_null(strstr(m->heal, "faces listed twice"));
@@ -316,13 +322,7 @@ static void faces_listed_twice_are_kept_once(void **state) {
  * once cut off at 320 characters. */
 static void sewn_then_merged_report_is_whole(void **state) {
   (void)state;
-  if (!pm_test_have_cad()) skip();
-  char path[1024];
-  snprintf(path, sizeof path, "%s/robust/step__mesh_T106_V3.step", PM_CAD_DIR);
-  if (access(path, R_OK) != 0) skip();
-  pm_model *m = NULL;
-  pm_error e = {0};
-  PM_ASSERT_OK(pm_cad_load(path, &m, &e), e);
+  pm_model *m = load_robust("step__mesh_T106_V3.step");
   assert_int_equal(m->count[PM_VERTEX], 12);
   assert_int_equal(m->count[PM_CURVE], 18);
   assert_int_equal(m->count[PM_FACE], 8);
