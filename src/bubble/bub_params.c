@@ -175,6 +175,11 @@ static const pm_param_desc desc[] = {
      "connection: sweeps of smart Laplacian smoothing of each face's interior nodes after the "
      "flips, each move kept only when its ring's R/l_min improves (0: the nodes as placed)",
      "our addition (connect/face_smooth.h); differs from the papers (0)", NULL},
+    {"needle_moves", PM_PARAM_BOOL, F(needle_moves), 1, 0, 1, PM_RANGE_CLOSED, "",
+     "connection: the smoothing also moves a face node with an angle below 10 degrees in its ring "
+     "towards the edge opposite that angle, where the Laplacian move is refused (a face node far "
+     "above curve nodes spaced finer than the face's; 0: Laplacian moves only)",
+     "our addition (connect/face_smooth.h); differs from the papers (0)", NULL},
     /* output */
     {"frame_every", PM_PARAM_INT, F(frame_every), 10, 1, 1000000, PM_RANGE_CLOSED, "steps",
      "--frames: one snapshot every this many steps", "-", NULL},

@@ -148,6 +148,7 @@ pm_status bub_connect_nodes(const bub_state *s, const pm_run_input *in, int surf
     cp.metric_flips = s->p.metric_flips;
     cp.drop_crossed = s->p.drop_crossed;
     cp.smooth = s->p.smooth;
+    cp.needle_moves = s->p.needle_moves;
     if (in->volume && !surface_only) {
       cp.volume = PM_VOLUME_REFINE;
       cp.max_nodes = in->max_nodes > 0 && in->max_nodes < INT32_MAX ? (int32_t)in->max_nodes : 0;

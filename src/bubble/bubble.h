@@ -190,6 +190,9 @@ typedef struct bub_params {
                        as in the papers; default 1 (our addition) */
   int smooth;       /* connection: sweeps of interior-node smoothing per face (face_smooth.h;
                        our addition); 0 = the nodes as placed, as in the papers; 4 */
+  int needle_moves; /* connection: the smoothing also moves a face node with an angle below 10
+                       degrees in its ring towards the edge opposite it (face_smooth.h; ours);
+                       0 = Laplacian moves only, the meshes of before; 1 */
   /* ---- output ---- */
   int frame_every;  /* --frames: a snapshot every this many steps; [1, 1e6], default 10 */
 } bub_params;

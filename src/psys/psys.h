@@ -108,6 +108,9 @@ typedef struct psys_params {
                            in (u, v) dropped (connect.c, step 1b; our addition); on */
   int smooth;           /* connection: sweeps of interior-node smoothing per face
                            (face_smooth.h; our addition); 0 = the paper's nodes as placed; 4 */
+  int needle_moves;     /* connection: the smoothing also moves a face node with an angle below
+                           10 degrees in its ring towards the edge opposite it (face_smooth.h;
+                           ours); 0 = Laplacian moves only, the meshes of before; 1 */
   double tet_radius_edge; /* --volume: TetGen radius-edge bound (-q); 1.5 */
 } psys_params;
 

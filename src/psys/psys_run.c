@@ -20,6 +20,7 @@ static void connect_params(const psys_params *p, int volume, int64_t max_nodes,
   cp->drop_crossed = p->drop_crossed;
   cp->flips = p->flips ? PM_FLIP_DIAMETRIC : PM_FLIP_NONE; /* section 4.3 */
   cp->smooth = p->smooth;
+  cp->needle_moves = p->needle_moves;
   cp->volume = volume ? PM_VOLUME_REFINE : PM_VOLUME_NONE; /* section 4.4: TetGen refinement */
   cp->radius_edge = p->tet_radius_edge;
   cp->max_nodes = max_nodes > 0 && max_nodes < INT32_MAX ? (int32_t)max_nodes : 0;

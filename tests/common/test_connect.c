@@ -345,13 +345,71 @@ static void smooth_fan_recentres(void **state) {
   }
   double ring[3 * 6];
   memcpy(ring, &xyz[3], sizeof ring);
-  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri, NULL), 1);
+  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri, 0, NULL), 1);
   PM_ASSERT_NEAR(xyz[0], 0, 1e-12);
   PM_ASSERT_NEAR(xyz[1], 0, 1e-12);
   PM_ASSERT_NEAR(uv[0], 0, 1e-12);
   PM_ASSERT_NEAR(uv[1], 0, 1e-12);
   assert_memory_equal(ring, &xyz[3], sizeof ring);
-  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri, NULL), 0);
+  assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri, 0, NULL), 0);
+  pm_model_destroy(m);
+}
+
+/* The smallest angle at node 0 over the triangles tri[3 * nt] (degrees). */
+static double angle_at_first(const double *xyz, const int32_t *tri, int nt) {
+  double best = 180;
+  for (int t = 0; t < nt; ++t) {
+    const int32_t *v = &tri[3 * t];
+    double u[3], w[3];
+    pm_v3_sub(u, &xyz[3 * v[1]], &xyz[3 * v[0]]), pm_v3_sub(w, &xyz[3 * v[2]], &xyz[3 * v[0]]);
+    best = fmin(best, acos(pm_v3_dot(u, w) / (pm_v3_norm(u) * pm_v3_norm(w))) * 180 / M_PI);
+  }
+  return best;
+}
+
+/* The smoothing's needle moves (face_smooth.h, needle_deg): a face node 0.6 above four boundary
+ * segments of 0.1 has 9.0 to 9.5 degrees at itself in the triangles on them, and the far side of
+ * its ring puts the centroid above it, so the Laplacian step (and its half) is refused. With
+ * needle_deg 10 one sweep moves it towards the edge of the thinnest one, to where every angle
+ * at it exceeds 10 degrees; with 0 it stays. */
+static void smooth_needle_moves_towards_short_edges(void **state) {
+  (void)state;
+  pm_model *m = square_with_hole(0);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  /* node 0 the face node, 1..5 boundary nodes along y = -0.9, 6..8 the far side */
+  const double uv0[2 * 9] = {0, -0.3, -0.2, -0.9, -0.1, -0.9, 0, -0.9, 0.1, -0.9,
+                             0.2, -0.9, 0.6, 0.9, 0, 1.0, -0.6, 0.9};
+  const int32_t tri[3 * 8] = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5, 0, 5, 6, 0, 6, 7, 0, 7, 8, 0, 8, 1};
+  const uint8_t movable[9] = {1, 0, 0, 0, 0, 0, 0, 0, 0};
+  for (int needle = 0; needle <= 1; ++needle) {
+    double xyz[3 * 9], uv[2 * 9], nrm[3 * 9];
+    memcpy(uv, uv0, sizeof uv);
+    for (int v = 0; v < 9; ++v) {
+      pm_face_point fp;
+      pm_face_eval(f, &uv[2 * v], 1, &fp);
+      memcpy(&xyz[3 * v], fp.p, sizeof fp.p);
+      pm_v3_cross(&nrm[3 * v], fp.su, fp.sv);
+      pm_v3_scale(&nrm[3 * v], &nrm[3 * v], 1 / pm_v3_norm(&nrm[3 * v]));
+    }
+    const double before = angle_at_first(xyz, tri, 8);
+    PM_ASSERT_NEAR(before, (atan(0.2 / 0.6) - atan(0.1 / 0.6)) * 180 / M_PI, 1e-9);
+    const int32_t moved = pm_face_smooth_sweep(f, 9, xyz, uv, nrm, movable, 8, tri,
+                                               needle ? 10.0 : 0.0, NULL);
+    const double after = angle_at_first(xyz, tri, 8);
+    print_message("needle_deg %d: %d moved, angle at the node %.2f -> %.2f degrees\n",
+                  needle ? 10 : 0, (int)moved, before, after);
+    if (!needle) {
+      assert_int_equal(moved, 0);
+      assert_memory_equal(uv, uv0, sizeof uv);
+      continue;
+    }
+    /* towards the nearest point of the thinnest triangle's edge, (-0.1, -0.9), to 0.456 from it
+     * (0.1 / (2 tan 6.25 degrees)): (-0.025, -0.45) */
+    assert_int_equal(moved, 1);
+    PM_ASSERT_NEAR(uv[0], -0.1 + 0.1 * 0.1 / (2 * tan(6.25 * M_PI / 180)) / sqrt(0.37), 1e-9);
+    PM_ASSERT_NEAR(uv[1], -0.9 + 0.6 * 0.1 / (2 * tan(6.25 * M_PI / 180)) / sqrt(0.37), 1e-9);
+    assert_true(after > 10);
+  }
   pm_model_destroy(m);
 }
 
@@ -422,6 +480,7 @@ int main(void) {
       cmocka_unit_test(curved_faces_flip_and_close),
       cmocka_unit_test(pole_fans_on_even_nodes),
       cmocka_unit_test(smooth_fan_recentres),
+      cmocka_unit_test(smooth_needle_moves_towards_short_edges),
       cmocka_unit_test(smoothing_on_curved_faces),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -1201,7 +1201,8 @@ static pm_status smooth_face(const pm_cell *f, const pm_mesh *mesh, const pm_con
      * the flips after a sweep mark the nodes of the triangles they change. */
     memset(dirty, 1, (size_t)nv);
     for (int k = 0; k < p->smooth; ++k) {
-      int32_t n = pm_face_smooth_sweep(f, nv, w->lxyz, uv, w->nrm, movable, w->ntri, w->tri, dirty);
+      int32_t n = pm_face_smooth_sweep(f, nv, w->lxyz, uv, w->nrm, movable, w->ntri, w->tri,
+                                       p->needle_moves ? PM_CONNECT_NEEDLE_DEG : 0, dirty);
       if (n < 0) goto nomem;
       out->smooth_moves += n;
       if (n == 0) break;

@@ -70,7 +70,14 @@ typedef struct pm_connect_params {
   int smooth;             /* sweeps of interior-node smoothing per face after the 3D flips
                              (face_smooth.h), each followed by the flips again; 0: none, the
                              nodes stay where the method put them; default 0 */
+  int needle_moves;       /* 1: the smoothing also moves a face node that has an angle below
+                             PM_CONNECT_NEEDLE_DEG in its ring towards the edge opposite it
+                             (face_smooth.h, needle_deg); default 0 */
 } pm_connect_params;
+
+/* The angle below which the smoothing's needle moves act: the needle limit of the quality
+ * module (needles.h, PM_NEEDLE_DEG). */
+#define PM_CONNECT_NEEDLE_DEG 10.0
 
 /* Defaults, in one place. */
 void pm_connect_params_init(pm_connect_params *p);

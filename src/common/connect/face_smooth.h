@@ -46,10 +46,17 @@ extern "C" {
  * normals) alone, so a node that was tried and stayed, and whose ring has not changed since, would
  * stay again: the sweep tries only the dirty nodes, clears each one it tries, and marks a node
  * that moves, and every node of its ring, dirty. The caller marks the nodes of triangles it
- * changes (flips). Sweeps with dirty flags give the mesh of sweeps over every node, to the bit. */
+ * changes (flips). Sweeps with dirty flags give the mesh of sweeps over every node, to the bit.
+ * needle_deg > 0: a node that the Laplacian step leaves where it is, and whose ring has an angle
+ * below needle_deg at the node, tries a step towards the edge opposite that angle instead (to
+ * where an isoceles triangle on it would have 1.25 needle_deg, whole or halved), kept when the
+ * ring's largest R / l_min falls (the sum may rise a hair: face_smooth.c, try_move): a face node
+ * standing far above a run of short boundary segments (curve nodes far finer than the face's)
+ * makes thin triangles with them, and the centroid of its ring, half of it the curve's nodes and
+ * half the face's farther ones, need not lie any nearer the curve. 0: Laplacian steps only. */
 int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *uv, double *nrm,
                              const uint8_t *movable, int32_t ntri, const int32_t *tri,
-                             uint8_t *dirty);
+                             double needle_deg, uint8_t *dirty);
 
 #ifdef __cplusplus
 }
