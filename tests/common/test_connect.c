@@ -320,6 +320,17 @@ static void pole_fans_on_even_nodes(void **state) {
   pm_model_destroy(m);
 }
 
+/* The points and unit normals of face f at n parameter pairs uv. */
+static void face_nodes(const pm_cell *f, int n, const double *uv, double *xyz, double *nrm) {
+  for (int v = 0; v < n; ++v) {
+    pm_face_point fp;
+    pm_face_eval(f, &uv[2 * v], 1, &fp);
+    memcpy(&xyz[3 * v], fp.p, sizeof fp.p);
+    pm_v3_cross(&nrm[3 * v], fp.su, fp.sv);
+    pm_v3_scale(&nrm[3 * v], &nrm[3 * v], 1 / pm_v3_norm(&nrm[3 * v]));
+  }
+}
+
 /* face_smooth.h on a hexagonal fan of a planar face: the centre node, pushed off the middle,
  * goes to the centroid of its ring in one sweep (the Laplacian step is taken whole when it
  * improves the ring), the ring's nodes stay, and a second sweep has nothing left to do. */
@@ -336,13 +347,7 @@ static void smooth_fan_recentres(void **state) {
     uv[2 * (k + 1) + 1] = 0.5 * sin(k * M_PI / 3);
     tri[3 * k] = 0, tri[3 * k + 1] = 1 + k, tri[3 * k + 2] = 1 + (k + 1) % 6;
   }
-  for (int v = 0; v < 7; ++v) {
-    pm_face_point fp;
-    pm_face_eval(f, &uv[2 * v], 1, &fp);
-    memcpy(&xyz[3 * v], fp.p, sizeof fp.p);
-    pm_v3_cross(&nrm[3 * v], fp.su, fp.sv);
-    pm_v3_scale(&nrm[3 * v], &nrm[3 * v], 1 / pm_v3_norm(&nrm[3 * v]));
-  }
+  face_nodes(f, 7, uv, xyz, nrm);
   double ring[3 * 6];
   memcpy(ring, &xyz[3], sizeof ring);
   assert_int_equal(pm_face_smooth_sweep(f, 7, xyz, uv, nrm, movable, 6, tri, 0, NULL), 1);
@@ -384,13 +389,7 @@ static void smooth_needle_moves_towards_short_edges(void **state) {
   for (int needle = 0; needle <= 1; ++needle) {
     double xyz[3 * 9], uv[2 * 9], nrm[3 * 9];
     memcpy(uv, uv0, sizeof uv);
-    for (int v = 0; v < 9; ++v) {
-      pm_face_point fp;
-      pm_face_eval(f, &uv[2 * v], 1, &fp);
-      memcpy(&xyz[3 * v], fp.p, sizeof fp.p);
-      pm_v3_cross(&nrm[3 * v], fp.su, fp.sv);
-      pm_v3_scale(&nrm[3 * v], &nrm[3 * v], 1 / pm_v3_norm(&nrm[3 * v]));
-    }
+    face_nodes(f, 9, uv, xyz, nrm);
     const double before = angle_at_first(xyz, tri, 8);
     PM_ASSERT_NEAR(before, (atan(0.2 / 0.6) - atan(0.1 / 0.6)) * 180 / M_PI, 1e-9);
     const int32_t moved = pm_face_smooth_sweep(f, 9, xyz, uv, nrm, movable, 8, tri,
