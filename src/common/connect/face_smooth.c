@@ -25,11 +25,13 @@ static double ring_ratio(const double *a, const double *b, const double *c, cons
   return sqrt(l0 * l1 * l2 / lmin) / (2 * sqrt(n2));
 }
 
-/* The worst and the summed R / l_min of node v's ring, with v at position p and normal pn. */
+/* The worst and the summed R / l_min of node v's ring, with v at position p and normal pn, and
+ * how many of its triangles' corners other than v have an angle whose cosine exceeds `thin_cos`
+ * (an angle below the limit; 2: none counted). */
 static void ring_measure(int32_t v, const double *p, const double *pn, const double *xyz,
                          const double *nrm, const int32_t *tri, const int32_t *ring, int32_t nring,
-                         double *worst, double *sum) {
-  *worst = 0, *sum = 0;
+                         double thin_cos, double *worst, double *sum, int *nthin) {
+  *worst = 0, *sum = 0, *nthin = 0;
   for (int32_t k = 0; k < nring; ++k) {
     const int32_t *t = &tri[3 * ring[k]];
     const double *P[3], *N[3];
@@ -39,6 +41,13 @@ static void ring_measure(int32_t v, const double *p, const double *pn, const dou
     }
     double r = ring_ratio(P[0], P[1], P[2], N[0], N[1], N[2]);
     *worst = fmax(*worst, r), *sum += r;
+    if (thin_cos > 1) continue;
+    for (int q = 0; q < 3; ++q) {
+      if (t[q] == v) continue;
+      double a[3], b[3];
+      pm_v3_sub(a, P[(q + 1) % 3], P[q]), pm_v3_sub(b, P[(q + 2) % 3], P[q]);
+      *nthin += pm_v3_dot(a, b) > thin_cos * pm_v3_norm(a) * pm_v3_norm(b);
+    }
   }
 }
 
@@ -94,23 +103,32 @@ static int needle_target(int32_t v, const double *xyz, const int32_t *tri, const
 }
 
 /* Try the move of node v towards `to`, whole and then halved: kept (1) when its ring gets better.
- * Better: the largest R / l_min does not grow and their sum falls (a Laplacian move), or, with
- * `worst_only` (a needle move), the largest falls: the thin triangles of a fan onto a finely
- * spaced curve all gain a little where the needle gains most, and their sum can rise a hair
- * (robust/step__SampleCrankshaft4A.stp: the ring's worst 2.98 -> 2.93, its sum 9.950 -> 9.960,
- * a 9.6-degree needle left). */
-static int try_move(const pm_cell *f, int32_t v, const double to[3], int worst_only, double *xyz,
-                    double *uv, double *nrm, const int32_t *tri, const int32_t *rv,
+ * Better: the largest R / l_min does not grow and their sum falls (a Laplacian move, needle_deg
+ * = 0); or, for a needle move, the largest falls and no more of the ring's corners away from v
+ * have an angle below needle_deg. Not the sum: the thin triangles of a fan onto a finely spaced
+ * curve all gain a little where the needle gains most, and their sum can rise a hair
+ * (robust/step__SampleCrankshaft4A.stp with psys: the ring's worst 2.98 -> 2.93, its sum 9.950
+ * -> 9.960, a 9.6-degree needle left; the next sweeps step again). Not more small corners away
+ * from v: a step that turns the needle at v into one at a neighbour (a face node stepping to
+ * 0.0013 from a curve node, the same file with bubble: a 6.9-degree corner at the curve node where
+ * a needle forced by a CAD feature was) is no gain. */
+static int try_move(const pm_cell *f, int32_t v, const double to[3], double needle_deg,
+                    double *xyz, double *uv, double *nrm, const int32_t *tri, const int32_t *rv,
                     int32_t nring) {
   double worst0, sum0;
-  ring_measure(v, &xyz[3 * v], &nrm[3 * v], xyz, nrm, tri, rv, nring, &worst0, &sum0);
+  int nthin0;
+  const double thin_cos = needle_deg > 0 ? cos(needle_deg * M_PI / 180) : 2;
+  ring_measure(v, &xyz[3 * v], &nrm[3 * v], xyz, nrm, tri, rv, nring, thin_cos, &worst0, &sum0,
+               &nthin0);
   for (int half = 0; half < 2; ++half) {
     double target[3], nuv[2], p[3], n[3], worst, sum;
+    int nthin;
     pm_v3_sub(target, to, &xyz[3 * v]);
     pm_v3_axpy(target, &xyz[3 * v], half ? 0.5 : 1.0, target);
     if (!surface_point(f, target, &uv[2 * v], nuv, p, n)) continue;
-    ring_measure(v, p, n, xyz, nrm, tri, rv, nring, &worst, &sum);
-    if (worst_only ? !(worst < worst0) : !(worst <= worst0 && sum < sum0)) continue;
+    ring_measure(v, p, n, xyz, nrm, tri, rv, nring, thin_cos, &worst, &sum, &nthin);
+    if (needle_deg > 0 ? !(worst < worst0 && nthin <= nthin0) : !(worst <= worst0 && sum < sum0))
+      continue;
     memcpy(&xyz[3 * v], p, sizeof p);
     memcpy(&nrm[3 * v], n, sizeof n);
     memcpy(&uv[2 * v], nuv, sizeof nuv);
@@ -151,7 +169,7 @@ int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *
     pm_v3_scale(c, c, 0.5 / nring);
     double to[3];
     int ok = needle_deg > 0 && needle_target(v, xyz, tri, rv, nring, needle_deg, to) &&
-             try_move(f, v, to, 1, xyz, uv, nrm, tri, rv, nring);
+             try_move(f, v, to, needle_deg, xyz, uv, nrm, tri, rv, nring);
     if (!ok) ok = try_move(f, v, c, 0, xyz, uv, nrm, tri, rv, nring);
     if (!ok) continue;
     ++moved;

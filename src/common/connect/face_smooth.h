@@ -50,7 +50,8 @@ extern "C" {
  * needle_deg > 0: a node that the Laplacian step leaves where it is, and whose ring has an angle
  * below needle_deg at the node, tries a step towards the edge opposite that angle instead (to
  * where an isoceles triangle on it would have 1.25 needle_deg, whole or halved), kept when the
- * ring's largest R / l_min falls (the sum may rise a hair: face_smooth.c, try_move): a face node
+ * ring's largest R / l_min falls and no more of its corners away from the node have an angle
+ * below needle_deg (the sum may rise a hair: face_smooth.c, try_move): a face node
  * standing far above a run of short boundary segments (curve nodes far finer than the face's)
  * makes thin triangles with them, and the centroid of its ring, half of it the curve's nodes and
  * half the face's farther ones, need not lie any nearer the curve. 0: Laplacian steps only. */
