@@ -412,6 +412,50 @@ static void smooth_needle_moves_towards_short_edges(void **state) {
   pm_model_destroy(m);
 }
 
+/* The corners of triangles tri[3 * nt] away from node 0 with an angle below `deg`. */
+static int small_corners_away(const double *xyz, const int32_t *tri, int nt, double deg) {
+  int n = 0;
+  for (int t = 0; t < nt; ++t)
+    for (int q = 0; q < 3; ++q) {
+      const int32_t *v = &tri[3 * t];
+      if (v[q] == 0) continue;
+      double a[3], b[3];
+      pm_v3_sub(a, &xyz[3 * v[(q + 1) % 3]], &xyz[3 * v[q]]);
+      pm_v3_sub(b, &xyz[3 * v[(q + 2) % 3]], &xyz[3 * v[q]]);
+      n += acos(pm_v3_dot(a, b) / (pm_v3_norm(a) * pm_v3_norm(b))) * 180 / M_PI < deg;
+    }
+  return n;
+}
+
+/* A needle move does not trade the needle at the node for small corners elsewhere: the node
+ * 0.6 above a boundary segment of 0.01 (0.95 degrees at it) aims at 0.046 from the segment's
+ * nearer end, where two corners of its ring away from it would fall below 10 degrees (9.0 at the
+ * far end of the segment three further on): thin triangles, but better than the first one, so
+ * the ring's worst R / l_min alone would take the step. The halved step, which leaves no corner
+ * away from the node below 10 degrees, is taken instead. */
+static void smooth_needle_moves_make_no_new_small_corners(void **state) {
+  (void)state;
+  pm_model *m = square_with_hole(0);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  double uv[2 * 9] = {0, -0.3, -0.2, -0.9, -0.19, -0.9, -0.1, -0.9, 0, -0.9,
+                      0.1, -0.9, 0.6, 0.3, 0, 0.5, -0.6, 0};
+  const int32_t tri[3 * 8] = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5, 0, 5, 6, 0, 6, 7, 0, 7, 8, 0, 8, 1};
+  const uint8_t movable[9] = {1, 0, 0, 0, 0, 0, 0, 0, 0};
+  double xyz[3 * 9], nrm[3 * 9];
+  face_nodes(f, 9, uv, xyz, nrm);
+  assert_int_equal(small_corners_away(xyz, tri, 8, 10), 0);
+  /* the whole step's target (face_smooth.c, needle_target) and the corner it would make */
+  const double aim = 0.01 / (2 * tan(6.25 * M_PI / 180)), d[2] = {0.19, 0.6};
+  const double L = sqrt(d[0] * d[0] + d[1] * d[1]);
+  const double whole[2] = {-0.19 + aim * d[0] / L, -0.9 + aim * d[1] / L};
+  PM_ASSERT_NEAR(atan2(whole[1] + 0.9, 0.1 - whole[0]) * 180 / M_PI, 9.0, 0.1);
+  assert_int_equal(pm_face_smooth_sweep(f, 9, xyz, uv, nrm, movable, 8, tri, 10.0, NULL), 1);
+  PM_ASSERT_NEAR(uv[0], 0.5 * whole[0], 1e-9);
+  PM_ASSERT_NEAR(uv[1], 0.5 * (-0.3 + whole[1]), 1e-9);
+  assert_int_equal(small_corners_away(xyz, tri, 8, 10), 0);
+  pm_model_destroy(m);
+}
+
 /* The connection's smoothing (smooth > 0) on curved faces: the same nodes and as many
  * triangles, vertex and curve nodes where they were, face nodes moved along their face (each at
  * S(u, v) of its new parameters), a valid mesh whose mean R / l_min is lower than without it, and
@@ -480,6 +524,7 @@ int main(void) {
       cmocka_unit_test(pole_fans_on_even_nodes),
       cmocka_unit_test(smooth_fan_recentres),
       cmocka_unit_test(smooth_needle_moves_towards_short_edges),
+      cmocka_unit_test(smooth_needle_moves_make_no_new_small_corners),
       cmocka_unit_test(smoothing_on_curved_faces),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
