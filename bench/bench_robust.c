@@ -139,7 +139,11 @@ static void run_one(const char *cli, const char *path, const char *method, doubl
       if (!strstr(s, ": healed: ")) line = s;
   }
   if (WEXITSTATUS(status) != 0) {
-    snprintf(r->status, sizeof r->status, "%s", line ? line : "failed without a message");
+    if (line)
+      snprintf(r->status, sizeof r->status, "%s", line);
+    else /* 127: the program could not be started */
+      snprintf(r->status, sizeof r->status, "failed without a message (exit status %d)",
+               WEXITSTATUS(status));
     free(err);
     return;
   }
