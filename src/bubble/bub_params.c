@@ -176,8 +176,8 @@ static const pm_param_desc desc[] = {
      "flips, each move kept only when its ring's R/l_min improves (0: the nodes as placed)",
      "our addition (connect/face_smooth.h); differs from the papers (0)", NULL},
     {"needle_moves", PM_PARAM_BOOL, F(needle_moves), 1, 0, 1, PM_RANGE_CLOSED, "",
-     "connection: the smoothing also moves a face node with an angle below 10 degrees in its ring "
-     "towards the edge opposite that angle, where the Laplacian move is refused (a face node far "
+     "connection: the smoothing first tries to move a face node with an angle below 10 degrees in "
+     "its ring towards the edge opposite that angle, then the Laplacian move (a face node far "
      "above curve nodes spaced finer than the face's; 0: Laplacian moves only)",
      "our addition (connect/face_smooth.h); differs from the papers (0)", NULL},
     /* output */

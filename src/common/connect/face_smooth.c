@@ -74,19 +74,21 @@ static int surface_point(const pm_cell *f, const double target[3], const double 
 static int needle_target(int32_t v, const double *xyz, const int32_t *tri, const int32_t *rv,
                          int32_t nring, double needle_deg, double target[3]) {
   const double *p = &xyz[3 * v];
-  double best = needle_deg, a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
+  /* the smallest angle is the largest cosine; every node of every sweep comes here, so no acos */
+  double best = cos(needle_deg * M_PI / 180), a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
+  int found = 0;
   for (int32_t k = 0; k < nring; ++k) {
     const int32_t *t = &tri[3 * rv[k]];
     int q = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
     const double *x = &xyz[3 * t[(q + 1) % 3]], *y = &xyz[3 * t[(q + 2) % 3]];
     double u[3], w[3];
     pm_v3_sub(u, x, p), pm_v3_sub(w, y, p);
-    double nu = pm_v3_norm(u), nw = pm_v3_norm(w);
-    if (!(nu > 0 && nw > 0)) continue;
-    double c = pm_v3_dot(u, w) / (nu * nw), deg = acos(c > 1 ? 1 : (c < -1 ? -1 : c)) * 180 / M_PI;
-    if (deg < best) best = deg, pm_v3_copy(a, x), pm_v3_copy(b, y);
+    double nuw = pm_v3_norm(u) * pm_v3_norm(w);
+    if (!(nuw > 0)) continue;
+    double c = pm_v3_dot(u, w) / nuw;
+    if (c > best) best = c, found = 1, pm_v3_copy(a, x), pm_v3_copy(b, y);
   }
-  if (!(best < needle_deg)) return 0;
+  if (!found) return 0;
   double e[3], pa[3], foot[3];
   pm_v3_sub(e, b, a), pm_v3_sub(pa, p, a);
   const double L2 = pm_v3_dot(e, e);

@@ -47,9 +47,11 @@ extern "C" {
  * stay again: the sweep tries only the dirty nodes, clears each one it tries, and marks a node
  * that moves, and every node of its ring, dirty. The caller marks the nodes of triangles it
  * changes (flips). Sweeps with dirty flags give the mesh of sweeps over every node, to the bit.
- * needle_deg > 0: a node that the Laplacian step leaves where it is, and whose ring has an angle
- * below needle_deg at the node, tries a step towards the edge opposite that angle instead (to
- * where an isoceles triangle on it would have 1.25 needle_deg, whole or halved), kept when the
+ * needle_deg > 0: a node whose ring has an angle below needle_deg at the node first tries a step
+ * towards the edge opposite that angle, and the Laplacian step only when that is refused (the
+ * other way round, a Laplacian step that improves the ring a hair each sweep kept the needle step
+ * from ever being tried). The step goes to where an isoceles triangle on the edge would have
+ * 1.25 needle_deg (whole or halved), and is kept when the
  * ring's largest R / l_min falls and no more of its corners away from the node have an angle
  * below needle_deg (the sum may rise a hair: face_smooth.c, try_move): a face node
  * standing far above a run of short boundary segments (curve nodes far finer than the face's)
