@@ -23,7 +23,19 @@
  *   - lambda_i starts and is capped at 1 (a full Newton step);
  *   - growth: after an accepted step lambda_i is multiplied by lambda_grow (2), capped at
  *     lambda_max, so a particle that once met a steep neighbourhood is not slowed forever;
- *   - steps are capped at step_max sigma_i;
+ *   - steps are capped at step_max sigma_i, and a trial point that lands farther from the
+ *     particle than the neighbour lists are sure to cover, (psys_nbr_reach - 1) sigma_i (0.577
+ *     sigma_i with the defaults), is not tried: it counts as a rejected step, and lambda_i
+ *     shrinks by 10 at least, and by the ratio of that cover to the distance. The cap applies to
+ *     the step in the tangent line or plane; the cell's map can stretch it where the
+ *     parametrization's speed changes along the step (bottle.brep's curve 3, whose |C'| is about
+ *     0.6 at t = 0.048 and 4.9 beyond: a step of 0.5 sigma in the tangent went 0.36 = 3.9 sigma
+ *     along the curve). There the lists, made for the particle's old neighbourhood, held none of
+ *     the particles around the trial point, so its energy was 0 and the step was accepted; the
+ *     particle landed 0.008 from another, counted as hungry (E_i = 0 at the pass) and split, and
+ *     the next passes did the same to its children: 23 curve particles 0.005 apart at the end of
+ *     phase 2 where sigma was 0.094, and the faces beside them had triangles of 7 to 10 degrees.
+ *     On wrench.stp 2 of 9.5 million trial points lie beyond the cover;
  *   - a face particle's step is also refused when it ends within 0.15 sigma_i of the face's
  *     boundary polyline (the frozen curve and vertex particles, psys_sizing.c) and closer to it
  *     than before: the curve particles repel face particles (section 4.3), but between two of
@@ -243,6 +255,19 @@ static void trial_check(const psys_sys *s, chunk *B, int32_t k, int32_t i) {
   /* the near candidates serve a trial point within the reach they were chosen for (the point of
    * a curved cell is not always within its 3D step of the particle: then the whole list) */
   const double rr = B->reach[k];
+  const double cover = (psys_nbr_reach(&s->p) - 1) * s->sigma[i];
+  const double d2 = psys_d2(&B->tx[3 * k], &s->xyz[3 * i]);
+  if (d2 > cover * cover) { /* beyond the lists (see the file comment) */
+    if (B->lam[k] <= s->p.lambda_min) {
+      B->st[k] = ST_DONE;
+    } else {
+      const double dn = pm_v3_norm(&B->dir[3 * k]);
+      const double step = fmin(B->lam[k] * dn, s->p.step_max * s->sigma[i]);
+      B->lam[k] = fmin(B->lam[k] / 10, step * (cover / sqrt(d2)) / dn);
+      B->st[k] = ST_PENDING;
+    }
+    return;
+  }
   if (B->nn[k] >= 0 && psys_d2(&B->tx[3 * k], &s->xyz[3 * i]) <= rr * rr)
     B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], B->near + B->noff[k], B->nn[k], NULL,
                                     NULL);

@@ -218,6 +218,76 @@ static void perturbed_lattice_relaxes(void **state) {
   pm_model_destroy(m);
 }
 
+/* The bottom side of psys_test_square(1), y = 0 and x from 0 to 1, reparametrized by
+ * x = s(t) = 0.02 t + 0.98 max(0, (t - 0.6) / 0.4)^2: its speed is 0.02 up to t = 0.6 and grows
+ * to 4.92 at t = 1, so a step that the tangent at a slow point sizes in world space lands much
+ * farther along the curve. */
+static void (*line_eval)(const pm_cell *, double, int, pm_curve_point *);
+static double slow_x(double t) {
+  const double u = t > 0.6 ? (t - 0.6) / 0.4 : 0;
+  return 0.02 * t + 0.98 * u * u;
+}
+static void slow_then_fast(const pm_cell *c, double t, int order, pm_curve_point *out) {
+  line_eval(c, slow_x(t), order, out);
+  pm_v3_scale(out->d1, out->d1, 0.02 + (t > 0.6 ? 12.25 * (t - 0.6) : 0));
+  if (order >= 2) pm_v3_zero(out->d2); /* not used by the step */
+}
+
+/* A step never ends farther from the particle than its neighbour list is sure to cover,
+ * (psys_nbr_reach - 1) sigma (psys_move.c). On the curve above, with sigma = 0.01, a particle at
+ * t = 0.59 (speed 0.02) pushed by one 0.5 sigma behind it: its first trial, sized as 0.0016 in
+ * the tangent, lies about 3 sigma along the curve, where its list holds nobody and its energy
+ * would be 0, so that the step would be taken. */
+static void a_stretched_step_stays_within_the_lists(void **state) {
+  (void)state;
+  pm_model *m = psys_test_square(1);
+  pm_cell *c = NULL;
+  for (int32_t k = 0; k < m->count[PM_CURVE]; ++k) {
+    pm_curve_point a, b;
+    const pm_cell *ck = &m->cells[PM_CURVE][k];
+    ck->cls->curve_eval(ck, ck->lo[0], 0, &a), ck->cls->curve_eval(ck, ck->hi[0], 0, &b);
+    if (fabs(a.p[1]) + fabs(b.p[1]) < 1e-12 && a.p[0] < b.p[0]) c = &m->cells[PM_CURVE][k];
+  }
+  assert_non_null(c);
+  PM_ASSERT_NEAR(c->lo[0], 0, 1e-12);
+  PM_ASSERT_NEAR(c->hi[0], 1, 1e-12);
+  /* a class of its own for this one cell (the class is shared by every line) */
+  static pm_cell_class slow;
+  slow = *c->cls;
+  line_eval = slow.curve_eval;
+  slow.curve_eval = slow_then_fast, slow.project = NULL;
+  c->cls = &slow;
+  psys_sys *s = psys_test_system(m, NULL, 1);
+  s->phase = 2;
+  pm_error e = {0};
+  const double sigma = 0.01;
+  /* the one behind: where x is 0.5 sigma less (bisection on the increasing s) */
+  double lo = 0, hi = 0.59;
+  for (int it = 0; it < 100; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    *(slow_x(mid) < slow_x(0.59) - 0.5 * sigma ? &lo : &hi) = mid;
+  }
+  const double t[2] = {lo, 0.59};
+  int32_t id[2];
+  for (int k = 0; k < 2; ++k)
+    PM_ASSERT_OK(psys_add(s, PM_CURVE, c->index, &t[k], sigma, &id[k], &e), e);
+  const double apart = pm_v3_dist(&s->xyz[3 * id[0]], &s->xyz[3 * id[1]]);
+  PM_ASSERT_NEAR(apart, 0.5 * sigma, 1e-12);
+  double before[6];
+  memcpy(before, s->xyz, sizeof before);
+  psys_move_info mi;
+  PM_ASSERT_OK(psys_move_pass(s, &mi, &e), e);
+  const double cover = (psys_nbr_reach(&s->p) - 1) * sigma;
+  for (int k = 0; k < 2; ++k) {
+    const double d = pm_v3_dist(&before[3 * k], &s->xyz[3 * id[k]]);
+    if (!(d <= cover * (1 + 1e-9))) fail_msg("particle %d stepped %g, beyond %g", k, d, cover);
+  }
+  /* the one ahead still stepped forward, a shorter step (Algorithm 1's lambda / 10) */
+  assert_true(s->xyz[3 * id[1]] > before[3] + 1e-3 * sigma);
+  psys_sys_destroy(s);
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(pair_energy_values),
@@ -226,6 +296,7 @@ int main(void) {
       cmocka_unit_test(pair_sigma_choice),
       cmocka_unit_test(hexagonal_lattice_is_stationary),
       cmocka_unit_test(perturbed_lattice_relaxes),
+      cmocka_unit_test(a_stretched_step_stays_within_the_lists),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
