@@ -23,6 +23,21 @@
  *   - lambda_i starts and is capped at 1 (a full Newton step);
  *   - growth: after an accepted step lambda_i is multiplied by lambda_grow (2), capped at
  *     lambda_max, so a particle that once met a steep neighbourhood is not slowed forever;
+ *   - over-relaxation in phase 3 (lambda_max_faces = 1.8): the faces' particles step up to 1.8
+ *     times their Newton step. The sweep is a Gauss-Seidel sweep, and over-relaxing one (SOR)
+ *     speeds up the long waves of the packing, which full steps relax slowly: the tail of phase
+ *     3, where the count is fixed and sigma held, is all long waves. A step of omega times the
+ *     Newton step still lowers a quadratic energy for omega < 2, so Algorithm 1's test keeps
+ *     accepting them. The mean move of such a sweep is omega times the Newton step, so phase 3's
+ *     tolerance goes with it (move_tol_faces = 1.8e-3 ends where 1e-3 ended full steps). With
+ *     one thread (`packmesh mesh MODEL --method psys --threads 1 --stats`), phase-3 iterations
+ *     and median / p75 R / l_min, full steps at 1e-3 against 1.8 at 1.8e-3: wrench.stp 208 ->
+ *     161, 0.6036 / 0.6323 -> 0.5986 / 0.6260; base_interface.step 125 -> 99, 0.5951 / 0.6136 ->
+ *     0.5888 / 0.6002; table.brep 115 -> 107, 0.6039 / 0.6328 -> 0.5976 / 0.6272;
+ *     t20_component8.step 445 -> 234, 0.6165 / 0.6473 -> 0.6139 / 0.6460. At 1.8 with the old
+ *     tolerance the quality gain was the same and the iterations more (wrench.stp 247,
+ *     base_interface.step 178). Phases 1-2 keep lambda_max = 1: the curves' chains at 1.8 did not
+ *     settle (wrench.stp's phase 2 ran to max_iter);
  *   - steps are capped at step_max sigma_i, and a trial point that lands farther from the
  *     particle than the neighbour lists are sure to cover, (psys_nbr_reach - 1) sigma_i (0.577
  *     sigma_i with the defaults), is not tried: it counts as a rejected step, and lambda_i
@@ -458,6 +473,7 @@ static pm_status step_chunk(psys_sys *s, chunk *B, int32_t m, pm_error *err) {
   }
   if (refresh) batch_eval(s, B, m, 1);
   /* write the accepted steps */
+  const double lmax = s->phase == 3 && s->p.lambda_max_faces > 0 ? s->p.lambda_max_faces : s->p.lambda_max;
 #pragma omp parallel for num_threads(nthr) schedule(static) if (m > 4096)
   for (int32_t k = 0; k < m; ++k) {
     const int32_t i = B->idx[k];
@@ -473,7 +489,7 @@ static pm_status step_chunk(psys_sys *s, chunk *B, int32_t m, pm_error *err) {
       s->energy[i] = B->en[k];
       if (s->dim[i] == PM_FACE && s->chain_off) s->bdist[i] = B->bd[k];
       double l = B->lam[k] * s->p.lambda_grow;
-      s->lambda[i] = l < s->p.lambda_max ? l : s->p.lambda_max;
+      s->lambda[i] = l < lmax ? l : lmax;
     } else {
       s->energy[i] = B->e0[k];
       s->lambda[i] = B->lam[k];
