@@ -24,9 +24,9 @@
  *   - growth: after an accepted step lambda_i is multiplied by lambda_grow (2), capped at
  *     lambda_max, so a particle that once met a steep neighbourhood is not slowed forever;
  *   - over-relaxation in phase 3, optional (lambda_max_faces = 1.8; the default 0 keeps full
- *     steps): the faces' particles step up to 1.8 times their Newton step. The sweep is a Gauss-Seidel sweep, and over-relaxing one (SOR)
- *     speeds up the long waves of the packing, which full steps relax slowly: the tail of phase
- *     3, where the count is fixed and sigma held, is all long waves. A step of omega times the
+ *     steps): the faces' particles step up to 1.8 times their Newton step. The sweep is a
+ *     Gauss-Seidel sweep, and over-relaxing one (SOR) speeds up the long waves of the packing,
+ *     which full steps relax slowly: the tail of phase 3, where the count is fixed and sigma held, is all long waves. A step of omega times the
  *     Newton step still lowers a quadratic energy for omega < 2, so Algorithm 1's test keeps
  *     accepting them. The mean move of such a sweep is omega times the Newton step, so phase 3's
  *     tolerance goes with it (move_tol_faces = 1.8e-3 ends where 1e-3 ended full steps). With
@@ -270,40 +270,39 @@ static void trial_eval(const psys_sys *s, chunk *B, int32_t k, int32_t i) {
  * (ST_DONE) or shrink lambda (ST_PENDING). */
 static void trial_check(const psys_sys *s, chunk *B, int32_t k, int32_t i) {
   const psys_list *l = psys_nb(s, i);
-  /* the near candidates serve a trial point within the reach they were chosen for (the point of
-   * a curved cell is not always within its 3D step of the particle: then the whole list) */
-  const double rr = B->reach[k];
-  const double cover = (psys_nbr_reach(&s->p) - 1) * s->sigma[i];
   const double d2 = psys_d2(&B->tx[3 * k], &s->xyz[3 * i]);
-  if (d2 > cover * cover) { /* beyond the lists (see the file comment) */
-    if (B->lam[k] <= s->p.lambda_min) {
-      B->st[k] = ST_DONE;
-    } else {
-      const double dn = pm_v3_norm(&B->dir[3 * k]);
-      const double step = fmin(B->lam[k] * dn, s->p.step_max * s->sigma[i]);
-      B->lam[k] = fmin(B->lam[k] / 10, step * (cover / sqrt(d2)) / dn);
-      B->st[k] = ST_PENDING;
+  /* a point beyond what the lists cover is rejected untried (see the file comment) */
+  const double cover = (psys_nbr_reach(&s->p) - 1) * s->sigma[i];
+  const int beyond = d2 > cover * cover;
+  int better = 0;
+  if (!beyond) {
+    /* the near candidates serve a trial point within the reach they were chosen for (the point
+     * of a curved cell is not always within its 3D step of the particle: then the whole list) */
+    const double rr = B->reach[k];
+    if (B->nn[k] >= 0 && d2 <= rr * rr)
+      B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], B->near + B->noff[k], B->nn[k], NULL,
+                                      NULL);
+    else
+      B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], l->ids, l->n, NULL, NULL);
+    better = B->en[k] < B->e0[k];
+    if (better && s->dim[i] == PM_FACE && s->chain_off) {
+      /* a face particle does not step onto its face's boundary (see the file comment) */
+      B->bd[k] = psys_boundary_distance(s, i, &B->tx[3 * k], l->ids, l->n);
+      if (B->bd[k] < PSYS_BOUNDARY_CLEARANCE * s->sigma[i] && B->bd[k] < s->bdist[i])
+        better = 0;
     }
-    return;
   }
-  if (B->nn[k] >= 0 && psys_d2(&B->tx[3 * k], &s->xyz[3 * i]) <= rr * rr)
-    B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], B->near + B->noff[k], B->nn[k], NULL,
-                                    NULL);
-  else
-    B->en[k] = psys_particle_energy(s, i, &B->tx[3 * k], l->ids, l->n, NULL, NULL);
-  int off_boundary = 1;
-  if (s->dim[i] == PM_FACE && s->chain_off) {
-    /* a face particle does not step onto its face's boundary (see the file comment) */
-    B->bd[k] = psys_boundary_distance(s, i, &B->tx[3 * k], l->ids, l->n);
-    if (B->bd[k] < PSYS_BOUNDARY_CLEARANCE * s->sigma[i] && B->bd[k] < s->bdist[i])
-      off_boundary = 0;
-  }
-  if (B->en[k] < B->e0[k] && off_boundary) {
+  if (better) {
     B->acc[k] = 1, B->st[k] = ST_DONE; /* Algorithm 1: accept */
   } else if (B->lam[k] <= s->p.lambda_min) {
     B->st[k] = ST_DONE; /* lines 10-11: skip */
   } else {
-    B->lam[k] /= 10; /* line 13 */
+    /* line 13; beyond the cover, also by the ratio of the cover to the distance, since a capped
+     * step divided by 10 can still be capped to the same point */
+    const double dn = pm_v3_norm(&B->dir[3 * k]);
+    const double step = fmin(B->lam[k] * dn, s->p.step_max * s->sigma[i]);
+    B->lam[k] /= 10;
+    if (beyond) B->lam[k] = fmin(B->lam[k], step * (cover / sqrt(d2)) / dn);
     B->st[k] = ST_PENDING;
   }
 }
@@ -476,7 +475,8 @@ static pm_status step_chunk(psys_sys *s, chunk *B, int32_t m, pm_error *err) {
   }
   if (refresh) batch_eval(s, B, m, 1);
   /* write the accepted steps */
-  const double lmax = s->phase == 3 && s->p.lambda_max_faces > 0 ? s->p.lambda_max_faces : s->p.lambda_max;
+  const double lmax =
+      s->phase == 3 && s->p.lambda_max_faces > 0 ? s->p.lambda_max_faces : s->p.lambda_max;
 #pragma omp parallel for num_threads(nthr) schedule(static) if (m > 4096)
   for (int32_t k = 0; k < m; ++k) {
     const int32_t i = B->idx[k];
