@@ -456,6 +456,39 @@ static void smooth_needle_moves_make_no_new_small_corners(void **state) {
   pm_model_destroy(m);
 }
 
+/* A face node beside a run of short boundary segments rather than above them: node 0 at (0.3,
+ * -0.3), segments of 0.1 from x = -0.15 to 0.15 along y = -0.9, 6.6 to 8.6 degrees at the node.
+ * The step towards the thinnest one's edge aims at its nearer end, (-0.05, -0.9), and leaves 9.7
+ * degrees there; the try steps again while an angle below 10 degrees remains, so one sweep
+ * leaves every angle at the node above 10 (one step a sweep left 9.9-degree needles after the
+ * connection's 4 sweeps on robust/step__SampleCrankshaft4A.stp with psys). */
+static void smooth_needle_moves_step_again(void **state) {
+  (void)state;
+  pm_model *m = square_with_hole(0);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  double uv[2 * 8] = {0.3, -0.3, -0.15, -0.9, -0.05, -0.9, 0.05, -0.9,
+                      0.15, -0.9, 0.8, -0.2, 0.3, 0.3, -0.3, -0.1};
+  const int32_t tri[3 * 7] = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5, 0, 5, 6, 0, 6, 7, 0, 7, 1};
+  const uint8_t movable[8] = {1, 0, 0, 0, 0, 0, 0, 0};
+  double xyz[3 * 8], nrm[3 * 8];
+  face_nodes(f, 8, uv, xyz, nrm);
+  const double before = angle_at_first(xyz, tri, 7);
+  PM_ASSERT_NEAR(before, (atan(0.45 / 0.6) - atan(0.35 / 0.6)) * 180 / M_PI, 1e-9);
+  /* the first step alone: to 0.456 from (-0.05, -0.9) (0.1 / (2 tan 6.25 degrees)) */
+  const double aim = 0.1 / (2 * tan(6.25 * M_PI / 180)), h = sqrt(0.35 * 0.35 + 0.6 * 0.6);
+  const double first[2] = {-0.05 + 0.35 * aim / h, -0.9 + 0.6 * aim / h};
+  const double at_first = (atan((first[0] + 0.15) / (first[1] + 0.9)) -
+                           atan((first[0] + 0.05) / (first[1] + 0.9))) * 180 / M_PI;
+  assert_true(at_first > 9 && at_first < 10);
+  assert_int_equal(pm_face_smooth_sweep(f, 8, xyz, uv, nrm, movable, 7, tri, 10.0, NULL), 1);
+  const double after = angle_at_first(xyz, tri, 7);
+  print_message("angle at the node %.2f -> %.2f degrees (one step: %.2f)\n", before, after,
+                at_first);
+  assert_true(after > 10);
+  assert_int_equal(small_corners_away(xyz, tri, 7, 10), 0);
+  pm_model_destroy(m);
+}
+
 /* The connection's smoothing (smooth > 0) on curved faces: the same nodes and as many
  * triangles, vertex and curve nodes where they were, face nodes moved along their face (each at
  * S(u, v) of its new parameters), a valid mesh whose mean R / l_min is lower than without it, and
@@ -525,6 +558,7 @@ int main(void) {
       cmocka_unit_test(smooth_fan_recentres),
       cmocka_unit_test(smooth_needle_moves_towards_short_edges),
       cmocka_unit_test(smooth_needle_moves_make_no_new_small_corners),
+      cmocka_unit_test(smooth_needle_moves_step_again),
       cmocka_unit_test(smoothing_on_curved_faces),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -10,6 +10,7 @@
 #include "common/geom/geom_analytic.h"
 #include "common/base/rng.h"
 #include "common/base/vec3.h"
+#include "common/input/input.h"
 #include "psys/psys_private.h"
 
 /* The square [0, side]^2 in the plane z = 0 (one face, (u, v) = (x, y)). */
@@ -24,6 +25,17 @@ static inline pm_model *psys_test_square(double side) {
   pm_model *m = NULL;
   pm_error e = {0};
   PM_ASSERT_OK(pm_planar_model("square", 1, &loop, &m, &e), e);
+  return m;
+}
+
+/* A model of the shared CAD folder (file relative to it), or NULL when the folder is not there
+ * (the caller skips). */
+static inline pm_model *psys_test_open_cad(const char *file) {
+  if (!pm_test_have_cad()) return NULL;
+  char path[1024];
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_input_open(pm_test_cad(file, path, sizeof path), &m, NULL, &e), e);
   return m;
 }
 

@@ -67,10 +67,11 @@ static int surface_point(const pm_cell *f, const double target[3], const double 
 /* The needle move of node v (face_smooth.h, needle_deg): among v's ring, the triangle with the
  * smallest angle at v; when that angle is below needle_deg, the point on the way from v to the
  * nearest point of the opposite edge (a, b) at which an isoceles triangle on that edge would have
- * NEEDLE_AIM x needle_deg at v. Returns 0 when the angle is not below the limit or v is no
- * farther from the edge than that already (the angle is small for another reason: v beside the
- * edge's line rather than above it). */
+ * NEEDLE_AIM x needle_deg at v; when v is no farther from the edge than that already (v beside
+ * the edge's line rather than above it), that triangle's apex on v's side of the edge. Returns 0
+ * when the angle is not below the limit. */
 #define NEEDLE_AIM 1.25
+#define NEEDLE_STEPS 8
 static int needle_target(int32_t v, const double *xyz, const int32_t *tri, const int32_t *rv,
                          int32_t nring, double needle_deg, double target[3]) {
   const double *p = &xyz[3 * v];
@@ -97,10 +98,21 @@ static int needle_target(int32_t v, const double *xyz, const int32_t *tri, const
   pm_v3_axpy(foot, a, t, e);
   const double h = pm_v3_dist(p, foot);
   const double aim = sqrt(L2) / (2 * tan(NEEDLE_AIM * needle_deg * M_PI / 360));
-  if (!(h > aim)) return 0;
   double d[3];
-  pm_v3_sub(d, foot, p);
-  pm_v3_axpy(target, p, 1 - aim / h, d);
+  if (h > aim) {
+    pm_v3_sub(d, foot, p);
+    pm_v3_axpy(target, p, 1 - aim / h, d);
+    return 1;
+  }
+  /* v within aim of the edge's nearer end but beside the edge: the apex of the isoceles
+   * triangle on the edge, on v's side of it */
+  double mid[3], up[3];
+  pm_v3_axpy(mid, a, 0.5, e);
+  pm_v3_sub(up, p, mid);
+  pm_v3_axpy(up, up, -pm_v3_dot(up, e) / L2, e);
+  const double hu = pm_v3_norm(up);
+  if (!(hu > 0)) return 0;
+  pm_v3_axpy(target, mid, aim / hu, up);
   return 1;
 }
 
@@ -170,8 +182,12 @@ int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *
         if (tri[3 * rv[k] + q] != v) pm_v3_add(c, c, &xyz[3 * tri[3 * rv[k] + q]]);
     pm_v3_scale(c, c, 0.5 / nring);
     double to[3];
-    int ok = needle_deg > 0 && needle_target(v, xyz, tri, rv, nring, needle_deg, to) &&
-             try_move(f, v, to, needle_deg, xyz, uv, nrm, tri, rv, nring);
+    int ok = 0;
+    for (int k = 0; k < NEEDLE_STEPS && needle_deg > 0 &&
+                    needle_target(v, xyz, tri, rv, nring, needle_deg, to) &&
+                    try_move(f, v, to, needle_deg, xyz, uv, nrm, tri, rv, nring);
+         ++k)
+      ok = 1;
     if (!ok) ok = try_move(f, v, c, 0, xyz, uv, nrm, tri, rv, nring);
     if (!ok) continue;
     ++moved;
