@@ -210,18 +210,14 @@ static void face_foot(const pm_cell *f, const double x[3], const double uv[2], f
   face_feet(f, 1, x, uv, out);
 }
 
-/* The foot of x on curve c from t (in place); every C(t) with t in range is a model point. *at
- * (may be NULL) receives C and C' at the final t. */
-static double curve_foot_at(const pm_cell *c, const double x[3], double *t, pm_curve_point *at) {
+/* The foot of x on curve c from t (in place); every C(t) with t in range is a model point. */
+static double curve_foot(const pm_cell *c, const double x[3], double *t) {
   const double tol = FOOT_STEP_TOL * c->model->diagonal;
   if (!c->periodic[0]) *t = clampd(*t, c->lo[0], c->hi[0]);
   pm_curve_point cp;
   pm_curve_eval(c, *t, 1, &cp);
   double d = pm_v3_dist(x, cp.p);
-  if (c->degenerate) {
-    if (at) *at = cp;
-    return d;
-  }
+  if (c->degenerate) return d;
   for (int it = 0; it < FOOT_MAX_IT && d > 0; ++it) {
     double r[3], dt = 0;
     pm_v3_sub(r, x, cp.p);
@@ -246,12 +242,7 @@ static double curve_foot_at(const pm_cell *c, const double x[3], double *t, pm_c
     if (step <= tol) break;
   }
   if (c->periodic[0]) pm_cell_wrap(c, t);
-  if (at) *at = cp;
   return d;
-}
-
-static double curve_foot(const pm_cell *c, const double x[3], double *t) {
-  return curve_foot_at(c, x, t, NULL);
 }
 
 /* ---- growing arrays ---------------------------------------------------------------------------- */
