@@ -4,10 +4,12 @@
  * that a crash or a hang of one run is a row of the table and not the end of the study.
  *
  *   bench_robust [--methods bubble,psys,gmsh-frontal] [--timeout SECONDS] [--only TEXT]
- *                [--csv FILE] [--packmesh PATH] [DIR ...]
+ *                [--csv FILE] [--packmesh PATH] [--old-cli] [DIR ...]
  *
  * --packmesh runs another build of the command (the previous code path, for a before/after table
- * from the same benchmark; default: the command built beside this benchmark).
+ * from the same benchmark; default: the command built beside this benchmark); --old-cli for a
+ * build without `mesh --time-limit`. Each run gets `--time-limit SECONDS`: the command stops a
+ * run that lasts longer with its own one-line error, which is the row's status.
  *
  * Per file and method: the status (ok, the one-line error, timeout, crash), the checker's
  * verdict, nodes, the time of each stage from --stats (load: reading and healing the file; setup:
@@ -87,9 +89,13 @@ static char *slurp(const char *path) {
   return s;
 }
 
-/* Run one file with one method into row r; `tmp` is a scratch folder. */
+/* Run one file with one method into row r; `tmp` is a scratch folder. The command stops its
+ * own run at the timeout (--time-limit: one line saying where the run stood, as a user sees it)
+ * unless old_cli (a build without that option); the child is killed KILL_GRACE later (the
+ * limit does not count loading, measuring or writing) or, with old_cli, at the timeout. */
+#define KILL_GRACE(timeout) ((timeout) / 4 > 60 ? (timeout) / 4 : 60)
 static void run_one(const char *cli, const char *path, const char *method, double timeout,
-                    const char *tmp, row *r) {
+                    int old_cli, const char *tmp, row *r) {
   char msh[1024], json[1024], errf[1024];
   snprintf(msh, sizeof msh, "%s/mesh.msh", tmp);
   snprintf(json, sizeof json, "%s/stats.json", tmp);
@@ -103,10 +109,17 @@ static void run_one(const char *cli, const char *path, const char *method, doubl
     if (fd >= 0) dup2(fd, 1);
     if (fe >= 0) dup2(fe, 2);
     setpgid(0, 0);
-    execl(cli, cli, "mesh", path, "--method", method, "--threads", "1", "-o", msh,
-          "--stats", json, (char *)NULL);
+    char limit[64];
+    snprintf(limit, sizeof limit, "%g", timeout);
+    if (old_cli)
+      execl(cli, cli, "mesh", path, "--method", method, "--threads", "1", "-o", msh, "--stats",
+            json, (char *)NULL);
+    else
+      execl(cli, cli, "mesh", path, "--method", method, "--threads", "1", "-o", msh, "--stats",
+            json, "--time-limit", limit, (char *)NULL);
     _exit(127);
   }
+  const double kill_at = old_cli ? timeout : timeout + KILL_GRACE(timeout);
   int status = 0, done = 0;
   while (!done) {
     pid_t w = waitpid(pid, &status, WNOHANG);
@@ -114,11 +127,11 @@ static void run_one(const char *cli, const char *path, const char *method, doubl
       done = 1;
       break;
     }
-    if (pm_seconds() - t0 > timeout) {
+    if (pm_seconds() - t0 > kill_at) {
       kill(-pid, SIGKILL);
       kill(pid, SIGKILL);
       waitpid(pid, &status, 0);
-      snprintf(r->status, sizeof r->status, "timeout (%g s)", timeout);
+      snprintf(r->status, sizeof r->status, "timeout (killed at %g s)", kill_at);
       r->t_total = pm_seconds() - t0;
       return;
     }
@@ -188,6 +201,7 @@ static void csv_text(FILE *f, const char *s) {
 int main(int argc, char **argv) {
   const char *methods_arg = "bubble,psys,gmsh-frontal", *only = NULL, *csv = NULL, *cli = PM_CLI;
   double timeout = 600;
+  int old_cli = 0;
   const char *dirs[16];
   int ndir = 0;
   for (int i = 1; i < argc; ++i) {
@@ -196,6 +210,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
     else if (!strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
     else if (!strcmp(argv[i], "--packmesh") && i + 1 < argc) cli = argv[++i];
+    else if (!strcmp(argv[i], "--old-cli")) old_cli = 1;
     else if (argv[i][0] == '-') {
       fprintf(stderr, "bench_robust: unknown option '%s'\n", argv[i]);
       return 2;
@@ -254,7 +269,7 @@ int main(int argc, char **argv) {
       const char *base = strrchr(files[i], '/');
       snprintf(r->file, sizeof r->file, "%s", base ? base + 1 : files[i]);
       snprintf(r->method, sizeof r->method, "%s", methods[j]);
-      run_one(cli, files[i], methods[j], timeout, tmp, r);
+      run_one(cli, files[i], methods[j], timeout, old_cli, tmp, r);
       if (r->ran) {
         double meshing = r->t_mesh + r->t_connect;
         double measure = r->t_check + r->t_quality + r->t_distance;

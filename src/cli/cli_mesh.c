@@ -41,6 +41,7 @@ typedef struct mesh_opts {
   long threads;
   int volume, help, msh_parametric, quiet, progress;
   long target_nodes, max_nodes;
+  double time_limit;  /* --time-limit: seconds, 0 for none */
   int target_surface; /* --target-surface-nodes: target_nodes counts the surface nodes */
   int method_given;
 } mesh_opts;
@@ -65,7 +66,7 @@ void pm_cli_mesh_usage(FILE *f) {
   fprintf(f,
           "usage: packmesh mesh INPUT [--method M] [--size EXPR|NUMBER|inferred] [--set KEY=VALUE ...]\n"
           "                    [--seed N] [--threads N] [--volume] [--target-nodes N]\n"
-          "                    [--target-surface-nodes N] [--max-nodes N]\n"
+          "                    [--target-surface-nodes N] [--max-nodes N] [--time-limit SECONDS]\n"
           "                    -o OUT.(msh|vtk|vtu|stl|obj|mesh) [--msh-parametric]\n"
           "                    [--stats STATS.json] [--trace TRACE.csv] [--frames DIR]\n"
           "                    [--quiet | --progress]\n"
@@ -91,6 +92,10 @@ void pm_cli_mesh_usage(FILE *f) {
           "                      --volume, a volume mesh's interior nodes are not counted\n"
           "  --max-nodes N       the node cap (default %lld): a size field that would need more nodes\n"
           "                      is refused before any method grows\n"
+          "  --time-limit S      stop the run once it has lasted S seconds: an error naming where it\n"
+          "                      stood, no mesh written (exit 1). The particle methods stop at their\n"
+          "                      next iteration, the others between stages; measuring (--stats) is\n"
+          "                      not counted\n"
           "  -o, --output OUT    the mesh: .msh, .vtk, .vtu, .stl, .obj or .mesh\n"
           "  --msh-parametric    write each .msh node's parameters on its curve or face (gmsh reads\n"
           "                      them; meshio 7 does not, so they are off by default)\n"
@@ -114,6 +119,24 @@ void pm_cli_mesh_usage(FILE *f) {
           "methods: %s (default bubble)\n"
           "'packmesh mesh --method M --help' lists M's parameters (--set KEY=VALUE).\n",
           100 * TARGET_TOL, TARGET_RUNS, (long long)defaults.max_nodes, tracing, names);
+}
+
+/* --time-limit: the progress callback of the run, which also draws the progress line, cancels
+ * the run once it has lasted the limit, and says where it stood. */
+typedef struct run_watch {
+  pm_cli_progress *progress;
+  double t0, limit; /* limit 0: none */
+  int expired;
+  char where[160];
+} run_watch;
+
+static int watch_report(void *user, const pm_progress *r) {
+  run_watch *w = user;
+  pm_cli_progress_report(w->progress, r);
+  if (!(w->limit > 0) || w->expired || pm_cli_now() - w->t0 <= w->limit) return w->expired;
+  w->expired = 1;
+  pm_cli_progress_where(r, w->where, sizeof w->where);
+  return 1;
 }
 
 static int method_help(const pm_method *m) {
@@ -221,6 +244,14 @@ static int parse(int argc, char **argv, mesh_opts *o) {
         return pm_cli_usage("mesh", "--target-nodes and --target-surface-nodes: give one");
       o->target_nodes = n;
       o->target_surface = 1;
+      continue;
+    }
+    if ((r = pm_cli_option(argc, argv, &i, "time-limit", &v)) != 0) {
+      double t;
+      if (r < 0 || !pm_cli_parse_double(v, &t) || !(t > 0 && t <= 1e9))
+        return pm_cli_usage("mesh", "--time-limit takes seconds, a number in (0, 1e9], got '%s'",
+                            v ? v : "");
+      o->time_limit = t;
       continue;
     }
     if ((r = pm_cli_option(argc, argv, &i, "max-nodes", &v)) != 0) {
@@ -362,7 +393,8 @@ int pm_cli_mesh(int argc, char **argv) {
   go.target_surface = o.target_surface;
   go.target_tolerance = TARGET_TOL;
   go.target_runs = TARGET_RUNS;
-  if (progress.active) go.progress = pm_cli_progress_report, go.progress_user = &progress;
+  run_watch watch = {&progress, pm_cli_now(), o.time_limit, 0, ""};
+  if (progress.active || o.time_limit > 0) go.progress = watch_report, go.progress_user = &watch;
   if (go.target_nodes > 0) progress.runs = go.target_runs;
   /* An option that does not fit the input is a usage error, named by its option. */
   pm_generate_misfit misfit;
@@ -383,6 +415,9 @@ int pm_cli_mesh(int argc, char **argv) {
     goto fail;
   pm_generate_result result;
   s = pm_generate_report(model, size, method, params, &go, report, &scaled, &out_mesh, &result, &e);
+  if (s == PM_ERR_CANCELLED && watch.expired)
+    s = pm_error_setf(&e, PM_ERR_LIMIT, "%s: %s stopped at the time limit of %g s (%s); no mesh "
+                      "written", o.input, pm_method_name(method), o.time_limit, watch.where);
   if (s) goto fail;
   const pm_sizing *final_size = scaled ? scaled : size;
   double t_run = pm_cli_now() - t_start;

@@ -61,19 +61,34 @@ int pm_cli_progress_report(void *user, const pm_progress *r) {
   double now = pm_cli_now();
   if (now - p->last < (p->tty ? TTY_PERIOD : PIPE_PERIOD)) return 0;
   p->last = now;
+  char text[200];
+  int n = snprintf(text, sizeof text, "placing nodes, ");
+  pm_cli_progress_where(r, text + n, sizeof text - (size_t)n);
+  n = (int)strlen(text);
+  snprintf(text + n, sizeof text - (size_t)n, "%s", run);
+  put(p, text);
+  return 0;
+}
+
+void pm_cli_progress_where(const pm_progress *r, char *buf, size_t len) {
+  if (strcmp(r->stage, "iteration") != 0) {
+    snprintf(buf, len, "%s", strcmp(r->stage, "done") == 0 ? "after the method's run" : r->stage);
+    return;
+  }
   static const char *const phase_names[] = {"phase", NULL};
   static const char *const step_names[] = {"step", "iteration", NULL};
   static const char *const count_names[] = {"bubbles", "particles", NULL};
   int cp = column(r, phase_names), cs = column(r, step_names), cn = column(r, count_names);
-  char text[160];
-  int n = snprintf(text, sizeof text, "placing nodes");
-  if (cp >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", phase %.0f", r->values[cp]);
-  if (cs >= 0) n += snprintf(text + n, sizeof text - (size_t)n, ", iteration %.0f", r->values[cs]);
-  if (cn >= 0)
-    n += snprintf(text + n, sizeof text - (size_t)n, ", %.0f %s", r->values[cn], r->columns[cn]);
-  snprintf(text + n, sizeof text - (size_t)n, "%s", run);
-  put(p, text);
-  return 0;
+  int n = 0;
+  buf[0] = '\0';
+  if (cp >= 0) n += snprintf(buf + n, len - (size_t)n, "phase %.0f, ", r->values[cp]);
+  if (cs >= 0 && (size_t)n < len)
+    n += snprintf(buf + n, len - (size_t)n, "iteration %.0f, ", r->values[cs]);
+  if (cn >= 0 && (size_t)n < len)
+    n += snprintf(buf + n, len - (size_t)n, "%.0f %s, ", r->values[cn], r->columns[cn]);
+  /* without the last ", " */
+  if (n >= 2 && (size_t)n <= len) buf[n - 2] = '\0';
+  else if (n == 0) snprintf(buf, len, "iteration %lld", (long long)r->iteration);
 }
 
 void pm_cli_progress_done(pm_cli_progress *p) {

@@ -9,6 +9,8 @@
 
 #include <packmesh/packmesh.h>
 
+#include <stddef.h>
+
 typedef enum pm_cli_progress_mode {
   PM_PROGRESS_AUTO = 0, /* on a terminal only */
   PM_PROGRESS_ON,       /* --progress: also into a file or pipe */
@@ -34,6 +36,11 @@ void pm_cli_progress_stage(pm_cli_progress *p, const char *stage);
 
 /* The progress callback of pm_generate (user: the pm_cli_progress); never cancels. */
 int pm_cli_progress_report(void *user, const pm_progress *r);
+
+/* Where a run is, from one of its progress reports: "phase 3, iteration 120, 51234 particles"
+ * for an iteration (the columns the method has), else the stage ("meshing", "after the
+ * method's run"). Into buf (len bytes). */
+void pm_cli_progress_where(const pm_progress *r, char *buf, size_t len);
 
 /* Clear the line (before the command's own output and at the end). */
 void pm_cli_progress_done(pm_cli_progress *p);
