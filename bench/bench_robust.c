@@ -16,7 +16,8 @@
  * building the cell complex; mesh: the method without its connection; connect; check; distance),
  * the run's total, the measuring (check + quality + distance) beside the meshing (mesh + connect)
  * of the same run, the smallest angle, and the needles below 10 degrees, forced and unforced
- * (needles.h); the CSV adds the distance's mean and max (model units). Then per method: files
+ * (needles.h); the CSV adds the distance's mean and max (model units), and the figures that do
+ * not depend on the machine's load: the run's iterations, median and p75 R / l_min. Then per method: files
  * loaded, valid, with no unforced needle; bubble's total time over gmsh-frontal's per file (the
  * largest ratio and where), and the runs that spent longer measuring than meshing, with the
  * largest ratio of the two and where.
@@ -50,6 +51,7 @@ typedef struct row {
   long nodes;
   double t_load, t_setup, t_mesh, t_connect, t_check, t_quality, t_distance, t_total;
   double min_angle;
+  double iterations, median_ar, p75_ar; /* the run's iterations, median and p75 R / l_min */
   double dist_mean, dist_max;
   long forced, unforced;
   int healed;
@@ -182,6 +184,9 @@ static void run_one(const char *cli, const char *path, const char *method, doubl
   r->t_distance = num(o, "time_s.distance");
   r->t_mesh = r->t_total - r->t_load - r->t_setup - r->t_connect;
   r->min_angle = num(o, "tri.min_angle_deg.min");
+  r->iterations = num(o, "iterations");
+  r->median_ar = num(o, "tri.aspect_ratio.median");
+  r->p75_ar = num(o, "tri.aspect_ratio.p75");
   r->dist_mean = num(o, "distance.mean");
   r->dist_max = num(o, "distance.max");
   r->forced = (long)num(o, "tri.needles.forced");
@@ -335,19 +340,22 @@ int main(int argc, char **argv) {
     } else {
       fprintf(f, "file,method,status,valid,nodes,load_s,setup_s,mesh_s,connect_s,check_s,"
                  "quality_s,distance_s,total_s,min_angle_deg,needles_forced,needles_unforced,"
-                 "healed,distance_mean,distance_max\n");
+                 "healed,distance_mean,distance_max,iterations,median_aspect,p75_aspect\n");
       for (int i = 0; i < nf * nm; ++i) {
         const row *r = &rows[i];
         csv_text(f, r->file);
         fprintf(f, ",%s,", r->method);
         csv_text(f, r->status);
         if (r->ran)
-          fprintf(f, ",%s,%ld,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%ld,%ld,%d,%.17g,%.17g\n",
+          fprintf(f,
+                  ",%s,%ld,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%ld,%ld,%d,%.17g,%.17g,%.0f,"
+                  "%.6f,%.6f\n",
                   r->valid ? "true" : "false", r->nodes, r->t_load, r->t_setup, r->t_mesh,
                   r->t_connect, r->t_check, r->t_quality, r->t_distance, r->t_total,
-                  r->min_angle, r->forced, r->unforced, r->healed, r->dist_mean, r->dist_max);
+                  r->min_angle, r->forced, r->unforced, r->healed, r->dist_mean, r->dist_max,
+                  r->iterations, r->median_ar, r->p75_ar);
         else
-          fprintf(f, ",,,,,,,,,,%.4f,,,,,,\n", r->t_total);
+          fprintf(f, ",,,,,,,,,,%.4f,,,,,,,,,\n", r->t_total);
       }
       fclose(f);
       printf("table written to %s\n", csv);
