@@ -37,10 +37,12 @@
  *     t20_component8.step 445 -> 234, 0.6165 / 0.6473 -> 0.6139 / 0.6460. At 1.8 with the old
  *     tolerance the quality gain was the same and the iterations more (wrench.stp 247,
  *     base_interface.step 178). Phases 1-2 keep lambda_max = 1: the curves' chains at 1.8 did not
- *     settle (wrench.stp's phase 2 ran to max_iter). Not the default: on the robust folder and
- *     the shared models (bench_robust, one thread per run) it left unforced needles where full
- *     steps left none, one of 9.6 degrees on step__SampleCrankshaft4A.stp (a face node 0.13 from
- *     curve 323's nodes 0.016-0.022 apart) and two on box_sides.step;
+ *     settle (wrench.stp's phase 2 ran to max_iter). Not the default: it leaves two unforced
+ *     needles on box_sides.step where full steps leave none (flat triangles: a face node 0.10
+ *     from a boundary segment 1.28 long, 161 degrees at the node; 236 phase-3 iterations
+ *     against 232). Its other needle, 9.6 degrees on step__SampleCrankshaft4A.stp, went with
+ *     the curve gaps of psys_population.c and the repeated needle steps of face_smooth.c: with
+ *     them the robust folder and the other 25 shared models give none either way;
  *   - steps are capped at step_max sigma_i, and a trial point that lands farther from the
  *     particle than the neighbour lists are sure to cover, (psys_nbr_reach - 1) sigma_i (0.577
  *     sigma_i with the defaults), is not tried: it counts as a rejected step, and lambda_i
