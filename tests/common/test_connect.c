@@ -489,6 +489,29 @@ static void smooth_needle_moves_step_again(void **state) {
   pm_model_destroy(m);
 }
 
+/* A face node too near a long boundary segment: node 0 at (0, -0.85), 0.05 above the segment
+ * from (-0.6, -0.9) to (0.6, -0.9), a flat triangle with 4.8 degrees at both ends of the segment
+ * (box_sides.step with psys: 161 degrees at a face node 0.10 from a segment 1.28 long). The
+ * needle moves aim at small angles at the node and the Laplacian step at the ring's centroid;
+ * the flat move lifts the node above its foot to where the segment's ends see 12.5 degrees
+ * (0.6 tan 12.5 degrees above it), and no corner of the ring is left below 10 degrees. */
+static void smooth_flat_move_lifts_node_off_boundary(void **state) {
+  (void)state;
+  pm_model *m = square_with_hole(0);
+  const pm_cell *f = pm_model_cell(m, PM_FACE, 0);
+  double uv[2 * 6] = {0, -0.85, -0.6, -0.9, 0.6, -0.9, 0.6, 0.3, 0, 0.5, -0.6, 0.3};
+  const int32_t tri[3 * 5] = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5, 0, 5, 1};
+  const uint8_t movable[6] = {1, 0, 0, 0, 0, 0};
+  double xyz[3 * 6], nrm[3 * 6];
+  face_nodes(f, 6, uv, xyz, nrm);
+  assert_int_equal(small_corners_away(xyz, tri, 5, 10), 2);
+  assert_int_equal(pm_face_smooth_sweep(f, 6, xyz, uv, nrm, movable, 5, tri, 10.0, NULL), 1);
+  PM_ASSERT_NEAR(uv[0], 0.0, 1e-12);
+  PM_ASSERT_NEAR(uv[1], -0.9 + 0.6 * tan(12.5 * M_PI / 180), 1e-9);
+  assert_int_equal(small_corners_away(xyz, tri, 5, 10), 0);
+  pm_model_destroy(m);
+}
+
 /* The connection's smoothing (smooth > 0) on curved faces: the same nodes and as many
  * triangles, vertex and curve nodes where they were, face nodes moved along their face (each at
  * S(u, v) of its new parameters), a valid mesh whose mean R / l_min is lower than without it, and
@@ -559,6 +582,7 @@ int main(void) {
       cmocka_unit_test(smooth_needle_moves_towards_short_edges),
       cmocka_unit_test(smooth_needle_moves_make_no_new_small_corners),
       cmocka_unit_test(smooth_needle_moves_step_again),
+      cmocka_unit_test(smooth_flat_move_lifts_node_off_boundary),
       cmocka_unit_test(smoothing_on_curved_faces),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -72,6 +72,20 @@ static int surface_point(const pm_cell *f, const double target[3], const double 
  * when the angle is not below the limit. */
 #define NEEDLE_AIM 1.25
 #define NEEDLE_STEPS 8
+
+/* The cosine of the angle at v of ring triangle rv (with the triangle's two other corners into
+ * *x, *y), or NAN for a triangle degenerate at v. */
+static double corner_cos(int32_t v, const double *xyz, const int32_t *t, const double **x,
+                         const double **y) {
+  const double *p = &xyz[3 * v];
+  int q = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+  *x = &xyz[3 * t[(q + 1) % 3]], *y = &xyz[3 * t[(q + 2) % 3]];
+  double u[3], w[3];
+  pm_v3_sub(u, *x, p), pm_v3_sub(w, *y, p);
+  double nuw = pm_v3_norm(u) * pm_v3_norm(w);
+  return nuw > 0 ? pm_v3_dot(u, w) / nuw : NAN;
+}
+
 static int needle_target(int32_t v, const double *xyz, const int32_t *tri, const int32_t *rv,
                          int32_t nring, double needle_deg, double target[3]) {
   const double *p = &xyz[3 * v];
@@ -79,14 +93,8 @@ static int needle_target(int32_t v, const double *xyz, const int32_t *tri, const
   double best = cos(needle_deg * M_PI / 180), a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
   int found = 0;
   for (int32_t k = 0; k < nring; ++k) {
-    const int32_t *t = &tri[3 * rv[k]];
-    int q = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
-    const double *x = &xyz[3 * t[(q + 1) % 3]], *y = &xyz[3 * t[(q + 2) % 3]];
-    double u[3], w[3];
-    pm_v3_sub(u, x, p), pm_v3_sub(w, y, p);
-    double nuw = pm_v3_norm(u) * pm_v3_norm(w);
-    if (!(nuw > 0)) continue;
-    double c = pm_v3_dot(u, w) / nuw;
+    const double *x, *y;
+    double c = corner_cos(v, xyz, &tri[3 * rv[k]], &x, &y);
     if (c > best) best = c, found = 1, pm_v3_copy(a, x), pm_v3_copy(b, y);
   }
   if (!found) return 0;
@@ -113,6 +121,37 @@ static int needle_target(int32_t v, const double *xyz, const int32_t *tri, const
   const double hu = pm_v3_norm(up);
   if (!(hu > 0)) return 0;
   pm_v3_axpy(target, mid, aim / hu, up);
+  return 1;
+}
+
+/* The flat move of node v (face_smooth.h, needle_deg): among v's ring, the triangle with the
+ * largest angle at v; when that angle is obtuse, v's foot lies inside the opposite edge (a, b)
+ * and the triangle has an angle below needle_deg at a or b (v lies too near the edge: a face
+ * node beside a long boundary segment), the point above the foot, on v's side, at the height
+ * where the smaller of those two angles is NEEDLE_AIM x needle_deg. Returns 0 otherwise. */
+static int flat_target(int32_t v, const double *xyz, const int32_t *tri, const int32_t *rv,
+                       int32_t nring, double needle_deg, double target[3]) {
+  const double *p = &xyz[3 * v];
+  double best = 0, a[3] = {0, 0, 0}, b[3] = {0, 0, 0}; /* cosine of an obtuse angle: < 0 */
+  for (int32_t k = 0; k < nring; ++k) {
+    const double *x, *y;
+    double c = corner_cos(v, xyz, &tri[3 * rv[k]], &x, &y);
+    if (c < best) best = c, pm_v3_copy(a, x), pm_v3_copy(b, y);
+  }
+  if (!(best < 0)) return 0;
+  double e[3], pa[3], foot[3], up[3];
+  pm_v3_sub(e, b, a), pm_v3_sub(pa, p, a);
+  const double L2 = pm_v3_dot(e, e);
+  if (!(L2 > 0)) return 0;
+  const double t = pm_v3_dot(pa, e) / L2;
+  if (!(t > 0 && t < 1)) return 0;
+  pm_v3_axpy(foot, a, t, e);
+  pm_v3_sub(up, p, foot);
+  const double h = pm_v3_norm(up), far = (t > 0.5 ? t : 1 - t) * sqrt(L2);
+  /* the smaller angle, at the end farther from the foot, and the height that makes it the aim */
+  if (!(h > 0) || !(atan2(h, far) < needle_deg * M_PI / 180)) return 0;
+  const double aim = far * tan(NEEDLE_AIM * needle_deg * M_PI / 180);
+  pm_v3_axpy(target, foot, aim / h, up);
   return 1;
 }
 
@@ -188,6 +227,8 @@ int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *
                     try_move(f, v, to, needle_deg, xyz, uv, nrm, tri, rv, nring);
          ++k)
       ok = 1;
+    if (!ok && needle_deg > 0 && flat_target(v, xyz, tri, rv, nring, needle_deg, to))
+      ok = try_move(f, v, to, needle_deg, xyz, uv, nrm, tri, rv, nring);
     if (!ok) ok = try_move(f, v, c, 0, xyz, uv, nrm, tri, rv, nring);
     if (!ok) continue;
     ++moved;

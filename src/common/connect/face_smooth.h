@@ -62,7 +62,11 @@ extern "C" {
  * the node stands beside the edge rather than above it, a step gains less than it aims at
  * (robust/step__SampleCrankshaft4A.stp with psys: a face node 0.13 from curve nodes 0.023 apart
  * gained 0.012, 0.008, 0.006, 0.005 in four sweeps, one step each, and kept a 9.9-degree
- * needle). 0: Laplacian steps only. */
+ * needle). A node without such an angle whose ring has an obtuse triangle with an angle below
+ * needle_deg at an end of the edge opposite the node (a face node too near a long boundary
+ * segment: box_sides.step with psys, 161 degrees at a node 0.10 from a segment 1.28 long)
+ * first tries a flat move: to the height above its foot on that edge where the smaller end
+ * angle is 1.25 needle_deg, kept by the same rule. 0: Laplacian steps only. */
 int32_t pm_face_smooth_sweep(const pm_cell *f, int32_t nv, double *xyz, double *uv, double *nrm,
                              const uint8_t *movable, int32_t ntri, const int32_t *tri,
                              double needle_deg, uint8_t *dirty);
