@@ -57,7 +57,7 @@ typedef struct psys_params {
                            Newton step of E_i in the cell's tangent space); 1 */
   double lambda_min;    /* Algorithm 1's lambda_min; 1e-4 */
   double lambda_max;    /* cap of lambda_i; 1 */
-  double lambda_max_faces; /* phase 3's cap of lambda_i (over-relaxation above 1); 0: lambda_max; 0 */
+  double lambda_max_faces; /* phase 3's cap of lambda_i (over-relaxation above 1); 0: lambda_max; 1.8 */
   double lambda_grow;   /* lambda_i is multiplied by this after an accepted step (the paper
                            only divides by 10); 2 */
   int pair_sigma;       /* sigma_ij of a pair: 0 max(sigma_i, sigma_j) (eq. 1), 1 their mean
@@ -87,7 +87,7 @@ typedef struct psys_params {
   double anneal_off;    /* population control stops when a falls below this; 0.02 */
   double move_tol;      /* a phase ends when population control is off and the mean move is
                            below this many sigma; 2e-3 */
-  double move_tol_faces; /* phase 3's move_tol (the faces); 0: move_tol; 1e-3 */
+  double move_tol_faces; /* phase 3's move_tol (the faces); 0: move_tol; 1.8e-3 */
   int max_iter;         /* iteration cap per phase; 1500 */
   int hold_sigma;       /* 1: phase 3 holds sigma once population control is off; 1 */
   int hungry_curves;    /* 1: hungry curve particles also keep population control on; 0 */

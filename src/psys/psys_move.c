@@ -23,8 +23,8 @@
  *   - lambda_i starts and is capped at 1 (a full Newton step);
  *   - growth: after an accepted step lambda_i is multiplied by lambda_grow (2), capped at
  *     lambda_max, so a particle that once met a steep neighbourhood is not slowed forever;
- *   - over-relaxation in phase 3, optional (lambda_max_faces = 1.8; the default 0 keeps full
- *     steps): the faces' particles step up to 1.8 times their Newton step. The sweep is a
+ *   - over-relaxation in phase 3 (lambda_max_faces = 1.8, the default; 0 with move_tol_faces =
+ *     1e-3 gives full steps): the faces' particles step up to 1.8 times their Newton step. The sweep is a
  *     Gauss-Seidel sweep, and over-relaxing one (SOR) speeds up the long waves of the packing,
  *     which full steps relax slowly: the tail of phase 3, where the count is fixed and sigma held, is all long waves. A step of omega times the
  *     Newton step still lowers a quadratic energy for omega < 2, so Algorithm 1's test keeps
@@ -37,12 +37,12 @@
  *     t20_component8.step 445 -> 234, 0.6165 / 0.6473 -> 0.6139 / 0.6460. At 1.8 with the old
  *     tolerance the quality gain was the same and the iterations more (wrench.stp 247,
  *     base_interface.step 178). Phases 1-2 keep lambda_max = 1: the curves' chains at 1.8 did not
- *     settle (wrench.stp's phase 2 ran to max_iter). Not the default: it leaves two unforced
- *     needles on box_sides.step where full steps leave none (flat triangles: a face node 0.10
- *     from a boundary segment 1.28 long, 161 degrees at the node; 236 phase-3 iterations
- *     against 232). Its other needle, 9.6 degrees on step__SampleCrankshaft4A.stp, went with
- *     the curve gaps of psys_population.c and the repeated needle steps of face_smooth.c: with
- *     them the robust folder and the other 25 shared models give none either way;
+ *     settle (wrench.stp's phase 2 ran to max_iter). It first left unforced needles where full
+ *     steps left none: 9.6 degrees on step__SampleCrankshaft4A.stp, which went with the curve
+ *     gaps of psys_population.c and the repeated needle steps of face_smooth.c, and two flat
+ *     triangles on box_sides.step (161 degrees at a face node 0.10 from a boundary segment 1.28
+ *     long), which went with face_smooth.c's flat move; then the robust folder and the shared
+ *     models give none (bench_robust, one thread per run) and it became the default;
  *   - steps are capped at step_max sigma_i, and a trial point that lands farther from the
  *     particle than the neighbour lists are sure to cover, (psys_nbr_reach - 1) sigma_i (0.577
  *     sigma_i with the defaults), is not tried: it counts as a rejected step, and lambda_i

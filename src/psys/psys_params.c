@@ -51,10 +51,10 @@ static const pm_param_desc desc[] = {
     {"lambda_grow", D, F(lambda_grow), 2.0, 1, 100, PM_RANGE_CLOSED, "",
      "lambda_i is multiplied by this after an accepted step (1: never grows)",
      "ours; differs from 001 Alg. 1, which only divides by 10 (1)", NULL},
-    {"lambda_max_faces", D, F(lambda_max_faces), 0, 0, 100, PM_RANGE_CLOSED, "",
+    {"lambda_max_faces", D, F(lambda_max_faces), 1.8, 0, 100, PM_RANGE_CLOSED, "",
      "phase 3 (the faces): cap of lambda_i instead of lambda_max, an over-relaxed sweep above 1 "
-     "(1.8 with move_tol_faces=1.8e-3: fewer iterations, better triangles; 0: lambda_max)",
-     "ours (001 is silent)", NULL},
+     "(with move_tol_faces = 1.8e-3: fewer iterations, better triangles; 0: lambda_max)",
+     "ours; differs from 001 Alg. 1, full Newton steps (0 with move_tol_faces=1e-3)", NULL},
     {"pair_sigma", I, F(pair_sigma), 1, 0, 1, PM_RANGE_CLOSED, "",
      "sigma_ij of a pair in eq. 1-2: 0 = max(sigma_i, sigma_j), 1 = their mean",
      "ours; differs from 001 eq. 1 (0)", NULL},
@@ -97,7 +97,7 @@ static const pm_param_desc desc[] = {
     {"move_tol", D, F(move_tol), 2e-3, 0, 1, PM_RANGE_LO_OPEN, "sigma",
      "a phase ends when population control is off and the mean move is below this",
      "001 sec. 4.1 ('change ... below some threshold'; value ours)", NULL},
-    {"move_tol_faces", D, F(move_tol_faces), 1e-3, 0, 1, PM_RANGE_CLOSED, "sigma",
+    {"move_tol_faces", D, F(move_tol_faces), 1.8e-3, 0, 1, PM_RANGE_CLOSED, "sigma",
      "phase 3 (the faces) ends when the mean move is below this instead (0: move_tol); with "
      "lambda_max_faces = w, w x 1e-3 ends it where 1e-3 ends a sweep of full Newton steps",
      "001 sec. 4.1 ('change ... below some threshold'; value ours; 0 ends it as phases 1-2)",

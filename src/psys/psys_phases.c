@@ -48,9 +48,9 @@
  * 0.6027, 168 -> 282; table.brep 0.6109 -> 0.6047, 116 -> 178; t20_component8.step 0.6346 ->
  * 0.6322; bearing.iges 0.6307 -> 0.6290; synth_torus.brep 0.6024 -> 0.5981; crack.brep 0.6154
  * -> 0.6183 the one loss of ten; 5e-4 gains another 0.001 to 0.004 for about twice the
- * iterations again): phase 3 ends at move_tol_faces = 1e-3 by default; with the over-relaxed
- * sweep of psys_move.c (lambda_max_faces = 1.8, not the default) 1.8e-3 ends it at the same
- * residual.
+ * iterations again): phase 3 ended at move_tol_faces = 1e-3 with full steps; with the
+ * over-relaxed sweep of psys_move.c (lambda_max_faces = 1.8, the default) it ends at 1.8e-3, the
+ * same residual (1e-3 with lambda_max_faces = 0 gives full steps again).
  * Phase 3 holds sigma once population control is off (hold_sigma = 1, the default; 0 keeps
  * updating it). The field was inferred while the particles moved, and the count followed it; with
  * the count fixed, what is left is relaxing the packing in that field. Updated further, the field
