@@ -512,6 +512,61 @@ static void smooth_flat_move_lifts_node_off_boundary(void **state) {
   pm_model_destroy(m);
 }
 
+/* The smoothing's moves on a curved face step once along the node's tangent plane and evaluate
+ * the surface there (face_smooth.c, surface_point): a fan on the sphere case, its centre pushed
+ * off, is recentred in one sweep with two evaluations (the derivatives at the node, the point
+ * of the whole step), where projecting the target onto the surface took six, four of them with
+ * second derivatives; the node lies on the sphere, at S of its new
+ * parameters, near the ring's centroid carried onto the sphere (the step's error is second order
+ * in its length: 0.05 here). The face is
+ * a copy of the sphere's cell whose class counts the evaluations. */
+static const pm_cell *counted_face;
+static int face_evals;
+
+static void counting_face_eval(const pm_cell *self, const double uv[2], int order, pm_face_point *out) {
+  (void)self;
+  ++face_evals;
+  counted_face->cls->face_eval(counted_face, uv, order, out);
+}
+
+static void smooth_moves_evaluate_the_surface_once(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("sphere", &m, NULL, &e), e);
+  counted_face = pm_model_cell(m, PM_FACE, 0);
+  pm_cell_class cls = *counted_face->cls;
+  cls.face_eval = counting_face_eval, cls.face_eval_many = NULL, cls.project = NULL;
+  pm_cell f = *counted_face;
+  f.cls = &cls;
+  const double u0 = 0.5 * (f.lo[0] + f.hi[0]), v0 = 0.5 * (f.lo[1] + f.hi[1]) + 0.3;
+  double xyz[3 * 7], uv[2 * 7], nrm[3 * 7];
+  const uint8_t movable[7] = {1, 0, 0, 0, 0, 0, 0};
+  int32_t tri[3 * 6];
+  uv[0] = u0 + 0.04, uv[1] = v0 - 0.03;
+  for (int k = 0; k < 6; ++k) {
+    uv[2 * (k + 1)] = u0 + 0.12 * cos(k * M_PI / 3) / cos(v0);
+    uv[2 * (k + 1) + 1] = v0 + 0.12 * sin(k * M_PI / 3);
+    tri[3 * k] = 0, tri[3 * k + 1] = 1 + k, tri[3 * k + 2] = 1 + (k + 1) % 6;
+  }
+  face_nodes(counted_face, 7, uv, xyz, nrm);
+  double centroid[3] = {0, 0, 0}, before[3];
+  for (int k = 1; k <= 6; ++k) pm_v3_axpy(centroid, centroid, 1.0 / 6, &xyz[3 * k]);
+  pm_v3_scale(centroid, centroid, 1 / pm_v3_norm(centroid)); /* onto the unit sphere */
+  memcpy(before, xyz, sizeof before);
+  face_evals = 0;
+  assert_int_equal(pm_face_smooth_sweep(&f, 7, xyz, uv, nrm, movable, 6, tri, 10.0, NULL), 1);
+  print_message("sphere fan: %d surface evaluations, the node %.2e from the centroid (it was %.2e)\n",
+                face_evals, pm_v3_dist(xyz, centroid), pm_v3_dist(before, centroid));
+  assert_int_equal(face_evals, 2);
+  double s[3];
+  pm_cell_point(counted_face, uv, s);
+  assert_true(pm_v3_dist2(s, xyz) < 1e-24);
+  PM_ASSERT_NEAR(pm_v3_norm(xyz), 1.0, 1e-12);
+  assert_true(pm_v3_dist(xyz, centroid) < 0.05 * pm_v3_dist(before, centroid));
+  pm_model_destroy(m);
+}
+
 /* The connection's smoothing (smooth > 0) on curved faces: the same nodes and as many
  * triangles, vertex and curve nodes where they were, face nodes moved along their face (each at
  * S(u, v) of its new parameters), a valid mesh whose mean R / l_min is lower than without it, and
@@ -583,6 +638,7 @@ int main(void) {
       cmocka_unit_test(smooth_needle_moves_make_no_new_small_corners),
       cmocka_unit_test(smooth_needle_moves_step_again),
       cmocka_unit_test(smooth_flat_move_lifts_node_off_boundary),
+      cmocka_unit_test(smooth_moves_evaluate_the_surface_once),
       cmocka_unit_test(smoothing_on_curved_faces),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -51,11 +51,23 @@ static void ring_measure(int32_t v, const double *p, const double *pn, const dou
   }
 }
 
-/* The point of face f nearest to `target` near (u, v) = uv0: its parameters, position and unit
- * normal. Returns 0 when it leaves the trimmed region or the surface has no normal there. */
-static int surface_point(const pm_cell *f, const double target[3], const double uv0[2],
-                         double uv[2], double p[3], double n[3]) {
-  pm_face_project_from(f, target, uv0, uv);
+/* The point of face f a move dx away from the face point (uv0, der0 = Su | Sv there): the
+ * least-squares parameter step whose image Su du + Sv dv is the tangential part of dx
+ * (pm_cell_param_delta), evaluated exactly -- its parameters, position and unit normal. Returns
+ * 0 when it leaves the trimmed region or the surface has no normal there. One step, not the
+ * closest point of the surface to the node's target: the target is a heuristic aim (a centroid,
+ * an apex) and the test that follows measures the exact point, whereas projecting the target
+ * onto the surface took a Newton iteration of second-derivative evaluations (three gmsh calls
+ * each on a B-spline face): `packmesh mesh wrench.stp --method bubble --target-nodes 100000
+ * --threads 1 --stats`, two alternating runs each on a loaded machine, the connection 4.24 and
+ * 4.54 s with the projection, 2.52 and 2.29 s with the step (1.09 s without smoothing); the
+ * median R / l_min 0.596178 either way. */
+static int surface_point(const pm_cell *f, const double dx[3], const double uv0[2],
+                         const double der0[6], double uv[2], double p[3], double n[3]) {
+  double duv[2] = {0, 0};
+  pm_cell_param_delta(f, uv0, der0, dx, duv);
+  uv[0] = uv0[0] + duv[0], uv[1] = uv0[1] + duv[1];
+  pm_cell_wrap(f, uv);
   if (!pm_face_inside(f, uv)) return 0;
   pm_face_point fp;
   pm_face_eval(f, uv, 1, &fp);
@@ -173,12 +185,15 @@ static int try_move(const pm_cell *f, int32_t v, const double to[3], double need
   const double thin_cos = needle_deg > 0 ? cos(needle_deg * M_PI / 180) : 2;
   ring_measure(v, &xyz[3 * v], &nrm[3 * v], xyz, nrm, tri, rv, nring, thin_cos, &worst0, &sum0,
                &nthin0);
+  pm_face_point fp0;
+  pm_face_eval(f, &uv[2 * v], 1, &fp0);
+  const double der0[6] = {fp0.su[0], fp0.su[1], fp0.su[2], fp0.sv[0], fp0.sv[1], fp0.sv[2]};
   for (int half = 0; half < 2; ++half) {
-    double target[3], nuv[2], p[3], n[3], worst, sum;
+    double dx[3], nuv[2], p[3], n[3], worst, sum;
     int nthin;
-    pm_v3_sub(target, to, &xyz[3 * v]);
-    pm_v3_axpy(target, &xyz[3 * v], half ? 0.5 : 1.0, target);
-    if (!surface_point(f, target, &uv[2 * v], nuv, p, n)) continue;
+    pm_v3_sub(dx, to, &xyz[3 * v]);
+    pm_v3_scale(dx, dx, half ? 0.5 : 1.0);
+    if (!surface_point(f, dx, &uv[2 * v], der0, nuv, p, n)) continue;
     ring_measure(v, p, n, xyz, nrm, tri, rv, nring, thin_cos, &worst, &sum, &nthin);
     if (needle_deg > 0 ? !(worst < worst0 && nthin <= nthin0) : !(worst <= worst0 && sum < sum0))
       continue;

@@ -9,10 +9,12 @@
  * the largest R / l_min of the ring does not grow and their sum falls ("smart" Laplacian, after
  * Freitag's acceptance test). A move is tried whole, then halved once. A node whose ring would
  * hold a triangle that is degenerate or turned against the surface's normal stays put, and so
- * does a node whose projected position leaves the face's trimmed region.
+ * does a node whose new position leaves the face's trimmed region.
  *
- * The nodes move on the surface: each position is S(u, v) for the node's new (u, v), found by
- * Newton projection from its old (u, v) (pm_face_project_from). Boundary nodes (curves, vertices,
+ * The nodes move on the surface: each position is S(u, v) for the node's new (u, v), its old
+ * (u, v) plus the least-squares parameter step of the move (one Gauss-Newton step from the
+ * node's tangent plane, pm_cell_param_delta), not the closest point to the aim: the aim is a
+ * heuristic and the exact point is what the test measures. Boundary nodes (curves, vertices,
  * poles) never move, so the face's boundary and its neighbours are untouched. */
 #ifndef PM_FACE_SMOOTH_H
 #define PM_FACE_SMOOTH_H
