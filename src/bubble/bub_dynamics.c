@@ -442,6 +442,7 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
                                                                           : cx->c_norm;
     const double *vs = stg == 0 ? &s->v[3 * i] : &s->vs[3 * i]; /* (stage 0's velocity is v) */
     for (int k = 0; k < 3; ++k) acc[3 * q + k] = (f[k] - c * vs[k]) * inv_m;
+    if (s->flags[i] & BUB_FHOLD) pm_v3_zero(&acc[3 * q]); /* (and v stays 0: it never moves) */
   }
   double t1 = pm_seconds();
   /* The RK sums and the displacement from the step start to the next point. */
@@ -582,7 +583,10 @@ static void stage_chunk(bub_state *s, const stage_ctx *cx, int32_t lo, int32_t h
     if (s->disp[i] > out->max_disp) out->max_disp = s->disp[i];
     double rel = s->disp[i] / s->d[i];
     if (rel > out->max_rel) out->max_rel = rel;
-    hist[hist_bin(rel)]++;
+    if (s->flags[i] & BUB_FHOLD) /* the quantile is the moving bubbles' */
+      ++out->held;
+    else
+      hist[hist_bin(rel)]++;
   }
   double t4 = pm_seconds();
   tm[0] += t1 - t0, tm[1] += (t2 - t1) + (t4 - t3), tm[2] += t3 - t2;
@@ -702,10 +706,11 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   /* The step's end: sums in chunk order, the skin test for the next step. */
   double sum = 0, mx = 0, mrel = 0;
   int bad = 0;
+  int64_t held = 0;
   for (int64_t c = 0; c < nchunk; ++c) {
     const bub_chunk *ch = &s->chunks[c];
     sum += ch->sum_disp, mx = fmax(mx, ch->max_disp), mrel = fmax(mrel, ch->max_rel);
-    bad |= ch->bad_size;
+    bad |= ch->bad_size, held += ch->held;
   }
   if (bad)
     for (int32_t i = a; i < b; ++i) {
@@ -717,8 +722,8 @@ pm_status bub_dynamics_step(bub_state *s, bub_step_info *info, pm_error *err) {
   info->max_rel_disp = mrel;
   /* The quantile from the threads' histograms (integer counts: the same sums in any order). */
   info->q_rel_disp = mrel;
-  if (s->p.disp_quantile < 1 && b > a) {
-    const int64_t want = (int64_t)ceil(s->p.disp_quantile * (double)(b - a));
+  if (s->p.disp_quantile < 1 && b - a > held) {
+    const int64_t want = (int64_t)ceil(s->p.disp_quantile * (double)(b - a - held));
     int64_t cum = 0;
     for (int k = 0; k < BUB_HBINS; ++k) {
       for (int t = 0; t < s->threads; ++t) cum += s->hist[(size_t)BUB_HBINS * t + k];

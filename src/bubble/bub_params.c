@@ -76,6 +76,11 @@ static const pm_param_desc desc[] = {
      "face bubbles from the rhombic quadtree (the papers) or a hexagonal lattice grown from the "
      "border at the stable distance",
      "003 sec. 3.2, 000 sec. 4.1.1; lattice: our addition (bub_lattice.c)", placements},
+    {"hold_rings", PM_PARAM_INT, F(hold_rings), 4, 0, 100, PM_RANGE_CLOSED, "rings",
+     "place=lattice, planes: a face bubble whose lattice sites within this many rings are all "
+     "placed, in its grain, at its own size, is held where it was placed: only the bubbles near "
+     "borders, grain boundaries and size changes relax (0: every bubble relaxes)",
+     "our addition (bub_lattice.c; bench_bubble compare); differs from the papers (0)", NULL},
     {"lattice_apex", PM_PARAM_BOOL, F(lattice_apex), 1, 0, 1, 0, "",
      "place=lattice, curved faces: a site next to two placed bubbles goes to the apex of the "
      "triangle on them at the stable distance (0: a step from one along its row)",

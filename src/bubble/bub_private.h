@@ -42,7 +42,8 @@ enum {
   BUB_FDEAD = 1, /* removed during the current population control */
   BUB_FNEW = 2,  /* inserted during the current population control */
   BUB_FODD = 4,  /* next to an insertion or deletion: damped with zeta_odd for a round (004) */
-  BUB_FDONE = 8  /* open bubble already given its insertion attempt in this control */
+  BUB_FDONE = 8, /* open bubble already given its insertion attempt in this control */
+  BUB_FHOLD = 16 /* held where the lattice placed it (hold_rings, bub_lattice.c) */
 };
 
 /* ---- the force (bub_force.c) ---------------------------------------------------------------- */
@@ -338,6 +339,7 @@ typedef struct bub_chunk {
   double kinetic, potential, edev, sum_disp, max_disp, max_rel;
   int32_t nface;
   int32_t evals;  /* exact cell evaluations */
+  int32_t held;   /* held bubbles (BUB_FHOLD): not in the displacement histogram */
   int bad_size;  /* the size field was not finite and > 0 at a new position */
   bub_top2 skin; /* the skin test of the chunk's bubbles */
 } bub_chunk;

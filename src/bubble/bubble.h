@@ -98,6 +98,9 @@ typedef struct bub_params {
                        BUB_PLACE_LATTICE, a hexagonal lattice grown from the border at the stable
                        distance (our addition, bub_lattice.c: one grain, the final count);
                        default lattice */
+  int hold_rings;   /* place = lattice, planes: a face bubble with every lattice site within this
+                       many rings placed in its grain at its own size is held where it was
+                       placed (bub_lattice.c); 0: every bubble relaxes (the papers) */
   int lattice_apex; /* place = lattice on curved faces: a site next to two placed bubbles goes to
                        the point at the stable distance from both (the apex of the triangle on
                        them) instead of a step from one along the row direction; 0 = the step
