@@ -134,11 +134,8 @@ static void held_lattice_keeps_its_rows(void **state) {
     }
     print_message("hold_rings=%d: median R/l_min %.4f, mean radius ratio %.4f, %d middle nodes on "
                   "their rows\n", p.hold_rings, median[hold], rr[hold], straight[hold]);
-    pm_stats_clear(&st);
-    pm_quality_clear(&q);
-    pm_mesh_destroy(out.mesh);
-    pm_sizing_destroy(size);
-    pm_model_destroy(m);
+    pm_stats_flat none = {0};
+    release_measured(&none, &st, &q, &out, size, m);
   }
   assert_true(median[0] > 0.579);
   assert_true(median[1] < 0.5776);
