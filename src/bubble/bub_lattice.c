@@ -65,8 +65,8 @@
  * compare, qi1 against gmsh-frontal at the same count, rr_mean / median: R = 0 0.9949 / 0.5799,
  * 3 0.9943 / 0.5774, 4 0.9947 / 0.5774, 5 0.9948 / 0.5786, 6 0.9949 / 0.5798; gmsh-frontal
  * 0.9943-0.9947 / 0.5775-0.5777 at 984-986 nodes): a narrower band leaves the seam's triangles
- * worse, a wider one spreads the strain again. Curved faces (the lattice is not at rest there) and graded fields (sizes
- * differ within R rings) hold nothing.
+ * worse, a wider one spreads the strain again. Curved faces (the lattice is not at rest there)
+ * and graded fields (sizes differ within R rings) hold nothing.
  */
 #include "bubble/bub_private.h"
 
@@ -123,7 +123,8 @@ typedef struct crowd {
   double d;
   int32_t face;
   int crowded;
-  int32_t at; /* a bubble of the face or its closure at the place itself (within 1e-9 d), or -1 */
+  int want_at; /* look for `at` too (else stop at the first bubble that crowds the place) */
+  int32_t at;  /* a bubble of the face or its closure at the place itself (within 1e-9 d), or -1 */
 } crowd;
 
 static int crowd_visit(int32_t id, double d2, void *user) {
@@ -134,14 +135,14 @@ static int crowd_visit(int32_t id, double d2, void *user) {
     return 0;
   double l = CROWDED * 0.5 * (c->d + s->d[id]);
   if (d2 < l * l) c->crowded = 1;
-  if (d2 <= 1e-18 * c->d * c->d && fabs(s->d[id] - c->d) <= 1e-9 * c->d) c->at = id;
-  return c->crowded && c->at >= 0;
+  if (c->want_at && d2 <= 1e-18 * c->d * c->d && fabs(s->d[id] - c->d) <= 1e-9 * c->d) c->at = id;
+  return c->crowded && (!c->want_at || c->at >= 0);
 }
 
 /* 1 when a place is crowded; *at: a bubble of the same diameter standing on the place itself
  * (a curve's bubble where the lattice continues the boundary's spacing), or -1. */
 static int crowded(const bub_state *s, int32_t face, const double x[3], double d, int32_t *at) {
-  crowd c = {s, x, d, face, 0, -1};
+  crowd c = {s, x, d, face, 0, at != NULL, -1};
   /* Grid radius >= d_j: the overlap query with radius 0.35 d returns every bubble within
    * 0.35 (d + d_j) (and more). */
   pm_grid_visit(s->grid, x, 0.5 * CROWDED * d, PM_GRID_OVERLAP, crowd_visit, &c);
@@ -263,20 +264,21 @@ static pm_status try_six(grow_ctx *g, const grow_item *it, int sites) {
         }
       }
     }
+    /* On a plane with holding, a bubble standing on the site (a curve's, where the lattice
+     * continues the boundary's spacing) holds it for hold_interior. Planes have no second
+     * parents, so growth does not read it. */
+    const int holding = sites && s->affine[g->face] && !g->apex && s->p.hold_rings > 0;
     int32_t at = -1;
-    if (ok) ok = pm_face_inside(g->f, par) && !crowded(s, g->face, x, dc, &at);
+    if (ok) ok = pm_face_inside(g->f, par) && !crowded(s, g->face, x, dc, holding ? &at : NULL);
     if (ok) {
       st = add(g, par, i, j, it->e1);
     } else if (sites) {
-      /* On a plane, a bubble standing on the site (a curve's, where the lattice continues the
-       * boundary's spacing: the site is on the border, so the step to it was refused) holds it
-       * for hold_interior. Planes have no second parents, so growth does not read it. */
-      if (at < 0 && s->affine[g->face] && !g->apex && s->p.hold_rings > 0) {
+      if (holding && at < 0) { /* the site on the border: the step to it was refused */
         double xp[3];
         pm_v3_add(xp, &s->x[3 * o], dx);
         crowded(s, g->face, xp, s->d[o], &at);
       }
-      st = mark(g, key, at >= 0 && s->affine[g->face] && !g->apex ? at : UNUSABLE);
+      st = mark(g, key, at >= 0 ? at : UNUSABLE);
     }
   }
   return st;
