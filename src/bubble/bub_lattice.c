@@ -286,21 +286,65 @@ static pm_status try_six(grow_ctx *g, const grow_item *it, int sites) {
 
 /* Held bubbles (hold_rings R > 0, planes; header, "Holding"): a bubble of the face's queue whose
  * lattice sites within R rings (axial distance max(|a|, |b|, |a + b|) <= R) all hold bubbles of
- * its grain with its own diameter (to 1e-9) is marked BUB_FHOLD. */
-static void hold_interior(grow_ctx *g, int R) {
+ * its grain with its own diameter (to 1e-9) is marked BUB_FHOLD. Found in time linear in the
+ * bubbles, whatever R: a placed site with a neighbour site empty, or holding a bubble of another
+ * diameter, is an edge of the region; a bubble is held when no edge lies within R - 1 steps of
+ * it, the steps counted breadth first from every edge through placed sites (the nearest edge is
+ * reached through placed sites only, so that count is the axial distance). The sites are the
+ * queue's and those of the border bubbles marked on sites next to them. */
+typedef struct hold_site {
+  int32_t grain, i, j, id, dist;
+} hold_site;
+
+static int32_t site_id(const grow_ctx *g, int32_t grain, int32_t i, int32_t j) {
+  const int32_t id = pm_keyindex_get(&g->sites, site_key(grain, i, j));
+  return id >= 0 && id != UNUSABLE ? id : -1;
+}
+
+static pm_status hold_interior(grow_ctx *g, int R) {
   bub_state *s = g->s;
-  for (int64_t k = 0; k < g->qn; ++k) {
-    const grow_item *it = &g->q[k];
-    const double d = s->d[it->id];
-    int full = 1;
-    for (int32_t a = -R; a <= R && full; ++a)
-      for (int32_t b = -R; b <= R && full; ++b) {
-        if (abs(a + b) > R) continue;
-        const int32_t id = pm_keyindex_get(&g->sites, site_key(it->grain, it->i + a, it->j + b));
-        full = id >= 0 && id != UNUSABLE && fabs(s->d[id] - d) <= 1e-9 * d;
-      }
-    if (full) s->flags[it->id] |= BUB_FHOLD;
+  const int64_t cap = 7 * g->qn + 1;
+  if (cap > INT32_MAX / 2) return PM_OK; /* beyond the site index's range: nothing held */
+  hold_site *v = malloc(sizeof(hold_site) * (size_t)cap);
+  int32_t *order = malloc(sizeof(int32_t) * (size_t)cap);
+  pm_keyindex at = {0}; /* site key -> index in v */
+  if (!v || !order || !pm_keyindex_reserve(&at, (int32_t)cap)) {
+    free(v), free(order), pm_keyindex_free(&at);
+    return pm_error_setf(g->err, PM_ERR_NOMEM, "out of memory");
   }
+  int32_t n = 0;
+  for (int64_t k = 0; k < g->qn; ++k)
+    for (int q = -1; q < 6; ++q) {
+      const grow_item *it = &g->q[k];
+      const int32_t i = it->i + (q < 0 ? 0 : DI[q]), j = it->j + (q < 0 ? 0 : DJ[q]);
+      const int32_t id = q < 0 ? it->id : site_id(g, it->grain, i, j);
+      const uint64_t key = site_key(it->grain, i, j);
+      if (id < 0 || pm_keyindex_get(&at, key) >= 0) continue;
+      pm_keyindex_put(&at, key, n);
+      v[n++] = (hold_site){it->grain, i, j, id, -1};
+    }
+  int32_t head = 0, tail = 0;
+  for (int32_t k = 0; k < n; ++k) {
+    const double d = s->d[v[k].id];
+    for (int q = 0; q < 6 && v[k].dist < 0; ++q) {
+      const int32_t id = site_id(g, v[k].grain, v[k].i + DI[q], v[k].j + DJ[q]);
+      if (id < 0 || fabs(s->d[id] - d) > 1e-9 * d) v[k].dist = 0, order[tail++] = k;
+    }
+  }
+  while (head < tail) {
+    const hold_site *c = &v[order[head++]];
+    for (int q = 0; q < 6; ++q) {
+      const int32_t k = pm_keyindex_get(&at, site_key(c->grain, c->i + DI[q], c->j + DJ[q]));
+      if (k >= 0 && v[k].dist < 0) v[k].dist = c->dist + 1, order[tail++] = k;
+    }
+  }
+  /* (a site no edge reaches lies in a region with no edge at all: held) */
+  for (int64_t k = 0; k < g->qn; ++k) {
+    const int32_t x = pm_keyindex_get(&at, site_key(g->q[k].grain, g->q[k].i, g->q[k].j));
+    if (v[x].dist < 0 || v[x].dist >= R) s->flags[g->q[k].id] |= BUB_FHOLD;
+  }
+  free(v), free(order), pm_keyindex_free(&at);
+  return PM_OK;
 }
 
 /* Grow the current grain breadth first from the queue's items from head on (and from every item
@@ -496,7 +540,7 @@ pm_status bub_place_lattice(bub_state *s, int64_t cap, pm_error *err) {
         if (!st) st = grow(&g, 0);
       }
     }
-    if (!st && s->affine[f] && s->p.hold_rings > 0) hold_interior(&g, s->p.hold_rings);
+    if (!st && s->affine[f] && s->p.hold_rings > 0) st = hold_interior(&g, s->p.hold_rings);
     /* Curved faces: where the face bent the lattice so that a site was found crowded while a
      * place next to it is free, every bubble of the face tries its six directions again,
      * whatever the sites' numbers say (a grain of its own each, so no site is looked up), then
