@@ -17,6 +17,7 @@
 #include "common/input/cases.h"
 #include "common/input/input.h"
 #include "common/mesh/mesh.h"
+#include "common/base/vec3.h"
 #include "common/sizing/sizing.h"
 
 /* ---- models and meshes ----------------------------------------------------------------------- */
@@ -383,6 +384,104 @@ static void test_sphere_chordal_error(void **state) {
   }
   /* The classification hints (with the seam unwrapped) only speed things up: same answer. */
   PM_ASSERT_NEAR(dmax[0], dmax[1], 1e-9);
+  pm_model_destroy(m);
+}
+
+/* The mesh side's mean is the integral of the distance over the mesh, divided by its area: on
+ * the octasphere inside the unit sphere the distance of x is 1 - |x|, integrated here over each
+ * triangle by the centroids of its 48 x 48 subdivision (the reference, exact to about 1e-7 of
+ * itself). The composite quadratic rule (quadrature 1, the default) gets it within 1e-3; equal
+ * weights (0, the previous path) come out low by about a fifth, as the chordal deviation
+ * vanishes at the nodes that make most of the lattice. */
+static void test_mesh_side_mean_is_its_integral(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("sphere", &m, NULL, &e), e);
+  pm_mesh *me = octasphere(6, 1);
+  const int L = 48;
+  double integral = 0, area = 0;
+  for (int32_t t = 0; t < me->ntri; ++t) {
+    const int32_t *v = &me->tri[3 * t];
+    const double *a = &me->xyz[3 * v[0]], *b = &me->xyz[3 * v[1]], *c = &me->xyz[3 * v[2]];
+    double ab[3], ac[3], n[3];
+    pm_v3_sub(ab, b, a), pm_v3_sub(ac, c, a), pm_v3_cross(n, ab, ac);
+    const double A = 0.5 * pm_v3_norm(n);
+    double sum = 0;
+    /* the small triangles' centroids: (i + 1/3, j + 1/3) upright, (i + 2/3, j + 2/3) inverted */
+    for (int i = 0; i < L; ++i)
+      for (int j = 0; i + j < L; ++j)
+        for (int up = 0; up < 2 - (i + j + 1 == L); ++up) {
+          const double s = (i + (up ? 2.0 : 1.0) / 3) / L, r = (j + (up ? 2.0 : 1.0) / 3) / L;
+          double x[3];
+          for (int k = 0; k < 3; ++k) x[k] = a[k] + s * ab[k] + r * ac[k];
+          sum += 1 - pm_v3_norm(x);
+        }
+    integral += A * sum / ((double)L * L), area += A;
+  }
+  const double exact = integral / area;
+  pm_distance_params p;
+  pm_distance_params_init(&p);
+  assert_int_equal(p.quadrature, 1);
+  pm_distance d1, d0;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &d1, &e), e);
+  p.quadrature = 0;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &d0, &e), e);
+  print_message("octasphere: mesh -> model mean %.6e (quadratic rule) %.6e (equal weights), "
+                "integral %.6e; model -> mesh %.6e\n", d1.mesh_to_model_mean, d0.mesh_to_model_mean,
+                exact, d1.model_to_mesh_mean);
+  PM_ASSERT_NEAR(d1.mesh_to_model_mean, exact, 1e-3 * exact);
+  assert_true(d0.mesh_to_model_mean < 0.9 * exact);
+  /* The weights change the mean only: the same samples, the same maximum. */
+  assert_true(d0.mesh_to_model_max == d1.mesh_to_model_max);
+  assert_int_equal(d0.nsamples_mesh, d1.nsamples_mesh);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
+/* The refinement's quadratic jumps (refine_fit) reach the same smooth maxima with fewer
+ * surface evaluations: on the octasphere the worst triangle's maximum is at the foot of its
+ * circumcentre, and both searches find it to 1e-9 of itself. The sphere's class is replaced by
+ * one that counts the evaluations. */
+static const pm_cell_class *sphere_class;
+static long sphere_evals;
+
+static void counting_eval(const pm_cell *self, const double uv[2], int order, pm_face_point *out) {
+  ++sphere_evals;
+  sphere_class->face_eval(self, uv, order, out);
+}
+
+static void test_refine_fit_saves_evaluations(void **state) {
+  (void)state;
+  pm_model *m = NULL;
+  pm_error e = {0};
+  PM_ASSERT_OK(pm_case_open("sphere", &m, NULL, &e), e);
+  pm_cell *f = &m->cells[PM_FACE][0];
+  sphere_class = f->cls;
+  pm_cell_class cls = *f->cls;
+  cls.face_eval = counting_eval, cls.face_eval_many = NULL;
+  f->cls = &cls;
+  pm_mesh *me = octasphere(6, 1);
+  int acute;
+  const double expect = sphere_chord_max(me, &acute);
+  pm_distance_params p;
+  pm_distance_params_init(&p);
+  assert_int_equal(p.refine_fit, 1);
+  pm_distance d[2];
+  long evals[2];
+  for (int fit = 0; fit < 2; ++fit) {
+    p.refine_fit = fit;
+    sphere_evals = 0;
+    PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &d[fit], &e), e);
+    evals[fit] = sphere_evals;
+    PM_ASSERT_NEAR(d[fit].mesh_to_model_max, expect, 1e-9 * expect);
+  }
+  print_message("octasphere: %ld evaluations with the jumps, %ld halving only\n", evals[1], evals[0]);
+  assert_true(d[0].mesh_to_model_mean == d[1].mesh_to_model_mean);
+  /* The samples' evaluations are the same: the difference is the refinements' alone. */
+  assert_true(evals[1] < evals[0]);
+  f->cls = sphere_class;
+  pm_mesh_destroy(me);
   pm_model_destroy(m);
 }
 
@@ -970,6 +1069,8 @@ int main(void) {
       cmocka_unit_test(test_annulus_hole_sagitta),
       cmocka_unit_test(test_disk_means_and_size),
       cmocka_unit_test(test_sphere_chordal_error),
+      cmocka_unit_test(test_mesh_side_mean_is_its_integral),
+      cmocka_unit_test(test_refine_fit_saves_evaluations),
       cmocka_unit_test(test_sphere_pushed_vertex),
       cmocka_unit_test(test_wrong_parameters_are_not_trusted),
       cmocka_unit_test(test_cylinder_prism),

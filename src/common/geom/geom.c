@@ -349,13 +349,10 @@ double pm_curve_curvature(const pm_cell *c, double t) {
 }
 
 /* Principal curvatures at a regular point; returns 0 where Su x Sv vanishes. */
-static int curvatures_at(const pm_cell *f, const double uv[2], double *kmax, double *kmin,
-                         double normal[3]) {
-  pm_face_point fp;
-  pm_face_eval(f, uv, 2, &fp);
+int pm_face_point_curvatures(const pm_face_point *fp, double *kmax, double *kmin, double normal[3]) {
   double n[3];
-  pm_v3_cross(n, fp.su, fp.sv);
-  double E = pm_v3_dot(fp.su, fp.su), F = pm_v3_dot(fp.su, fp.sv), G = pm_v3_dot(fp.sv, fp.sv);
+  pm_v3_cross(n, fp->su, fp->sv);
+  double E = pm_v3_dot(fp->su, fp->su), F = pm_v3_dot(fp->su, fp->sv), G = pm_v3_dot(fp->sv, fp->sv);
   double nn = pm_v3_norm(n);
   /* |Su x Sv|^2 = EG - F^2: relative to EG it measures how far from singular the chart is. */
   if (!(nn > 0) || nn * nn <= 1e-20 * E * G) {
@@ -363,7 +360,7 @@ static int curvatures_at(const pm_cell *f, const double uv[2], double *kmax, dou
     return 0;
   }
   pm_v3_scale(n, n, 1.0 / nn);
-  double L = pm_v3_dot(fp.suu, n), M = pm_v3_dot(fp.suv, n), N = pm_v3_dot(fp.svv, n);
+  double L = pm_v3_dot(fp->suu, n), M = pm_v3_dot(fp->suv, n), N = pm_v3_dot(fp->svv, n);
   double det = E * G - F * F;
   /* Mean and Gaussian curvature from the first (E, F, G) and second (L, M, N) forms;
    * the principal curvatures are H +- sqrt(H^2 - K). */
@@ -378,6 +375,13 @@ static int curvatures_at(const pm_cell *f, const double uv[2], double *kmax, dou
   *kmax = k1, *kmin = k2;
   if (normal) pm_v3_copy(normal, n);
   return 1;
+}
+
+static int curvatures_at(const pm_cell *f, const double uv[2], double *kmax, double *kmin,
+                         double normal[3]) {
+  pm_face_point fp;
+  pm_face_eval(f, uv, 2, &fp);
+  return pm_face_point_curvatures(&fp, kmax, kmin, normal);
 }
 
 void pm_face_curvatures(const pm_cell *f, const double uv[2], double *kmax, double *kmin,

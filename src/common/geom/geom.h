@@ -240,6 +240,10 @@ double pm_curve_curvature(const pm_cell *c, double t);
 void pm_face_curvatures(const pm_cell *f, const double uv[2], double *kmax, double *kmin,
                         double normal[3]);
 
+/* The principal curvatures (as pm_face_curvatures) of a face point evaluated to order 2; 0, with
+ * the normal zeroed, where the point is singular (pm_face_curvatures then takes the limit). */
+int pm_face_point_curvatures(const pm_face_point *fp, double *kmax, double *kmin, double normal[3]);
+
 /* (u, v) of a boundary-curve point on face f, for the use `use` of that curve. */
 void pm_face_curve_uv(const pm_cell *f, const pm_use *use, double t, double uv[2]);
 
