@@ -165,6 +165,36 @@ static void test_disk_sagitta(void **state) {
   pm_model_destroy(m);
 }
 
+/* A triangle whose three nodes lie on the face's boundary curves takes its projections' start
+ * from them, through the curve's pcurve on the face: a polygon inscribed in the disk, split
+ * into a fan from its first corner (every node on the circle, classified on it with its
+ * parameter), gives every sample a start (before, none had one: nhintless was the sample
+ * count). */
+static void test_boundary_triangles_start_from_the_curves(void **state) {
+  (void)state;
+  const double R = 1.3;
+  const int n = 16;
+  pm_model *m = disk_model(R);
+  const pm_cell *circle = &m->cells[PM_CURVE][0];
+  pm_mesh *me = pm_mesh_create();
+  pm_error e = {0};
+  for (int k = 0; k < n; ++k) {
+    double p[3] = {R * cos(2 * M_PI * k / n), R * sin(2 * M_PI * k / n), 0}, t[2] = {0, 0};
+    PM_ASSERT_OK(pm_cell_project(circle, p, NULL, t, NULL, NULL, &e), e);
+    PM_ASSERT_OK(pm_mesh_add_node(me, p, PM_CURVE, 0, t, NULL, &e), e);
+  }
+  for (int k = 1; k + 1 < n; ++k) PM_ASSERT_OK(pm_mesh_add_tri(me, 0, k, k + 1, 0, &e), e);
+  pm_distance d;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, NULL, &d, &e), e);
+  PM_ASSERT_NEAR(d.mesh_to_model_max, 0.0, 1e-12);
+  const double sag = R * (1 - cos(M_PI / n));
+  PM_ASSERT_NEAR(d.model_to_mesh_max, sag, 1e-3 * sag);
+  assert_int_equal(d.nhintless, 0);
+  assert_true(d.nsamples_mesh > 0);
+  pm_mesh_destroy(me);
+  pm_model_destroy(m);
+}
+
 /* A polygon whose vertices lie just inside the circle, between the circle and the face's trimming
  * polyline (which cuts the arc's corners by up to a quarter of the feature floor, here 2.8e-5,
  * and at least a quarter of that at a chord's middle): those points are in the face, at
@@ -390,9 +420,9 @@ static void test_sphere_chordal_error(void **state) {
 /* The mesh side's mean is the integral of the distance over the mesh, divided by its area: on
  * the octasphere inside the unit sphere the distance of x is 1 - |x|, integrated here over each
  * triangle by the centroids of its 48 x 48 subdivision (the reference, exact to about 1e-7 of
- * itself). The composite quadratic rule (quadrature 1, the default) gets it within 1e-3; equal
- * weights (0, the previous path) come out low by about a fifth, as the chordal deviation
- * vanishes at the nodes that make most of the lattice. */
+ * itself). The composite quadratic rule (quadrature 2, the default) gets it within 1e-3, the
+ * piecewise-linear one (1) within 10% below, equal weights (0, the previous path) a quarter
+ * below, as the chordal deviation vanishes at the nodes that make most of the lattice. */
 static void test_mesh_side_mean_is_its_integral(void **state) {
   (void)state;
   pm_model *m = NULL;
@@ -422,19 +452,22 @@ static void test_mesh_side_mean_is_its_integral(void **state) {
   const double exact = integral / area;
   pm_distance_params p;
   pm_distance_params_init(&p);
-  assert_int_equal(p.quadrature, 1);
-  pm_distance d1, d0;
+  assert_int_equal(p.quadrature, 2);
+  pm_distance d2, d1, d0;
+  PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &d2, &e), e);
+  p.quadrature = 1;
   PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &d1, &e), e);
   p.quadrature = 0;
   PM_ASSERT_OK(pm_mesh_distance(me, m, NULL, &p, &d0, &e), e);
-  print_message("octasphere: mesh -> model mean %.6e (quadratic rule) %.6e (equal weights), "
-                "integral %.6e; model -> mesh %.6e\n", d1.mesh_to_model_mean, d0.mesh_to_model_mean,
-                exact, d1.model_to_mesh_mean);
-  PM_ASSERT_NEAR(d1.mesh_to_model_mean, exact, 1e-3 * exact);
-  assert_true(d0.mesh_to_model_mean < 0.9 * exact);
+  print_message("octasphere: mesh -> model mean %.6e (quadratic rule) %.6e (piecewise linear) "
+                "%.6e (equal weights), integral %.6e; model -> mesh %.6e\n", d2.mesh_to_model_mean,
+                d1.mesh_to_model_mean, d0.mesh_to_model_mean, exact, d2.model_to_mesh_mean);
+  PM_ASSERT_NEAR(d2.mesh_to_model_mean, exact, 1e-3 * exact);
+  assert_true(d1.mesh_to_model_mean < exact && d1.mesh_to_model_mean > 0.9 * exact);
+  assert_true(d0.mesh_to_model_mean < 0.8 * exact);
   /* The weights change the mean only: the same samples, the same maximum. */
-  assert_true(d0.mesh_to_model_max == d1.mesh_to_model_max);
-  assert_int_equal(d0.nsamples_mesh, d1.nsamples_mesh);
+  assert_true(d0.mesh_to_model_max == d2.mesh_to_model_max && d1.mesh_to_model_max == d2.mesh_to_model_max);
+  assert_int_equal(d0.nsamples_mesh, d2.nsamples_mesh);
   pm_mesh_destroy(me);
   pm_model_destroy(m);
 }
@@ -1065,6 +1098,7 @@ int main(void) {
       cmocka_unit_test(test_square_in_plane_is_zero),
       cmocka_unit_test(test_square_lifted_node),
       cmocka_unit_test(test_disk_sagitta),
+      cmocka_unit_test(test_boundary_triangles_start_from_the_curves),
       cmocka_unit_test(test_disk_points_between_polyline_and_circle),
       cmocka_unit_test(test_annulus_hole_sagitta),
       cmocka_unit_test(test_disk_means_and_size),

@@ -17,7 +17,7 @@
 void pm_distance_params_init(pm_distance_params *p) {
   p->spacing = 0.25;
   p->tri_level = 4;
-  p->quadrature = 1;
+  p->quadrature = 2;
   p->refine_fit = 1;
   p->refine = 16;
   p->max_face_samples = 250000;
@@ -26,7 +26,7 @@ void pm_distance_params_init(pm_distance_params *p) {
   p->ref_spacing = 0.5;
   p->ref_max_points = 100000;
   p->ref_per_tri = 16;
-  p->model_per_tri = 8;
+  p->model_per_tri = 16;
   p->prune = 1;
   p->ref_split = 1;
 }
@@ -37,8 +37,8 @@ pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
   if (p->tri_level < 1 || p->tri_level > 32)
     return pm_error_setf(err, PM_ERR_ARG, "distance: tri_level must be in 1..32, got %d",
                          (int)p->tri_level);
-  if (p->quadrature != 0 && p->quadrature != 1)
-    return pm_error_setf(err, PM_ERR_ARG, "distance: quadrature must be 0 or 1, got %d",
+  if (p->quadrature < 0 || p->quadrature > 2)
+    return pm_error_setf(err, PM_ERR_ARG, "distance: quadrature must be 0, 1 or 2, got %d",
                          (int)p->quadrature);
   if (p->refine_fit != 0 && p->refine_fit != 1)
     return pm_error_setf(err, PM_ERR_ARG, "distance: refine_fit must be 0 or 1, got %d",
@@ -739,6 +739,9 @@ typedef struct dctx {
   int level;                 /* lattice level */
   int npt_tri, npt_seg;      /* lattice points per triangle / segment */
   uint8_t *par_ok;           /* [mesh->nnode] 1 where a node's parameters put it on its cell */
+  double *corner_uv;         /* [6 ntri] a triangle corner's (u, v) on the triangle's face, for a
+                                node on one of its boundary curves, through the pcurve */
+  uint8_t *corner_ok;        /* [3 ntri] 1 where corner_uv puts the node on the face */
 } dctx;
 
 /* A mesh point's classification hint: a cell and a starting parameter, or cell = -1. */
@@ -921,8 +924,14 @@ static int tri_hint_nodes(const dctx *c, int32_t t, double par[3][2]) {
   int on[3], first = -1;
   for (int k = 0; k < 3; ++k) {
     on[k] = me->node_dim[v[k]] == PM_FACE && me->node_cell[v[k]] == f && c->par_ok[v[k]];
-    if (!on[k]) continue;
-    par[k][0] = me->node_par[2 * (size_t)v[k]], par[k][1] = me->node_par[2 * (size_t)v[k] + 1];
+    const int by_curve = !on[k] && c->corner_ok && c->corner_ok[3 * (size_t)t + k];
+    if (!on[k] && !by_curve) continue;
+    if (by_curve) {
+      on[k] = 1;
+      par[k][0] = c->corner_uv[6 * (size_t)t + 2 * k], par[k][1] = c->corner_uv[6 * (size_t)t + 2 * k + 1];
+    } else {
+      par[k][0] = me->node_par[2 * (size_t)v[k]], par[k][1] = me->node_par[2 * (size_t)v[k] + 1];
+    }
     if (first < 0) {
       first = k;
       continue;
@@ -1226,19 +1235,21 @@ static int lattice_push(lattice *l, int64_t cap, int32_t t, double s, double u, 
  *   quadrature 0: every point of the triangle weighs the same, 1 / npt (the previous code path).
  *     Exact for linear functions, but the lattice's boundary points outnumber its inside ones:
  *     a deviation that vanishes at the nodes, as a chordal error does, comes out low (a quadratic
- *     bubble by a quarter at level 4; the mesh -> model mean of bspline_sphere.brep's bubble mesh
- *     8.56e-3 against 1.07e-2 from level 16).
- *   quadrature 1, L even: the rule exact for quadratics on each triangle of the level-L/2
+ *     bubble by a quarter at level 4).
+ *   quadrature 1: the piecewise-linear rule on the level-L subdivision (1/3 of each small
+ *     triangle at each of its corners): every point counts, with a positive weight; low by
+ *     about 1 / (2 L^2) of a quadratic bubble (6% at level 4).
+ *   quadrature 2, L even: the rule exact for quadratics on each triangle of the level-L/2
  *     subdivision (weight 1/3 at its edge midpoints, 0 at its corners), summed: a point of the
  *     lattice that is not on the coarser one gets 1/3 of each such triangle it is an edge
- *     midpoint of (one on the triangle's boundary, two inside), the others 0.
- *   quadrature 1, L odd: the piecewise-linear rule on the level-L subdivision (1/3 of each small
- *     triangle at each of its corners). */
+ *     midpoint of (one on the triangle's boundary, two inside), the others 0. It is rule 1's
+ *     Richardson extrapolation from levels L/2 and L, so where the deviation is not smooth
+ *     (spikes at a few points) it amplifies them. L odd: rule 1. */
 static double lattice_weight(int L, int quadrature, int i, int j) {
   const int k = L - i - j;
   if (quadrature == 0) return 2.0 / ((double)(L + 1) * (L + 2));
   const int boundary = i == 0 || j == 0 || k == 0;
-  if (L % 2 == 0) {
+  if (quadrature == 2 && L % 2 == 0) {
     if (i % 2 == 0 && j % 2 == 0) return 0;
     const double m = L / 2;
     return (boundary ? 1 : 2) / (3 * m * m);
@@ -1249,12 +1260,12 @@ static double lattice_weight(int L, int quadrature, int i, int j) {
 }
 
 /* The weight, as a fraction of its segment's length, of point q of the L + 1 points of a
- * segment: equal (quadrature 0), Simpson's rule over pairs of steps (1, L even: exact for
- * cubics) or the trapezoidal rule (1, L odd). */
+ * segment: equal (quadrature 0), the trapezoidal rule (1, and 2 with L odd) or Simpson's rule
+ * over pairs of steps (2, L even). */
 static double segment_weight(int L, int quadrature, int q) {
   if (quadrature == 0) return 1.0 / (L + 1);
   const int end = q == 0 || q == L;
-  if (L % 2 == 0) return (end ? 1 : (q % 2 ? 4 : 2)) / (3.0 * L);
+  if (quadrature == 2 && L % 2 == 0) return (end ? 1 : (q % 2 ? 4 : 2)) / (3.0 * L);
   return (end ? 0.5 : 1) / L;
 }
 
@@ -1601,6 +1612,7 @@ typedef struct dist_state {
   int ntop[2];
   acc A[2][2];              /* [direction: 0 mesh->model, 1 model->mesh][part] */
   int64_t nfallback;
+  int64_t nhintless; /* mesh samples on triangles whose element gave no start (mesh_chunk_eval) */
 } dist_state;
 
 /* The error of a stage's allocation that has no message of its own naming what was allocated. */
@@ -1653,6 +1665,35 @@ static pm_status dist_check_params(dctx *c, pm_error *err) {
     double at[3];
     pm_cell_point(&m->cells[d][cell], &me->node_par[2 * (size_t)v], at);
     c->par_ok[v] = pm_v3_dist(at, &me->xyz[3 * (size_t)v]) <= tol;
+  }
+  if (!me->tri_cell || me->ntri == 0) return PM_OK;
+  /* The corners of a triangle that lie on a boundary curve of its face: their (u, v) on the face
+   * through the curve's pcurve, kept where the face's point there is the node. Without them a
+   * triangle whose three nodes are on the boundary has no hint: its samples are searched from
+   * the reference and the curves instead (occ__TrimmedSurface.brep's 86-node bubble mesh: 814
+   * of its 851 samples). A curve the face uses twice (a seam) gives either side's (u, v): they
+   * are one point, and tri_hint_nodes unwraps the periodic direction. */
+  c->corner_uv = malloc(sizeof(double) * 6 * (size_t)me->ntri);
+  c->corner_ok = calloc(3 * (size_t)me->ntri, 1);
+  if (!c->corner_uv || !c->corner_ok) return dist_nomem(err);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int32_t t = 0; t < me->ntri; ++t) {
+    const int32_t f = me->tri_cell[t];
+    if (f < 0 || f >= m->count[PM_FACE]) continue;
+    const pm_cell *fc = &m->cells[PM_FACE][f];
+    for (int k = 0; k < 3; ++k) {
+      const int32_t v = me->tri[3 * (size_t)t + k];
+      if (me->node_dim[v] != PM_CURVE || !c->par_ok[v]) continue;
+      const pm_use *use = NULL;
+      for (int32_t l = 0; l < fc->nloop && !use; ++l)
+        for (int32_t u = 0; u < fc->loop[l].nuse && !use; ++u)
+          if (fc->loop[l].use[u].cell == me->node_cell[v]) use = &fc->loop[l].use[u];
+      if (!use) continue;
+      double *uv = &c->corner_uv[6 * (size_t)t + 2 * k], at[3];
+      pm_face_curve_uv(fc, use, me->node_par[2 * (size_t)v], uv);
+      pm_cell_point(fc, uv, at);
+      c->corner_ok[3 * (size_t)t + k] = pm_v3_dist(at, &me->xyz[3 * (size_t)v]) <= tol;
+    }
   }
   return PM_OK;
 }
@@ -2100,7 +2141,8 @@ static void mesh_chunk_eval(dist_state *r, int64_t s0, int64_t n) {
   const int64_t ntri_s = r->ntri_s;
   double *dres = r->dres, *wres = r->wres, *rres = r->rres, *xres = r->xres;
   int *fres = r->fres;
-#pragma omp parallel for schedule(dynamic, 1)
+  int64_t hintless = 0; /* (an integer sum: the same in any order) */
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : hintless)
   for (int64_t b0 = 0; b0 < n; b0 += FOOT_BATCH) {
     const int32_t nb = n - b0 < FOOT_BATCH ? (int32_t)(n - b0) : FOOT_BATCH;
     hint h[FOOT_BATCH];
@@ -2124,6 +2166,7 @@ static void mesh_chunk_eval(dist_state *r, int64_t s0, int64_t n) {
       }
       wres[k] = w;
       state[j] = mesh_point(c, kind[j], e, par, &xres[3 * k], &h[j]);
+      hintless += state[j] && kind[j] == S_TRI && h[j].cell < 0;
     }
     /* the hints' feet, a face at a time */
     for (int32_t j = 0; j < nb; ++j) {
@@ -2158,6 +2201,7 @@ static void mesh_chunk_eval(dist_state *r, int64_t s0, int64_t n) {
       rres[k] = sz > 0 ? dres[k] / sz : 0;
     }
   }
+  r->nhintless += hintless;
 }
 
 /* Reduce a mesh-side chunk in index order (so the thread count changes no figure): accumulate
@@ -2317,6 +2361,7 @@ static void dist_results(const dist_state *r, pm_distance *out) {
   out->nsamples_mesh = A[0][0].n + A[0][1].n;
   out->nsamples_model = A[1][0].n + A[1][1].n;
   out->nfallback = r->nfallback;
+  out->nhintless = r->nhintless;
   out->mesh_to_model_mean = A[0][mpart].sum_w > 0 ? A[0][mpart].sum_wd / A[0][mpart].sum_w : 0;
   out->model_to_mesh_mean = A[1][mpart].sum_w > 0 ? A[1][mpart].sum_wd / A[1][mpart].sum_w : 0;
   double W = A[0][mpart].sum_w + A[1][mpart].sum_w;
@@ -2347,6 +2392,7 @@ static void dist_free(dist_state *r) {
   free(r->blocks), free(r->finfo), free(r->nbhd), free(r->curve_segs);
   free(r->face_tris_off), free(r->face_tris), free(r->Lface);
   free(c->dangling), free(c->wire_seg), free(c->face_reach), free(c->face_box), free(c->par_ok);
+  free(c->corner_uv), free(c->corner_ok);
   pm_bvh_destroy(c->mesh_tri), pm_bvh_destroy(c->mesh_wire);
   ref_faces_free(&c->rf);
   ref_curves_free(&c->rc_surf), ref_curves_free(&c->rc_wire);
