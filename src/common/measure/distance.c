@@ -88,6 +88,13 @@ pm_status pm_distance_params_check(const pm_distance_params *p, pm_error *err) {
  * surface evaluations than going on to round-off (1e-14) with the same figures to 15 digits on
  * simple_plane.brep. */
 #define FOOT_STEP_TOL 1e-10
+/* ... or when the distance at the current point is already within this fraction of the diagonal
+ * of the foot's: at a point of the surface whose residual x - S has the tangential part t and
+ * the normal part n, the foot's distance is |n| to second order and the current one
+ * sqrt(|t|^2 + |n|^2), larger by |t|^2 / (2 d). The distance is stationary at the foot, so it is
+ * known to 1e-12 of the diagonal long before the foot is known to 1e-10: a step that would
+ * change it by less is not taken. */
+#define FOOT_VALUE_TOL 1e-12
 
 static double clampd(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
 
@@ -127,7 +134,7 @@ static void foot_trial(const pm_cell *f, foot_search *s) {
 }
 
 /* A new Gauss-Newton step from the current point, or the end of the search. */
-static void foot_step(const pm_cell *f, const double x[3], double tol, foot_search *s) {
+static void foot_step(const pm_cell *f, const double x[3], double tol, double vtol, foot_search *s) {
   if (s->it >= FOOT_MAX_IT || !(s->d > 0)) {
     s->stage = FOOT_DONE;
     return;
@@ -143,7 +150,8 @@ static void foot_step(const pm_cell *f, const double x[3], double tol, foot_sear
    * tolerance, S(uv) is already the foot to within it, and evaluating the step would only
    * confirm so. */
   for (int k = 0; k < 3; ++k) img[k] = s->dpar[0] * s->fp.su[k] + s->dpar[1] * s->fp.sv[k];
-  if (pm_v3_norm(img) <= tol) {
+  const double t2 = pm_v3_dot(img, img);
+  if (t2 <= tol * tol || t2 <= 2 * s->d * vtol) {
     s->stage = FOOT_DONE;
     return;
   }
@@ -153,11 +161,11 @@ static void foot_step(const pm_cell *f, const double x[3], double tol, foot_sear
 
 /* Advance search s with the evaluation of its pending point. A trial is accepted when it does
  * not increase the distance; otherwise the step is halved, up to FOOT_BACKTRACK trials. */
-static void foot_advance(const pm_cell *f, const double x[3], double tol, foot_search *s,
+static void foot_advance(const pm_cell *f, const double x[3], double tol, double vtol, foot_search *s,
                          const pm_face_point *at) {
   if (s->stage == FOOT_START) {
     s->fp = *at, s->d = pm_v3_dist(x, at->p), s->it = 0;
-    foot_step(f, x, tol, s);
+    foot_step(f, x, tol, vtol, s);
     return;
   }
   const double dn = pm_v3_dist(x, at->p);
@@ -169,7 +177,7 @@ static void foot_advance(const pm_cell *f, const double x[3], double tol, foot_s
       return;
     }
     ++s->it;
-    foot_step(f, x, tol, s);
+    foot_step(f, x, tol, vtol, s);
     return;
   }
   if (++s->bt >= FOOT_BACKTRACK) {
@@ -183,7 +191,7 @@ static void foot_advance(const pm_cell *f, const double x[3], double tol, foot_s
 /* The feet out[i] of the n <= FOOT_BATCH points x_i on face f, each from uv_i, by Gauss-Newton
  * iterations. */
 static void face_feet(const pm_cell *f, int32_t n, const double *x, const double *uv, fcand *out) {
-  const double tol = FOOT_STEP_TOL * f->model->diagonal;
+  const double tol = FOOT_STEP_TOL * f->model->diagonal, vtol = FOOT_VALUE_TOL * f->model->diagonal;
   foot_search s[FOOT_BATCH];
   pm_face_point at[FOOT_BATCH];
   double q[2 * FOOT_BATCH];
@@ -203,7 +211,7 @@ static void face_feet(const pm_cell *f, int32_t n, const double *x, const double
     if (!m) break;
     pm_face_eval_many(f, m, q, 1, at);
     for (int32_t k = 0; k < m; ++k)
-      foot_advance(f, x + 3 * pending[k], tol, &s[pending[k]], &at[k]);
+      foot_advance(f, x + 3 * pending[k], tol, vtol, &s[pending[k]], &at[k]);
   }
   for (int32_t i = 0; i < n; ++i) {
     pm_cell_wrap(f, s[i].uv);

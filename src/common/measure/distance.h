@@ -58,8 +58,9 @@
  *   - model -> mesh: a face's samples are evaluated in batches of one grid row segment; each
  *     starts its search of the mesh from the previous sample's distance plus the distance between
  *     them, and skips the search of the curves while the last one shows them out of reach.
- *   Projections stop when the step's image in 3D (the tangential part of x - S) is below 1e-10
- *   of the diagonal, before evaluating it.
+ *   Projections stop when the step's image in 3D (the tangential part t of x - S) is below 1e-10
+ *   of the diagonal, or when it would lower the distance d by less than 1e-12 of the diagonal
+ *   (|t|^2 / 2d: the distance is stationary at the foot), before evaluating it.
  * Each direction then refines its `refine` largest distances (one per element, or per 1/64 of a
  * face or curve) by a pattern search over the element's parameters, so that the maximum is the
  * local maximum of the distance function and not just the best sample.
