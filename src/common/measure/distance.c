@@ -228,7 +228,7 @@ static void face_foot(const pm_cell *f, const double x[3], const double uv[2], f
 
 /* The foot of x on curve c from t (in place); every C(t) with t in range is a model point. */
 static double curve_foot(const pm_cell *c, const double x[3], double *t) {
-  const double tol = FOOT_STEP_TOL * c->model->diagonal;
+  const double tol = FOOT_STEP_TOL * c->model->diagonal, vtol = FOOT_VALUE_TOL * c->model->diagonal;
   if (!c->periodic[0]) *t = clampd(*t, c->lo[0], c->hi[0]);
   pm_curve_point cp;
   pm_curve_eval(c, *t, 1, &cp);
@@ -238,7 +238,8 @@ static double curve_foot(const pm_cell *c, const double x[3], double *t) {
     double r[3], dt = 0;
     pm_v3_sub(r, x, cp.p);
     pm_cell_param_delta(c, t, cp.d1, r, &dt); /* papers/003 eq. 15 */
-    if (fabs(dt) * pm_v3_norm(cp.d1) <= tol) break; /* as in face_foot */
+    const double img = fabs(dt) * pm_v3_norm(cp.d1);
+    if (img <= tol || img * img <= 2 * d * vtol) break; /* as in face_feet */
     double lam = 1, tn = *t, dn = d;
     pm_curve_point cn;
     int ok = 0;
