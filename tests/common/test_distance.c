@@ -1080,6 +1080,14 @@ static void test_params_and_bad_input(void **state) {
   assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "ref_split"));
   pm_distance_params_init(&p);
+  p.quadrature = 3;
+  assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "quadrature"));
+  pm_distance_params_init(&p);
+  p.refine_fit = -1;
+  assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "refine_fit"));
+  pm_distance_params_init(&p);
   p.ref_tol = 0.5;
   assert_int_equal(pm_distance_params_check(&p, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "ref_tol"));
