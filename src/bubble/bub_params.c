@@ -8,7 +8,7 @@
 #include <math.h>
 #include <stddef.h>
 
-static const char *const integrators[] = {"rk4", "rk2", NULL};
+static const char *const integrators[] = {"rk4", "rk2", "symplectic", NULL};
 static const char *const viscosities[] = {"constant", "sawtooth", NULL};
 static const char *const tet_sources[] = {"bubbles", "tetgen", NULL};
 static const char *const placements[] = {"quadtree", "lattice", NULL};
@@ -26,11 +26,13 @@ static const pm_param_desc desc[] = {
      "damping ratio c / (2 sqrt(m k0)); start of each round under the saw-tooth", "003 eq. 14",
      NULL},
     {"dt", PM_PARAM_DOUBLE, F(dt), 0, 0, 0.2, PM_RANGE_CLOSED, "T0",
-     "time step as a fraction of the natural period 2 pi sqrt(m/k0); 0 = automatic (rk4 0.1, "
-     "rk2 0.05)",
+     "time step as a fraction of the natural period 2 pi sqrt(m/k0); 0 = automatic (rk4 and "
+     "symplectic 0.1, rk2 0.05)",
      "our choice (bub_dynamics.c)", NULL},
     {"integrator", PM_PARAM_CHOICE, F(integrator), BUB_RK4, 0, 0, 0, "",
-     "fourth-order Runge-Kutta or the second-order (Heun) scheme", "003 sec. 3.4; 004 sec. 1",
+     "fourth-order Runge-Kutta, the second-order (Heun) scheme, or semi-implicit Euler with "
+     "implicit damping (one force sum a step instead of four; the same rest point)",
+     "003 sec. 3.4; 004 sec. 1; symplectic: our addition (bub_dynamics.c)",
      integrators},
     /* viscosity */
     {"viscosity", PM_PARAM_CHOICE, F(viscosity), BUB_VISC_SAWTOOTH, 0, 0, 0, "",
@@ -44,7 +46,7 @@ static const pm_param_desc desc[] = {
      "saw-tooth: cap of the damping ratio", "our choice (stability of the step)", NULL},
     {"final_zeta", PM_PARAM_DOUBLE, F(final_zeta), 0, -1, 10, PM_RANGE_CLOSED, "",
      "damping ratio of curved faces' bubbles in the surface phase's final steps; 0 = "
-     "automatic (rk4 0.3, rk2 the schedule: its step needs more damping), -1 = the viscosity "
+     "automatic (rk4 and symplectic 0.3, rk2 the schedule: its step needs more damping), -1 = the viscosity "
      "schedule goes on (at its cap)",
      "our choice (bub_run.c; bench_bubble compare, timing)", NULL},
     {"zeta_odd", PM_PARAM_DOUBLE, F(zeta_odd), 0.5, 0, 10, PM_RANGE_LO_OPEN, "",
@@ -200,7 +202,10 @@ void bub_params_init(bub_params *p) { pm_params_defaults(&bub_params_table, p); 
  * face-centred cubic one (volume bubbles) up to 8 k (at its X point), and the cubic's steepest
  * slope is 1.5 k0 (at lambda = 19/30), so k <= 12 k0. The step is stable when
  * the amplification |R(h s)| <= 1 for all of them, R the scheme's stability polynomial. Checked
- * by sampling k. */
+ * by sampling k. The symplectic scheme (semi-implicit Euler, damping implicit) maps a mode's
+ * (x, v) by a 2 x 2 matrix with characteristic polynomial (1 + a) l^2 - (2 + a - b) l + 1, a = h c
+ * / m, b = h^2 k / m; both roots lie in the unit disk (Jury's test) iff 0 <= b <= 4 + 2 a, so
+ * the check is that one inequality at the largest k. */
 static double amplification(int integrator, double complex z) {
   double complex r = 1 + z + z * z / 2;
   if (integrator == BUB_RK4) r += z * z * z / 6 + z * z * z * z / 24;
@@ -209,6 +214,7 @@ static double amplification(int integrator, double complex z) {
 
 static int step_stable(const bub_params *p, double zeta) {
   double h = bub_time_step(p), m = p->mass, c = 2 * zeta * sqrt(m * p->k0);
+  if (p->integrator == BUB_SYMPLECTIC) return h * h * 12 * p->k0 / m <= 4 + 2 * h * c / m;
   for (int k = 0; k <= 400; ++k) {
     double kk = 12 * p->k0 * k / 400.0;
     double complex disc = csqrt((double complex)(c * c - 4 * m * kk));

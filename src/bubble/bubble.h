@@ -30,7 +30,7 @@ extern "C" {
 #endif
 
 /* Integrators of the equation of motion. */
-enum { BUB_RK4 = 0, BUB_RK2 = 1 };
+enum { BUB_RK4 = 0, BUB_RK2 = 1, BUB_SYMPLECTIC = 2 };
 /* Viscosity schedules. */
 enum { BUB_VISC_CONSTANT = 0, BUB_VISC_SAWTOOTH = 1 };
 /* Initial placement of face bubbles. */
@@ -48,10 +48,11 @@ typedef struct bub_params {
   double mass;      /* bubble mass m; (0, 1e6], default 1 (000 section 6.4) */
   double zeta;      /* damping ratio zeta = c / (2 sqrt(m k0)) (003 eq. 14); (0, 10], default 0.7 */
   double dt;        /* time step as a fraction of the natural period T0 = 2 pi sqrt(m / k0);
-                       [0, 0.2], default 0 = automatic: 0.1 for rk4, 0.05 for rk2 (our choice,
+                       [0, 0.2], default 0 = automatic: 0.1 for rk4 and symplectic, 0.05 for rk2 (our choice,
                        see bub_dynamics.c; bub_params_check rejects an unstable step) */
-  int integrator;   /* BUB_RK4 (003 section 3.4) or BUB_RK2 (004 section 1, Heun's second-order
-                       scheme); default rk4 */
+  int integrator;   /* BUB_RK4 (003 section 3.4), BUB_RK2 (004 section 1, Heun's second-order
+                       scheme) or BUB_SYMPLECTIC (semi-implicit Euler with implicit damping, one
+                       force sum a step: our addition, bub_dynamics.c); default rk4 */
   /* ---- viscosity schedule (004 section 2.2) ---- */
   int viscosity;    /* BUB_VISC_CONSTANT (zeta throughout, classic) or BUB_VISC_SAWTOOTH (zeta
                        rising within and across rounds); default sawtooth */
@@ -64,7 +65,7 @@ typedef struct bub_params {
                         steps after population control has ended (final_steps; planes, curves and
                         the volume phase keep the schedule); -1 = the viscosity schedule goes on (the saw-tooth at its
                         cap, 1.5: overdamped, so the packing's long waves relax slowly, at a rate
-                        k / c); 0 = automatic: 0.3 with rk4, the schedule with rk2 (Heun's
+                        k / c); 0 = automatic: 0.3 with rk4 and symplectic, the schedule with rk2 (Heun's
                         stability region leaves out the imaginary axis: at dt 0.05 it needs
                         zeta above 0.3); [-1, 10], default 0 (our choice, bub_run.c) */
   double zeta_odd;  /* damping ratio of "odd" bubbles, next to an insertion or deletion, for the

@@ -49,6 +49,38 @@ static void two_bubbles_rk2(void **state) {
   two_bubbles_with(BUB_RK2);
 }
 
+static void two_bubbles_symplectic(void **state) {
+  (void)state;
+  two_bubbles_with(BUB_SYMPLECTIC);
+}
+
+/* One symplectic step by hand: a pair 0.8 apart on a plane (d = 1, so l0 = 1), at rest. The step
+ * is v' = h f / (m + h c), x' = x + h v' (bub_dynamics.c), f the force of bub_force.c at 0.8. */
+static void symplectic_step_by_hand(void **state) {
+  (void)state;
+  pm_model *m = bt_square(0, 0, 10);
+  pm_sizing *size = const_size(1.0);
+  bub_params p = bt_params();
+  p.integrator = BUB_SYMPLECTIC;
+  bub_state *s = bt_state(m, size, &p, 1);
+  bt_face_bubble(s, 4.6, 5.0);
+  bt_face_bubble(s, 5.4, 5.0);
+  pm_error e = {0};
+  PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  const double h = bub_time_step(&p), c = 2 * bub_zeta_now(s) * sqrt(p.mass * p.k0);
+  const double f = bub_force(p.k0, 0.8, 1.0); /* repulsive: positive pushes apart */
+  assert_true(f > 0);
+  const double v = h * f / (p.mass + h * c);
+  bt_steps(s, 1);
+  PM_ASSERT_NEAR(s->x[0], 4.6 - h * v, 1e-12);
+  PM_ASSERT_NEAR(s->x[3], 5.4 + h * v, 1e-12);
+  PM_ASSERT_NEAR(s->v[0], -v, 1e-12);
+  PM_ASSERT_NEAR(s->x[1], 5.0, 1e-12);
+  bub_state_destroy(s);
+  pm_sizing_destroy(size);
+  pm_model_destroy(m);
+}
+
 /* Five curve bubbles between the two end vertices of a straight edge of length 6 with d = 1:
  * the chain relaxes to six gaps of exactly d. */
 static void chain_uniform(void **state) {
@@ -126,14 +158,14 @@ static void k0_invariance(void **state) {
 
 /* A disordered patch (more bubbles than BUB_PARALLEL_MIN, so that 2 threads are used): positions
  * after 30 steps are bitwise identical with 1 and 2 threads. */
-static void thread_independence(void **state) {
-  (void)state;
+static void thread_independence_with(int integrator) {
   pm_model *m = bt_square(0, 0, 10);
   pm_sizing *size = const_size(0.12);
   double *xs[2] = {NULL, NULL};
   int32_t n = 0;
   for (int T = 1; T <= 2; ++T) {
     bub_params p = bt_params();
+    p.integrator = integrator;
     bub_state *s = bt_state(m, size, &p, T);
     pm_rng r;
     pm_rng_init(&r, 3, 0);
@@ -151,6 +183,12 @@ static void thread_independence(void **state) {
   free(xs[0]), free(xs[1]);
   pm_sizing_destroy(size);
   pm_model_destroy(m);
+}
+
+static void thread_independence(void **state) {
+  (void)state;
+  thread_independence_with(BUB_RK4);
+  thread_independence_with(BUB_SYMPLECTIC);
 }
 
 /* The forces from the lists against a fresh search: every pair of related bubbles within 1.5 l0
@@ -426,6 +464,20 @@ static void bad_parameters(void **state) {
   assert_non_null(strstr(e.msg, "unstable"));
   p.dt = 0; /* automatic: stable */
   PM_ASSERT_OK(bub_params_check(&p, &e), e);
+  /* Symplectic at its default step 0.1: b = 12 (0.2 pi)^2 = 4.737 <= 4 + 2 a, a = 0.4 pi zeta, for
+   * zeta >= 0.2933 (final_zeta's automatic 0.3 included). */
+  bub_params_init(&p);
+  p.integrator = BUB_SYMPLECTIC;
+  PM_ASSERT_OK(bub_params_check(&p, &e), e);
+  p.final_zeta = 0.29;
+  assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
+  assert_non_null(strstr(e.msg, "final_zeta"));
+  assert_non_null(strstr(e.msg, "symplectic"));
+  p.final_zeta = 0.2935;
+  PM_ASSERT_OK(bub_params_check(&p, &e), e);
+  p.dt = 0.12;
+  assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
+  PM_ASSERT_OK(pm_params_set(&bub_params_table, &p, "integrator", "symplectic", &e), e);
   bub_params_init(&p);
   p.zeta_max = 6;
   assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
@@ -444,6 +496,7 @@ static void bad_parameters(void **state) {
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(two_bubbles_rk4),  cmocka_unit_test(two_bubbles_rk2),
+      cmocka_unit_test(two_bubbles_symplectic), cmocka_unit_test(symplectic_step_by_hand),
       cmocka_unit_test(chain_uniform),    cmocka_unit_test(k0_invariance),
       cmocka_unit_test(thread_independence), cmocka_unit_test(lists_reuse_and_skin),
       cmocka_unit_test(partial_builds_exact),
