@@ -8,7 +8,8 @@
  * lists the triangles below a radius ratio, --extra prints the run's extra statistics, --trace
  * writes the last run's trace. --case NAME restricts planar, compare and timing to the input of
  * that name (compare and timing: qi1..qi4, shimada, sphere, torus, synth_torus, t20_component8,
- * wrench).
+ * wrench). compare judges each input at its size and, as the mean, at sizes 0.98 to 1.02 times it
+ * (ens_scale; --single: the input's size only).
  * With no section named, all three run. Prints figures; never a timed test.
  */
 #include <math.h>
@@ -60,6 +61,8 @@ static uint64_t opt_seed = 1;
 static double opt_worst = -1;
 static const char *opt_bspline = "t20_component8.step"; /* a CAD model of B-spline faces */
 static int opt_extra;
+/* compare: also at the sizes of ens_scale (off: --single). */
+static int opt_ensemble = 1;
 
 static result run_method(const pm_method *meth, const void *params, const pm_model *m,
                          const pm_sizing *size, int threads) {
@@ -523,8 +526,13 @@ static int cmp_double(const void *a, const void *b) {
   return (x > y) - (x < y);
 }
 
-static void section_throughput(const bub_params *p, const char *cad) {
+static void section_throughput(const bub_params *given, const char *cad) {
   printf("\nthroughput: RK4 bubble-steps per second (a bubble-step: one bubble, one RK4 step)\n");
+  /* The targets are RK4's steps (the papers' scheme, four force sums a step), whatever the
+   * integrator in use; the symplectic scheme's step (one force sum) is printed beside them. */
+  bub_params rk4 = *given, sym = *given;
+  rk4.integrator = BUB_RK4, sym.integrator = BUB_SYMPLECTIC;
+  const bub_params *p = &rk4;
   pm_model *sq = NULL, *torus = NULL, *bs = NULL;
   pm_error e = {0};
   const pm_planar_piece pc[4] = {{PM_PIECE_LINE, {0, 0}, {0, 0}, 0}, {PM_PIECE_LINE, {1, 0}, {0, 0}, 0},
@@ -552,6 +560,9 @@ static void section_throughput(const bub_params *p, const char *cad) {
       snprintf(note, sizeof note, "x %.2f of one thread", r2.wall / r1.wall);
       print_rate(k ? "bubble step, plane, 1e6" : "bubble step, plane, 1e5", 2, &r2, note);
       if (k) continue;
+      rate rs = step_rate(sq, n, 1, &sym);
+      snprintf(note, sizeof note, "x %.2f of an RK4 step's rate", rs.cpu / r1.cpu);
+      print_rate("symplectic step, plane, 1e5", 1, &rs, note);
       /* The target's ratio: a single pair moves with the machine's load from one run to the
        * next (1.41 to 2.39 in pairs minutes apart on a shared two-core machine), so it is the
        * median of SCALE_PAIRS pairs, one thread then two, alternating. */
@@ -615,7 +626,23 @@ static const input_spec compare_inputs[] = {
 typedef struct pair_row {
   int ok;
   result b, g;      /* bubble, gmsh-frontal matched to bubble's node count */
+  /* The ensemble: the same pair at the size scaled by each of ens_scale (the default size
+   * first), means over the runs that succeeded and the count where bubble was as good. */
+  int ens_n, ens_wins;
+  double ens_b_rr, ens_b_ar, ens_g_rr, ens_g_ar;
 } pair_row;
+
+/* On a small input which lattice defects survive the relaxation moves the mean radius ratio
+ * and the median R / l_min by a few thousandths from one size to the next, for bubble and for
+ * gmsh-frontal (qi1 with rk4: rr_mean 0.9934 to 0.9947 at dt 0.09 to 0.105 or zeta 0.65 to
+ * 0.75; gmsh-frontal 0.9943 at its matched count): a verdict from one size is a draw. So the
+ * comparison is also made at sizes 2% around the input's, and judged on the means. */
+static const double ens_scale[] = {1.0, 0.98, 0.99, 1.01, 1.02};
+#define NENS ((int)(sizeof ens_scale / sizeof ens_scale[0]))
+
+static int pair_better(const result *b, const result *g) {
+  return b->rr_mean >= g->rr_mean && b->ar_median <= g->ar_median;
+}
 
 static pair_row quality_rows[NCOMPARE], timing_rows[NCOMPARE];
 
@@ -650,7 +677,7 @@ static result gmsh_matched(const pm_model *m, const pm_sizing *size, int32_t nod
 
 static void print_pair(const char *name, const pair_row *r) {
   const result *b = &r->b, *g = &r->g;
-  int better = b->rr_mean >= g->rr_mean && b->ar_median <= g->ar_median;
+  int better = pair_better(b, g);
   printf("%-15s %8d %7.4f %7.4f %6d %8.2f | %8d %7.4f %7.4f %6d %8.2f | %s\n", name, b->nodes,
          b->rr_mean, b->ar_median, b->site_n[1], b->time, g->nodes, g->rr_mean, g->ar_median,
          g->site_n[1], g->time, better ? "bubble as good or better" : "gmsh better");
@@ -684,6 +711,29 @@ static void section_compare(const bub_params *p, int big, const char *only) {
       print_pair(compare_inputs[k].name, r);
     else
       printf("%-15s FAILED: %s%s\n", compare_inputs[k].name, r->b.err, r->g.err);
+    fflush(stdout);
+    for (int q = 0; q < NENS && r->ok && opt_ensemble; ++q) {
+      pair_row one = *r;
+      if (q > 0) {
+        pm_sizing *sc = NULL;
+        if (pm_sizing_scaled(size, ens_scale[q], &sc, &e)) break;
+        one.b = run_one(m, sc, p, 1);
+        if (one.b.ok) one.g = gmsh_matched(m, sc, one.b.nodes, 0.01);
+        pm_sizing_destroy(sc);
+        if (!one.b.ok || !one.g.ok) continue;
+        char lab[32];
+        snprintf(lab, sizeof lab, "  x%.2f", ens_scale[q]);
+        print_pair(lab, &one);
+      }
+      r->ens_n++, r->ens_wins += pair_better(&one.b, &one.g);
+      r->ens_b_rr += one.b.rr_mean, r->ens_b_ar += one.b.ar_median;
+      r->ens_g_rr += one.g.rr_mean, r->ens_g_ar += one.g.ar_median;
+    }
+    if (r->ens_n > 0) {
+      r->ens_b_rr /= r->ens_n, r->ens_b_ar /= r->ens_n, r->ens_g_rr /= r->ens_n, r->ens_g_ar /= r->ens_n;
+      printf("%-15s mean of %d sizes: %7.4f %7.4f | %7.4f %7.4f | bubble as good in %d of %d\n", "", r->ens_n,
+             r->ens_b_rr, r->ens_b_ar, r->ens_g_rr, r->ens_g_ar, r->ens_wins, r->ens_n);
+    }
     fflush(stdout);
     pm_sizing_destroy(size);
     pm_model_destroy(m);
@@ -772,6 +822,7 @@ static void section_accel(const bub_params *base, int threads, int upto) {
       if (v < 6) {
         p.place = BUB_PLACE_QUADTREE, p.w2 = 0.5, p.face_open = 5, p.face_excess = 8;
         p.disp_quantile = 1, p.final_steps = 60, p.final_zeta = -1, p.curved_open = p.curved_excess = 0;
+        p.integrator = BUB_RK4;
         label = "papers: quadtree, 004's accelerations";
       }
       if (v == 1) p.viscosity = BUB_VISC_CONSTANT, label = "papers, no saw-tooth viscosity";
@@ -811,7 +862,13 @@ static void section_done(void) {
     char lab[96];
     snprintf(lab, sizeof lab, "%s: rr_mean / median R/lmin, bubble (gmsh-frontal)", compare_inputs[k].name);
     printf("  %-62s %.4f / %.4f  (%.4f / %.4f)  %s\n", lab, r->b.rr_mean, r->b.ar_median, r->g.rr_mean, r->g.ar_median,
-           verdict(r->b.rr_mean >= r->g.rr_mean && r->b.ar_median <= r->g.ar_median));
+           verdict(pair_better(&r->b, &r->g)));
+    if (r->ens_n > 1) {
+      snprintf(lab, sizeof lab, "%s: the same, mean of %d sizes (0.98 to 1.02 x)", compare_inputs[k].name, r->ens_n);
+      printf("  %-62s %.4f / %.4f  (%.4f / %.4f)  %s  (as good in %d of %d)\n", lab, r->ens_b_rr, r->ens_b_ar,
+             r->ens_g_rr, r->ens_g_ar,
+             verdict(r->ens_b_rr >= r->ens_g_rr && r->ens_b_ar <= r->ens_g_ar), r->ens_wins, r->ens_n);
+    }
   }
   for (int k = 0; k < NCOMPARE; ++k) {
     const pair_row *r = &timing_rows[k];
@@ -846,6 +903,7 @@ int main(int argc, char **argv) {
     else if (strcmp(argv[i], "--trace") == 0 && i + 1 < argc) opt_trace = argv[++i];
     else if (strcmp(argv[i], "--worst") == 0 && i + 1 < argc) opt_worst = atof(argv[++i]);
     else if (strcmp(argv[i], "--extra") == 0) opt_extra = 1;
+    else if (strcmp(argv[i], "--single") == 0) opt_ensemble = 0;
     else if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc) opt_seed = (uint64_t)atoll(argv[++i]);
     else if (strcmp(argv[i], "--set") == 0 && i + 1 < argc) {
       if (pm_params_set_pair(&bub_params_table, &p, argv[++i], &e)) return fprintf(stderr, "%s\n", e.msg), 2;
@@ -853,7 +911,7 @@ int main(int argc, char **argv) {
       fprintf(stderr, "usage: bench_bubble [planar] [cad] [throughput] [compare] [timing] [million] "
                       "[accel] [accel-small] [done] [--set KEY=VALUE] "
                       "[--threads N] [--case NAME] [--cad FILE] [--dump F] [--worst RR] "
-                      "[--extra] [--trace F] [--seed N]\n");
+                      "[--extra] [--trace F] [--seed N] [--single]\n");
       return 2;
     }
   }

@@ -14,7 +14,11 @@
  * the relaxation took 8.0 s against RK4's 12.5 s at the same step (dt 0.1), with the same
  * quality (mean radius ratio 0.9893 / 0.9892, median R / l_min 0.5962 both; `packmesh mesh
  * wrench.stp --method bubble --target-nodes 100000 --threads 1 --set integrator=I --stats`). Its
- * stability is the 2 x 2 map of a mode m s^2 + c s + k (bub_params.c).
+ * stability is the 2 x 2 map of a mode m s^2 + c s + k (bub_params.c). It is the default; the
+ * papers' RK4 stays one parameter away (integrator = rk4). On the small planar cases the two
+ * schemes end in different packings whose quality differs by as much as a 1% change of the size
+ * does (bench_bubble compare, the mean over five sizes: qi1 rr_mean 0.9941 symplectic, 0.9946
+ * RK4; qi3 0.9757 and 0.9753).
  *
  * Confinement. Positions live on the cells: every RK stage displaces the bubble from its
  * position at the start of the step by the stage's object-space displacement, through

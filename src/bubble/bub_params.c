@@ -29,7 +29,7 @@ static const pm_param_desc desc[] = {
      "time step as a fraction of the natural period 2 pi sqrt(m/k0); 0 = automatic (rk4 and "
      "symplectic 0.1, rk2 0.05)",
      "our choice (bub_dynamics.c)", NULL},
-    {"integrator", PM_PARAM_CHOICE, F(integrator), BUB_RK4, 0, 0, 0, "",
+    {"integrator", PM_PARAM_CHOICE, F(integrator), BUB_SYMPLECTIC, 0, 0, 0, "",
      "fourth-order Runge-Kutta, the second-order (Heun) scheme, or semi-implicit Euler with "
      "implicit damping (one force sum a step instead of four; the same rest point)",
      "003 sec. 3.4; 004 sec. 1; symplectic: our addition (bub_dynamics.c)",

@@ -63,7 +63,9 @@
  * edges), on either side, 0.15 to 0.5 of its mean edge length L from the centroid, the
  * candidate inside the volume and farthest from the walls
  * (at least BUB_VMARGIN L from them, reached from the centroid without crossing one); none
- * such, nothing is added. An added node that is a corner of a later sliver is dropped again. The
+ * such, nothing is added. An added node that is a corner of a later sliver is dropped again, and
+ * its place is not offered again (else the first sliver comes back, gets the same node, and the
+ * two take turns to the last round: a 1.86-degree sliver of the non-manifold case did). The
  * counts are bubble.sliver_dropped and bubble.sliver_added. The trace's `phase` column is 2 in the
  * surface phase and 3 in the volume phase, where `bubbles` counts volume bubbles and eps_t is
  * mean |degree - 12|; frames show volume bubbles as dimension 3.
@@ -242,8 +244,11 @@ pm_status bub_relax(bub_state *s, const pm_run_input *in, int64_t cap, int budge
 }
 
 /* A node for a sliver whose corners all lie on the surface (header, "Slivers"): 1 and *x
- * when a candidate qualifies. */
-static int sliver_node(const bub_state *s, int32_t volume, const double *P[4], double x[3]) {
+ * when a candidate qualifies. A candidate within 0.01 L of one of the ndead points (added nodes
+ * dropped again because they made a sliver of their own) is passed over: the same sliver would
+ * get the same node back, and the two would take turns until the last round. */
+static int sliver_node(const bub_state *s, int32_t volume, const double *P[4], const double *dead,
+                       int32_t ndead, double x[3]) {
   double g[3] = {0, 0, 0}, L = 0;
   for (int q = 0; q < 4; ++q) pm_v3_axpy(g, g, 0.25, P[q]);
   for (int i = 0; i < 4; ++i)
@@ -281,6 +286,9 @@ static int sliver_node(const bub_state *s, int32_t volume, const double *P[4], d
     double c[3];
     pm_v3_axpy(c, g, (m % 2 ? 1 : -1) * steps[(m / 2) % 4] * L, dirs[m / 8]);
     if (!(pm_v3_dist(c, cc) < 0.95 * R)) continue;
+    int near_dead = 0;
+    for (int32_t k = 0; k < ndead && !near_dead; ++k) near_dead = pm_v3_dist(c, &dead[3 * k]) < 0.01 * L;
+    if (near_dead) continue;
     if (!bub_volume_place_ok(s, volume, g, c, L)) continue;
     double dw = pm_volume_shell_distance(s->shell[volume], c, L);
     if (dw > best) best = dw, pm_v3_copy(x, c);
@@ -313,10 +321,10 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
   if (!st && !drop) st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
   /* Nodes added at the centroids of all-surface slivers (header), at most one per sliver a round;
    * a dropped one is marked dead. */
-  double *ex = NULL;
+  double *ex = NULL, *gone = NULL; /* gone: the positions of the dropped ones */
   int32_t *ex_cell = NULL;
   uint8_t *ex_dead = NULL;
-  int32_t nex = 0, capex = 0;
+  int32_t nex = 0, capex = 0, ngone = 0;
   for (int round = 0; !st; ++round) {
     surf->nnode = base, surf->ntet = 0; /* no tet refers to a volume node any more */
     for (int32_t k = 0; k < nvb && !st; ++k)
@@ -379,9 +387,19 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
       for (int q = 0; q < 4; ++q)
         if (v[q] >= ex_base) {
           surface_only = 0;
-          if (!ex_dead[ex_of[v[q] - ex_base]]) ex_dead[ex_of[v[q] - ex_base]] = 1, ++changed;
+          const int32_t k = ex_of[v[q] - ex_base];
+          if (!ex_dead[k]) {
+            double *g = realloc(gone, sizeof(double) * 3 * ((size_t)ngone + 1));
+            if (!g) {
+              st = pm_error_setf(err, PM_ERR_NOMEM, "out of memory");
+              break;
+            }
+            gone = g, pm_v3_copy(&gone[3 * ngone++], &ex[3 * k]);
+            ex_dead[k] = 1, ++changed;
+          }
           break;
         }
+      if (st) break;
       if (!surface_only) continue;
       if (nex == capex) {
         int32_t c = capex ? 2 * capex : 16;
@@ -399,7 +417,7 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
       }
       const double *P[4] = {&surf->xyz[3 * v[0]], &surf->xyz[3 * v[1]], &surf->xyz[3 * v[2]],
                             &surf->xyz[3 * v[3]]};
-      if (!sliver_node(s, surf->tet_cell[t], P, &ex[3 * nex])) continue;
+      if (!sliver_node(s, surf->tet_cell[t], P, gone, ngone, &ex[3 * nex])) continue;
       ex_cell[nex] = surf->tet_cell[t];
       ex_dead[nex++] = 0;
       ++changed;
@@ -410,7 +428,7 @@ static pm_status volume_phase(bub_state *s, const pm_run_input *in, int64_t cap,
     if (st || (!dropped && !changed)) break;
   }
   for (int32_t k = 0; k < nex; ++k) *added += !ex_dead[k];
-  free(ex), free(ex_cell), free(ex_dead);
+  free(ex), free(ex_cell), free(ex_dead), free(gone);
   if (!st) { /* the dropped bubbles leave the state too (frames, counts) */
     for (int32_t k = 0; k < nvb; ++k)
       if (drop[k]) s->flags[s->nf + k] |= BUB_FDEAD;

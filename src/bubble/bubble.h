@@ -52,7 +52,8 @@ typedef struct bub_params {
                        see bub_dynamics.c; bub_params_check rejects an unstable step) */
   int integrator;   /* BUB_RK4 (003 section 3.4), BUB_RK2 (004 section 1, Heun's second-order
                        scheme) or BUB_SYMPLECTIC (semi-implicit Euler with implicit damping, one
-                       force sum a step: our addition, bub_dynamics.c); default rk4 */
+                       force sum a step: our addition, bub_dynamics.c); default symplectic
+                       (the papers' rk4 is --set integrator=rk4) */
   /* ---- viscosity schedule (004 section 2.2) ---- */
   int viscosity;    /* BUB_VISC_CONSTANT (zeta throughout, classic) or BUB_VISC_SAWTOOTH (zeta
                        rising within and across rounds); default sawtooth */

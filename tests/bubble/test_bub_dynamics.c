@@ -478,10 +478,15 @@ static void bad_parameters(void **state) {
   p.dt = 0.12;
   assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
   PM_ASSERT_OK(pm_params_set(&bub_params_table, &p, "integrator", "symplectic", &e), e);
+  /* A damping ratio whose overdamped fast root leaves RK4's region is refused; the symplectic
+   * step, whose damping is implicit, takes any damping. */
   bub_params_init(&p);
-  p.zeta_max = 6;
+  p.integrator = BUB_RK4, p.zeta_max = 6;
   assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
+  p.integrator = BUB_SYMPLECTIC;
+  PM_ASSERT_OK(bub_params_check(&p, &e), e);
   bub_params_init(&p);
+  assert_int_equal(p.integrator, BUB_SYMPLECTIC); /* the default */
   PM_ASSERT_OK(bub_params_check(&p, &e), e);
   /* The defaults are in the table. */
   const pm_param_desc *d = pm_params_find(&bub_params_table, "k0");

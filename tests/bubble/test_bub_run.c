@@ -103,7 +103,9 @@ static void qi4_quality(void **state) {
  * far side. Relaxing every bubble spreads that misfit as a strain
  * over every row (the median R / l_min 0.5799, measured); holding the bubbles 4 rings inside the
  * grain relaxes the seam alone, as a front leaves its misfit in one seam (0.5774; gmsh-frontal at
- * the same node count 0.5775), with as good a mean radius ratio (0.9947 against 0.9949). The held
+ * the same node count 0.5775), with as good a mean radius ratio (0.9947 against 0.9949 with RK4;
+ * 0.9934 against 0.9939 with the default symplectic step, whose relaxation keeps other defects at
+ * the seam: the mean radius ratio moves by as much from a 1% change of the size). The held
  * bubbles stay exactly where the lattice put them: the interior rows are straight to the bit. */
 static void held_lattice_keeps_its_rows(void **state) {
   (void)state;
@@ -139,7 +141,7 @@ static void held_lattice_keeps_its_rows(void **state) {
   }
   assert_true(median[0] > 0.579);
   assert_true(median[1] < 0.5776);
-  assert_true(rr[1] > 0.994 && rr[1] > rr[0] - 0.001);
+  assert_true(rr[1] > 0.993 && rr[1] > rr[0] - 0.001);
   assert_true(straight[0] < 10);
   assert_true(straight[1] > 100);
 }
@@ -202,7 +204,7 @@ static void final_damping(void **state) {
   (void)state;
   bub_params p;
   bub_params_init(&p);
-  PM_ASSERT_NEAR(p.final_zeta, 0, 0); /* automatic: 0.3 with rk4 */
+  PM_ASSERT_NEAR(p.final_zeta, 0, 0); /* automatic: 0.3 with rk4 and symplectic */
   PM_ASSERT_NEAR(bub_final_zeta(&p), 0.3, 0);
   pm_model *m = bt_square(0, 0, 4);
   pm_sizing *size = NULL;
@@ -226,11 +228,14 @@ static void final_damping(void **state) {
   torus_run cap = torus_with(&p);
   if (!(low.rr > cap.rr)) fail_msg("mean radius ratio: final_zeta 0.3 %.5f, the schedule %.5f", low.rr, cap.rr);
   /* An unstable final damping is refused (the overdamped fast root -2 zeta w0 leaves RK4's
-   * region above about 2.2 at the default step). */
+   * region above about 2.2 at the default step); the symplectic step damps implicitly and
+   * takes it. */
   bub_params_init(&p);
-  p.final_zeta = 10;
+  p.final_zeta = 10, p.integrator = BUB_RK4;
   assert_int_equal(bub_params_check(&p, &e), PM_ERR_ARG);
   assert_non_null(strstr(e.msg, "final_zeta"));
+  p.integrator = BUB_SYMPLECTIC;
+  PM_ASSERT_OK(bub_params_check(&p, &e), e);
 }
 
 static int same_mesh(const pm_mesh *a, const pm_mesh *b) {

@@ -90,10 +90,22 @@ static void inside_and_segments(void **state) {
     assert_int_equal(pm_volume_shell_segment_meets(sh, a, out), 1);
     if (pm_v3_norm(in) < 0.9) assert_int_equal(pm_volume_shell_segment_meets(sh, a, in), 0);
   }
-  /* Distance: the centre is between 0.99 and 1 from the wall. */
-  double o[3] = {0, 0, 0};
-  double dist = pm_volume_shell_distance(sh, o, 2);
-  assert_true(dist > 0.99 && dist <= 1.0);
+  /* Distance: the nodes lie on the unit sphere, so each triangle lies in the cap cut off by the
+   * plane of its circumcircle (radius R), at sqrt(1 - R^2) from the centre: the centre's
+   * distance to the wall is between that for the largest R and 1. */
+  double o[3] = {0, 0, 0}, rmax = 0;
+  for (int32_t t = 0; t < r.surf->ntri; ++t) {
+    const int32_t *v = &r.surf->tri[3 * t];
+    const double *A = &r.surf->xyz[3 * v[0]], *B = &r.surf->xyz[3 * v[1]], *C = &r.surf->xyz[3 * v[2]];
+    double ab[3], ac[3], n[3];
+    pm_v3_sub(ab, B, A), pm_v3_sub(ac, C, A), pm_v3_cross(n, ab, ac);
+    const double a = pm_v3_dist(B, C), b = pm_v3_norm(ac), c = pm_v3_norm(ab);
+    rmax = fmax(rmax, a * b * c / (2 * pm_v3_norm(n))); /* R = abc / (4 area) */
+  }
+  const double dist = pm_volume_shell_distance(sh, o, 2), low = sqrt(1 - rmax * rmax);
+  assert_true(rmax < 0.2); /* d = 0.2: no triangle wider than a bubble's reach */
+  assert_true(dist >= low - 1e-9 && dist <= 1.0);
+  assert_true(dist < low + 0.01);
   assert_true(isinf(pm_volume_shell_distance(sh, o, 0.5)));
   vrun_free(&r);
 }
