@@ -52,6 +52,21 @@
  * misfit along the other curves, where relaxation and population control adjust it, as a
  * frontal mesher's rows meet in a seam.
  *
+ * Fit (lattice_fit, planes). A curve gets a whole number of segments, so its chords are the stable
+ * distance times a factor near 1 (4 / 0.098 = 40.8: 41 chords of 0.0976 on qi1's long side at
+ * d = 0.098). A grain stepping at the stable distance drifts off its seed curve's bubbles by that
+ * factor's excess per step (0.45%, a fifth of a spacing along the side), and the rows along the
+ * border no longer continue the curve's spacing: the held interior (below) shrinks and the bands
+ * carry the strain. So each grain on a plane steps at its seed chord's length over the chord's
+ * stable distance (fit, when within LATTICE_FIT_MAX = 1.2% of 1) times the stable distance.
+ * Further off, a lattice that far from the field's spacing loses more in the bands than the rows
+ * gain: with 5%, occ__box.brep's median R / l_min went 0.5803 -> 0.5863, planar_step.brep 0.5818
+ * -> 0.5887 (`packmesh mesh FILE --method bubble --threads 1 --stats`); with 1.2% they stay, and
+ * brep__cylinder.brep goes 0.6011 -> 0.5987. On qi1 at sizes 0.098, 0.099,
+ * 0.1, 0.101, 0.102 the median R / l_min went 0.5793 0.5809 0.5776 0.5819 0.5798 -> 0.5775
+ * 0.5783 0.5776 0.5789 0.5795, the mean radius ratio 0.9962 0.9942 0.9934 0.9950 0.9918 -> 0.9964
+ * 0.9949 0.9934 0.9951 0.9923 (`packmesh mesh case:qi1 --method bubble --size D --stats`).
+ *
  * Holding (hold_rings R > 0, planes only). Relaxing every bubble spreads that misfit as a strain
  * over every row: qi1 (2 x 4, d = 0.1) fits 23.09 rows across, and its relaxed rows are all 0.4%
  * off, most triangles at R / l_min 0.578-0.579 (median 0.5799) where a front's are 0.5774 but for
@@ -80,6 +95,9 @@
 /* A place closer than this x l0 to a bubble it feels is crowded (header). */
 #define CROWDED 0.7
 
+/* The largest |fit - 1| a grain takes (header, "Fit"). */
+#define LATTICE_FIT_MAX 0.012
+
 /* The id of a lattice site found unusable (outside, crowded). */
 #define UNUSABLE INT32_MAX
 
@@ -103,6 +121,7 @@ typedef struct grow_ctx {
   pm_keyindex sites; /* (grain, i, j) -> bubble id, or UNUSABLE */
   int32_t grain;
   int apex;          /* two parents where there are (curved faces with lattice_apex) */
+  double fit;        /* the grain's step over the stable distance (lattice_fit) */
   pm_error *err;
 } grow_ctx;
 
@@ -206,11 +225,11 @@ static pm_status add(grow_ctx *g, const double par[2], int32_t i, int32_t j, con
  * at l0 from both o and p on dir's side of the line o p (header, "two parents"), when there is
  * one. */
 static void place_offset(const bub_state *s, int32_t o, int32_t p, const double n[3], const double dir[3],
-                         double dc, double dx[3]) {
-  const double lo = 0.5 * (s->d[o] + dc);
+                         double dc, double fit, double dx[3]) {
+  const double lo = fit * 0.5 * (s->d[o] + dc);
   pm_v3_scale(dx, dir, lo);
   if (p < 0) return;
-  const double lp = 0.5 * (s->d[p] + dc);
+  const double lp = fit * 0.5 * (s->d[p] + dc);
   double b[3], w[3];
   pm_v3_sub(b, &s->x[3 * p], &s->x[3 * o]);
   pm_v3_axpy(b, b, -pm_v3_dot(b, n), n);
@@ -248,14 +267,14 @@ static pm_status try_six(grow_ctx *g, const grow_item *it, int sites) {
         if (id >= 0 && id != UNUSABLE) p2 = id;
       }
     /* The stable distance to the place: d there from a first step of d(parent). */
-    place_offset(s, o, p2, n, dir, s->d[o], dx);
+    place_offset(s, o, p2, n, dir, s->d[o], g->fit, dx);
     int ok = step_from(g->f, &s->par[2 * o], &s->der[6 * o], dx, par);
     if (ok) {
       pm_cell_point(g->f, par, x);
       dc = pm_sizing_eval(s->size, x);
       ok = dc > 0 && isfinite(dc);
       if (ok && fabs(dc - s->d[o]) > 1e-3 * s->d[o]) {
-        place_offset(s, o, p2, n, dir, dc, dx);
+        place_offset(s, o, p2, n, dir, dc, g->fit, dx);
         ok = step_from(g->f, &s->par[2 * o], &s->der[6 * o], dx, par);
         if (ok) {
           pm_cell_point(g->f, par, x);
@@ -490,6 +509,7 @@ pm_status bub_place_lattice(bub_state *s, int64_t cap, pm_error *err) {
   for (int32_t k = 0; k < cl.n && !st; ++k) cstart[cl.c[k].face + 1]++;
   for (int32_t f = 0; f < m->count[PM_FACE] && !st; ++f) cstart[f + 1] += cstart[f];
   grow_ctx g = {0};
+  g.fit = 1;
   g.s = s, g.cap = cap, g.err = err;
   for (int32_t f = 0; f < m->count[PM_FACE] && !st; ++f) {
     const pm_cell *fc = pm_model_cell(m, PM_FACE, f);
@@ -521,6 +541,11 @@ pm_status bub_place_lattice(bub_state *s, int64_t cap, pm_error *err) {
       double d = pm_sizing_eval(s->size, x);
       if (!(d > 0) || !isfinite(d) || crowded(s, f, x, d, NULL)) continue;
       int64_t head = g.qn;
+      g.fit = 1; /* (header, "Fit") */
+      if (s->p.lattice_fit && s->affine[f]) {
+        const double r = c->len / (0.5 * (s->d[c->A] + s->d[c->B]));
+        if (fabs(r - 1) < LATTICE_FIT_MAX) g.fit = r;
+      }
       st = add(&g, par, 0, 0, c->e);
       if (!st) st = grow(&g, head);
       g.grain++;

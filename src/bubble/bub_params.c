@@ -83,6 +83,10 @@ static const pm_param_desc desc[] = {
      "placed, in its grain, at its own size, is held where it was placed: only the bubbles near "
      "borders, grain boundaries and size changes relax (0: every bubble relaxes)",
      "our addition (bub_lattice.c; bench_bubble compare); differs from the papers (0)", NULL},
+    {"lattice_fit", PM_PARAM_BOOL, F(lattice_fit), 1, 0, 1, 0, "",
+     "place=lattice, planes: a grain steps at its seed chord's length over that chord's stable "
+     "distance (within 1.2%), so its rows continue the border's spacing (0: at the stable distance)",
+     "our addition (bub_lattice.c; bench_bubble compare)", NULL},
     {"lattice_apex", PM_PARAM_BOOL, F(lattice_apex), 1, 0, 1, 0, "",
      "place=lattice, curved faces: a site next to two placed bubbles goes to the apex of the "
      "triangle on them at the stable distance (0: a step from one along its row)",

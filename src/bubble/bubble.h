@@ -103,6 +103,9 @@ typedef struct bub_params {
   int hold_rings;   /* place = lattice, planes: a face bubble with every lattice site within this
                        many rings placed in its grain at its own size is held where it was
                        placed (bub_lattice.c); 0: every bubble relaxes (the papers) */
+  int lattice_fit;  /* place = lattice, planes: a grain steps at fit x the stable distance, fit =
+                       its seed chord's length over the chord's stable distance when within 1.2% of
+                       1 (the border's own spacing, bub_lattice.c "Fit"); 0: fit = 1; default 1 */
   int lattice_apex; /* place = lattice on curved faces: a site next to two placed bubbles goes to
                        the point at the stable distance from both (the apex of the triangle on
                        them) instead of a step from one along the row direction; 0 = the step

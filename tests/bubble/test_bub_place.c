@@ -92,18 +92,25 @@ static void rhombic_lattice(void **state) {
   pm_model_destroy(m);
 }
 
-/* place = lattice on a rectangle 10 x 6.4 with d = 1: each curve carries round(length / d) equal
- * segments; the face bubbles form one hexagonal lattice at spacing d, rows along the longest
- * side (every interior bubble has 6 neighbours at d, the row direction along x), none crowded
- * against the border; on qi2's graded field, curve chains are even in units of l0. */
-static void grown_lattice(void **state) {
-  (void)state;
+/* The rectangle [0, 10] x [0, 6.4] as a planar model. */
+static pm_model *rect_10x6(void) {
   const pm_planar_piece pc[4] = {{PM_PIECE_LINE, {0, 0}, {0, 0}, 0}, {PM_PIECE_LINE, {10, 0}, {0, 0}, 0},
                                  {PM_PIECE_LINE, {10, 6.4}, {0, 0}, 0}, {PM_PIECE_LINE, {0, 6.4}, {0, 0}, 0}};
   pm_planar_loop lp = {4, pc};
   pm_model *m = NULL;
   pm_error e = {0};
   PM_ASSERT_OK(pm_planar_model("rect", 1, &lp, &m, &e), e);
+  return m;
+}
+
+/* place = lattice on a rectangle 10 x 6.4 with d = 1: each curve carries round(length / d) equal
+ * segments; the face bubbles form one hexagonal lattice at spacing d, rows along the longest
+ * side (every interior bubble has 6 neighbours at d, the row direction along x), none crowded
+ * against the border; on qi2's graded field, curve chains are even in units of l0. */
+static void grown_lattice(void **state) {
+  (void)state;
+  pm_model *m = rect_10x6();
+  pm_error e = {0};
   pm_sizing *size = const_size(1.0);
   bub_params p = bt_params();
   assert_int_equal(p.place, BUB_PLACE_LATTICE); /* the default */
@@ -167,6 +174,45 @@ static void grown_lattice(void **state) {
   free(t);
   bub_state_destroy(s);
   pm_sizing_destroy(qsize);
+  pm_model_destroy(m);
+}
+
+/* lattice_fit: the same rectangle at d = 0.995. The long sides get round(10 / 0.995) = 10 chords
+ * of 1.0, and the grain seeded on one steps at 1.0 / 0.995 times the stable distance (within
+ * LATTICE_FIT_MAX): every interior bubble has 6 neighbours at 1.0, the seed curve's spacing (to
+ * 1e-9); with lattice_fit = 0 at 0.995. At d = 0.98 (fit 1.02, beyond the limit) at 0.98. */
+static void grown_lattice_fits_its_seed_curve(void **state) {
+  (void)state;
+  pm_model *m = rect_10x6();
+  pm_error e = {0};
+  for (int run = 0; run < 3; ++run) {
+    const int fit = run != 1;
+    const double d = run < 2 ? 0.995 : 0.98;
+    pm_sizing *size = const_size(d);
+    bub_params p = bt_params();
+    assert_int_equal(p.lattice_fit, 1); /* the default */
+    p.lattice_fit = fit;
+    bub_state *s = bt_state(m, size, &p, 1);
+    PM_ASSERT_OK(bub_place(s, &e), e);
+    const double want = run == 0 ? 1.0 : d;
+    int checked = 0;
+    for (int32_t i = s->nc; i < s->nf; ++i) {
+      const double *x = &s->x[3 * i];
+      if (x[0] < 2 || x[0] > 8 || x[1] < 2 || x[1] > 4.4) continue;
+      int nb = 0;
+      for (int32_t j = s->nc; j < s->nf; ++j) {
+        double r = pm_v3_dist(x, &s->x[3 * j]);
+        if (j == i || r > 1.01 * want) continue;
+        PM_ASSERT_NEAR(r, want, 1e-9);
+        ++nb;
+      }
+      assert_int_equal(nb, 6);
+      ++checked;
+    }
+    assert_true(checked > 15);
+    bub_state_destroy(s);
+    pm_sizing_destroy(size);
+  }
   pm_model_destroy(m);
 }
 
@@ -268,6 +314,7 @@ int main(void) {
       cmocka_unit_test(curve_subdivision),
       cmocka_unit_test(rhombic_lattice),
       cmocka_unit_test(grown_lattice),
+      cmocka_unit_test(grown_lattice_fits_its_seed_curve),
       cmocka_unit_test(hole_and_determinism),
       cmocka_unit_test(lattice_leaves_no_face_empty),
       cmocka_unit_test(lattice_two_parents),
