@@ -4,12 +4,14 @@
  * that a crash or a hang of one run is a row of the table and not the end of the study.
  *
  *   bench_robust [--methods bubble,psys,gmsh-frontal] [--timeout SECONDS] [--only TEXT]
- *                [--csv FILE] [--packmesh PATH] [--old-cli] [DIR ...]
+ *                [--csv FILE] [--packmesh PATH] [--old-cli] [--set METHOD:KEY=VALUE ...] [DIR ...]
  *
  * --packmesh runs another build of the command (the previous code path, for a before/after table
  * from the same benchmark; default: the command built beside this benchmark); --old-cli for a
  * build without `mesh --time-limit`. Each run gets `--time-limit SECONDS`: the command stops a
- * run that lasts longer with its own one-line error, which is the row's status.
+ * run that lasts longer with its own one-line error, which is the row's status. --set
+ * METHOD:KEY=VALUE adds `--set KEY=VALUE` to METHOD's runs (a bad key or value is each run's
+ * one-line error).
  *
  * Per file and method: the status (ok, the one-line error, timeout, crash), the checker's
  * verdict, nodes, the time of each stage from --stats (load: reading and healing the file; setup:
@@ -96,6 +98,12 @@ static char *slurp(const char *path) {
  * unless old_cli (a build without that option); the child is killed KILL_GRACE later (the
  * limit does not count loading, measuring or writing) or, with old_cli, at the timeout. */
 #define KILL_GRACE(timeout) ((timeout) / 4 > 60 ? (timeout) / 4 : 60)
+/* --set METHOD:KEY=VALUE: a parameter given to METHOD's runs (e.g. bubble:hold_rings=2), so
+ * that a corpus run can compare a parameter's settings with --packmesh's before/after. */
+#define MAX_SETS 16
+static const char *sets[MAX_SETS];
+static int nsets;
+
 static void run_one(const char *cli, const char *path, const char *method, double timeout,
                     int old_cli, const char *tmp, row *r) {
   char msh[1024], json[1024], errf[1024];
@@ -113,12 +121,16 @@ static void run_one(const char *cli, const char *path, const char *method, doubl
     setpgid(0, 0);
     char limit[64];
     snprintf(limit, sizeof limit, "%g", timeout);
-    if (old_cli)
-      execl(cli, cli, "mesh", path, "--method", method, "--threads", "1", "-o", msh, "--stats",
-            json, (char *)NULL);
-    else
-      execl(cli, cli, "mesh", path, "--method", method, "--threads", "1", "-o", msh, "--stats",
-            json, "--time-limit", limit, (char *)NULL);
+    const char *args[16 + 2 * MAX_SETS];
+    int na = 0;
+    const char *fixed[] = {cli, "mesh", path, "--method", method, "--threads", "1", "-o", msh, "--stats", json};
+    for (size_t k = 0; k < sizeof fixed / sizeof fixed[0]; ++k) args[na++] = fixed[k];
+    if (!old_cli) args[na++] = "--time-limit", args[na++] = limit;
+    const size_t ml = strlen(method);
+    for (int k = 0; k < nsets; ++k)
+      if (!strncmp(sets[k], method, ml) && sets[k][ml] == ':') args[na++] = "--set", args[na++] = sets[k] + ml + 1;
+    args[na] = NULL;
+    execv(cli, (char *const *)args);
     _exit(127);
   }
   const double kill_at = old_cli ? timeout : timeout + KILL_GRACE(timeout);
@@ -216,6 +228,14 @@ int main(int argc, char **argv) {
     else if (!strcmp(argv[i], "--csv") && i + 1 < argc) csv = argv[++i];
     else if (!strcmp(argv[i], "--packmesh") && i + 1 < argc) cli = argv[++i];
     else if (!strcmp(argv[i], "--old-cli")) old_cli = 1;
+    else if (!strcmp(argv[i], "--set") && i + 1 < argc) {
+      const char *v = argv[++i], *colon = strchr(v, ':');
+      if (!colon || colon == v || !strchr(colon, '=') || nsets == MAX_SETS) {
+        fprintf(stderr, "bench_robust: --set takes METHOD:KEY=VALUE (at most %d), got '%s'\n", MAX_SETS, v);
+        return 2;
+      }
+      sets[nsets++] = v;
+    }
     else if (argv[i][0] == '-') {
       fprintf(stderr, "bench_robust: unknown option '%s'\n", argv[i]);
       return 2;
