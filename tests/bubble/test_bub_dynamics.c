@@ -16,16 +16,25 @@ static double dist(const bub_state *s, int32_t i, int32_t j) {
   return pm_v3_dist(&s->x[3 * i], &s->x[3 * j]);
 }
 
-static void two_bubbles_with(int integrator) {
-  pm_model *m = bt_square(0, 0, 10);
-  pm_sizing *size = const_size(1.0);
+/* Two face bubbles at (a) and (b) on the square [0, 10]^2 with d = 1, compacted. */
+static bub_state *pair_on_square(int integrator, double ax, double ay, double bx, double by,
+                                 pm_model **m, pm_sizing **size) {
+  *m = bt_square(0, 0, 10);
+  *size = const_size(1.0);
   bub_params p = bt_params();
   p.integrator = integrator;
-  bub_state *s = bt_state(m, size, &p, 1);
-  bt_face_bubble(s, 4.5, 5.0);
-  bt_face_bubble(s, 5.3, 5.1);
+  bub_state *s = bt_state(*m, *size, &p, 1);
+  bt_face_bubble(s, ax, ay);
+  bt_face_bubble(s, bx, by);
   pm_error e = {0};
   PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  return s;
+}
+
+static void two_bubbles_with(int integrator) {
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  bub_state *s = pair_on_square(integrator, 4.5, 5.0, 5.3, 5.1, &m, &size);
   assert_true(dist(s, 0, 1) < 0.9);
   bub_step_info info = bt_steps(s, 400);
   /* l0 = (d_i + d_j) / 2 = 1 (003 eq. 10). */
@@ -58,15 +67,10 @@ static void two_bubbles_symplectic(void **state) {
  * is v' = h f / (m + h c), x' = x + h v' (bub_dynamics.c), f the force of bub_force.c at 0.8. */
 static void symplectic_step_by_hand(void **state) {
   (void)state;
-  pm_model *m = bt_square(0, 0, 10);
-  pm_sizing *size = const_size(1.0);
-  bub_params p = bt_params();
-  p.integrator = BUB_SYMPLECTIC;
-  bub_state *s = bt_state(m, size, &p, 1);
-  bt_face_bubble(s, 4.6, 5.0);
-  bt_face_bubble(s, 5.4, 5.0);
-  pm_error e = {0};
-  PM_ASSERT_OK(bub_state_compact(s, &e), e);
+  pm_model *m = NULL;
+  pm_sizing *size = NULL;
+  bub_state *s = pair_on_square(BUB_SYMPLECTIC, 4.6, 5.0, 5.4, 5.0, &m, &size);
+  const bub_params p = s->p;
   const double h = bub_time_step(&p), c = 2 * bub_zeta_now(s) * sqrt(p.mass * p.k0);
   const double f = bub_force(p.k0, 0.8, 1.0); /* repulsive: positive pushes apart */
   assert_true(f > 0);
