@@ -22,7 +22,9 @@
  * not depend on the machine's load: the run's iterations, median and p75 R / l_min. Then per method: files
  * loaded, valid, with no unforced needle; bubble's total time over gmsh-frontal's per file (the
  * largest ratio and where), and the runs that spent longer measuring than meshing, with the
- * largest ratio of the two and where.
+ * largest ratio of the two and where; then every stage of a run that took longer than the run's
+ * meshing (load, setup, check and distance against mesh + connect, connect against mesh), each
+ * named with its file, method and ratio.
  *
  * Prints figures only; never a test (tests/cad_robust_long runs the validity assertions).
  */
@@ -333,6 +335,32 @@ int main(int argc, char **argv) {
     printf("%-14s %6d %6d %6d %9d %12d %13.2f  %s\n", methods[j], runs, loaded, valid, clean, slow,
            worst, where);
   }
+  /* Every stage beside the meshing of the same run: loading, set-up, the checker and the
+   * distance against mesh + connect, and the connection against the method's own part (mesh). */
+  printf("\nstages that took longer than the meshing of their run (connect: than mesh):\n");
+  int any_stage = 0;
+  for (int j = 0; j < nm; ++j)
+    for (int i = 0; i < nf; ++i) {
+      const row *r = &rows[i * nm + j];
+      if (!r->ran) continue;
+      const double meshing = r->t_mesh + r->t_connect;
+      const struct {
+        const char *name;
+        double t, against;
+      } st[] = {{"load", r->t_load, meshing},
+                {"setup", r->t_setup, meshing},
+                {"connect", r->t_connect, r->t_mesh},
+                {"check", r->t_check, meshing},
+                {"distance", r->t_distance, meshing}};
+      for (size_t k = 0; k < sizeof st / sizeof st[0]; ++k)
+        if (st[k].t > st[k].against) {
+          printf("  %-44s %-12s %-8s %8.4f s against %8.4f s (%.2f times)\n", r->file,
+                 r->method, st[k].name, st[k].t, st[k].against,
+                 st[k].against > 0 ? st[k].t / st[k].against : INFINITY);
+          any_stage = 1;
+        }
+    }
+  if (!any_stage) printf("  none\n");
   /* bubble over gmsh-frontal, per file. */
   int jb = -1, jg = -1;
   for (int j = 0; j < nm; ++j) {
