@@ -91,6 +91,8 @@ typedef struct psys_params {
   int max_iter;         /* iteration cap per phase; 1500 */
   int hold_sigma;       /* 1: phase 3 holds sigma once population control is off; 1 */
   int hungry_curves;    /* 1: hungry curve particles also keep population control on; 0 */
+  double hungry_tol;    /* the count has settled with up to this share of the particles hungry
+                           (rounded down); 0: only with none; 1e-4 */
   int colour_mend;      /* 1: a kept colouring with a few conflicts gives the particles in them
                            new colours alone (psys_move.c); 0: every particle is coloured again; 1 */
   double max_memory_gb; /* the particle system stops (PM_ERR_LIMIT) before its estimated memory

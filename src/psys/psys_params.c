@@ -113,6 +113,10 @@ static const pm_param_desc desc[] = {
      "1: a curve particle below half the split threshold keeps population control on, like a "
      "face particle (0: faces only; curves are grown by halving their gaps)",
      "ours (001 has no hungry rule: the end of a phase is ours, see psys_phases.c)", NULL},
+    {"hungry_tol", D, F(hungry_tol), 1e-4, 0, 1, PM_RANGE_CLOSED, "",
+     "the particle count has settled while at most this share of the particles (rounded down) "
+     "is hungry (0: only when none is; below 10^4 particles 1e-4 allows none either)",
+     "ours (001 has no hungry rule; 0 is the rule of before)", NULL},
     {"colour_mend", B, F(colour_mend), 1, 0, 1, PM_RANGE_CLOSED, "",
      "1: when the sweep's kept colouring has a few conflicts, only the particles in them get new "
      "colours (0: every particle is coloured again)",

@@ -426,6 +426,11 @@ int32_t psys_hungry_count(const psys_sys *s);
 
 /* ---- phases (psys_phases.c) ------------------------------------------------------------- */
 
+/* Whether the particle count has settled (psys_phases.c): n particles now, `then` POP_WINDOW
+ * iterations ago (-1: not that many iterations yet), `hungry` of them hungry; it moved by at most
+ * max(2, pop_tol n) and at most floor(hungry_tol n) are hungry. */
+int psys_count_settled(int32_t n, int32_t then, int32_t hungry, double pop_tol, double hungry_tol);
+
 typedef struct psys_phase_report {
   int64_t iterations;
   double seconds;

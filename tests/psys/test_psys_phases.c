@@ -217,8 +217,50 @@ static void phase3_tolerance(void **state) {
   pm_model_destroy(m);
 }
 
+/* The count's settling rule with hungry_tol: engine_block.stp's phase 3 at 273000 particles
+ * keeps 1 to 15 hungry at every iteration (the random bias), which held population control on
+ * until anneal_after with hungry_tol = 0. */
+static void settled_with_a_few_hungry(void **state) {
+  (void)state;
+  /* the count moved by 500 over the window, within 0.5%: 27 hungry allowed at 1e-4 */
+  assert_true(psys_count_settled(273000, 272500, 5, 5e-3, 1e-4));
+  assert_true(psys_count_settled(273000, 272500, 27, 5e-3, 1e-4));
+  assert_false(psys_count_settled(273000, 272500, 28, 5e-3, 1e-4));
+  assert_false(psys_count_settled(273000, 272500, 1, 5e-3, 0));   /* the rule of before */
+  assert_true(psys_count_settled(273000, 272500, 0, 5e-3, 0));
+  assert_false(psys_count_settled(273000, 271000, 0, 5e-3, 1e-4)); /* 2000 > 1365 */
+  assert_false(psys_count_settled(273000, -1, 0, 5e-3, 1e-4));     /* not a window yet */
+  /* below 10^4 particles 1e-4 allows none: small models keep the rule of before */
+  assert_false(psys_count_settled(9999, 9990, 1, 5e-3, 1e-4));
+  assert_true(psys_count_settled(10000, 9990, 1, 5e-3, 1e-4));
+  /* a count of 100 may move by 2 (the floor of the tolerance) */
+  assert_true(psys_count_settled(100, 98, 0, 5e-3, 1e-4));
+  assert_false(psys_count_settled(100, 97, 0, 5e-3, 1e-4));
+}
+
+/* ... and below 10^4 particles the default gives the meshes of hungry_tol = 0 to the bit
+ * (screw.step, 1845 nodes with the inferred field). */
+static void small_models_keep_their_meshes(void **state) {
+  (void)state;
+  if (!pm_test_have_cad()) skip();
+  char path[512];
+  pm_model *m = psys_test_open(pm_test_cad("screw.step", path, sizeof path));
+  const char *old[] = {"hungry_tol=0", NULL};
+  pm_mesh *a = psys_test_run(m, NULL, 1, 1, 0, NULL, NULL, NULL, NULL);
+  pm_mesh *b = psys_test_run(m, NULL, 1, 1, 0, old, NULL, NULL, NULL);
+  assert_true(a->nnode > 1000 && a->nnode < 10000);
+  assert_int_equal(a->nnode, b->nnode);
+  assert_int_equal(a->ntri, b->ntri);
+  assert_memory_equal(a->xyz, b->xyz, sizeof(double) * 3 * (size_t)a->nnode);
+  assert_memory_equal(a->tri, b->tri, sizeof(int32_t) * 3 * (size_t)a->ntri);
+  pm_mesh_destroy(a), pm_mesh_destroy(b);
+  pm_model_destroy(m);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
+      cmocka_unit_test(settled_with_a_few_hungry),
+      cmocka_unit_test(small_models_keep_their_meshes),
       cmocka_unit_test(curves_sampled_to_their_ends),
       cmocka_unit_test(curve_gaps_without_an_interval_are_left),
       cmocka_unit_test(bootstrap_seeding),
